@@ -1,0 +1,133 @@
+"""The `bbbench` command: parses, calls, prints."""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+import bbbench
+from bbbench.policies import PDController
+
+USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
+
+
+class UsageError(Exception):
+    """A mistake in what the user asked for: reported in one line, exit code 2."""
+
+
+def _policy(name: str, env) -> Callable[[np.ndarray], object]:
+    if name == "pd":
+        return PDController(action_mode=env.unwrapped.action_mode)
+    if name == "zero":
+        zero = 4 if env.unwrapped.action_mode == "discrete" else np.zeros(1, np.float32)
+        return lambda observation: zero
+    if name == "random":
+        return lambda observation: env.action_space.sample()
+    raise UsageError(f"unknown policy {name!r}; expected one of pd, zero, random")
+
+
+def cmd_list(args: argparse.Namespace) -> None:
+    specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
+    rows = [("task", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")]
+    rows += [
+        (
+            spec.id,
+            str(spec.max_episode_steps),
+            f"{spec.control_dt:g}",
+            f"{spec.max_return:g}",
+            f"{len(spec.eval_seeds)}",
+            spec.fingerprint,
+            spec.summary,
+        )
+        for spec in specs
+    ]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        print(
+            "  ".join(cell.ljust(width) for cell, width in zip(row, widths, strict=True)).rstrip()
+        )
+
+
+def cmd_rollout(args: argparse.Namespace) -> None:
+    try:
+        spec = bbbench.spec(args.task)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    if args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    env = bbbench.make(spec.id, action_mode=args.action_mode)
+    policy = _policy(args.policy, env)
+    env.action_space.seed(args.seed)
+    print(
+        f"{spec.id}: {args.episodes} episode(s) of the {args.policy!r} policy, "
+        f"seeds {args.seed}..{args.seed + args.episodes - 1}"
+    )
+    print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  ended by")
+    returns, lengths = [], []
+    for seed in range(args.seed, args.seed + args.episodes):
+        observation, _ = env.reset(seed=seed)
+        total, steps, terminated, truncated = 0.0, 0, False, False
+        while not (terminated or truncated):
+            observation, reward, terminated, truncated, _ = env.step(policy(observation))
+            total += reward
+            steps += 1
+        returns.append(total)
+        lengths.append(steps)
+        print(f"{seed:>8}  {steps:>5}  {total:>8.2f}  {'fall' if terminated else 'time limit'}")
+    env.close()
+    print(
+        f"mean return {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
+        f"mean length {statistics.fmean(lengths):.0f} of {spec.max_episode_steps} steps; "
+        f"{sum(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
+        f"episodes reached the time limit"
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bbbench", description="A benchmark suite for two-wheeled balancing robots."
+    )
+    parser.add_argument("--version", action="version", version=f"bbbench {bbbench.__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    listing = commands.add_parser("list", help="print the suite's tasks as a table")
+    listing.set_defaults(run=cmd_list)
+
+    rollout = commands.add_parser(
+        "rollout", help="run a built-in policy on a task and print a summary"
+    )
+    rollout.add_argument("--task", default="bbbench/FlatBalance-v0", help="task ID")
+    rollout.add_argument(
+        "--policy",
+        default="pd",
+        choices=("pd", "zero", "random"),
+        help="pd: the PD baseline; zero: never change the wheel command; random: uniform actions",
+    )
+    rollout.add_argument("--episodes", type=int, default=5, help="episodes to run (default 5)")
+    rollout.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    rollout.add_argument(
+        "--action-mode",
+        default="discrete",
+        choices=("discrete", "continuous"),
+        help="the env's action mode",
+    )
+    rollout.set_defaults(run=cmd_rollout)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        args.run(args)
+    except UsageError as error:
+        print(f"bbbench: error: {error}", file=sys.stderr)
+        return USAGE_ERROR
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,75 @@
+"""The PD baseline: a hand-written controller for every single-bot task.
+
+It reads only the shared observation layout, so it runs on any task:
+
+    desired command = kp * pitch + kd * pitch_rate + kv * (velocity - target_velocity)
+
+where velocity = wheel_radius * (wheel_speed + pitch_rate) is the encoders'
+estimate of forward velocity (wheel speed is measured relative to the torso).
+Leaning forward, it drives forward to get the wheels back under the torso;
+the velocity term stops it drifting away from its target. The action is the
+change towards the desired command: the nearest entry of the discrete table,
+or the clipped change in continuous mode.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bbbench.robots import MODEL
+from bbbench.tasks.actions import ACTION_MODES, MAX_WHEEL_SPEED_CHANGE, WHEEL_SPEED_CHANGES
+from bbbench.tasks.observation import INDEX
+
+_CHANGES = np.asarray(WHEEL_SPEED_CHANGES)
+
+
+class PDController:
+    """Balance by proportional-derivative feedback on pitch, plus velocity feedback.
+
+    Args:
+        action_mode: the env's action mode, "discrete" or "continuous".
+        kp: command per rad of pitch, (rad/s)/rad.
+        kd: command per rad/s of pitch rate, (rad/s)/(rad/s).
+        kv: command per m/s of velocity error, (rad/s)/(m/s).
+
+    The default gains keep FlatBalance-v0 up for the full episode on every seed
+    tested (tests/test_baselines.py).
+    """
+
+    def __init__(
+        self, action_mode: str = "discrete", kp: float = 40.0, kd: float = 6.0, kv: float = 20.0
+    ) -> None:
+        if action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        self.action_mode = action_mode
+        self.kp, self.kd, self.kv = kp, kd, kv
+
+    def wheel_speed_change(self, observation: np.ndarray) -> float:
+        """The change of wheel command (rad/s) the controller wants."""
+        pitch = float(observation[INDEX["pitch"]])
+        pitch_rate = float(observation[INDEX["pitch_rate"]])
+        velocity = MODEL.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
+        velocity_error = velocity - float(observation[INDEX["target_velocity"]])
+        desired = self.kp * pitch + self.kd * pitch_rate + self.kv * velocity_error
+        return desired - float(observation[INDEX["wheel_command"]])
+
+    def __call__(self, observation: np.ndarray) -> int | np.ndarray:
+        """The action for one observation."""
+        change = self.wheel_speed_change(observation)
+        if self.action_mode == "discrete":
+            return int(np.argmin(np.abs(_CHANGES - change)))
+        scaled = np.clip(change / MAX_WHEEL_SPEED_CHANGE, -1.0, 1.0)
+        return np.array([scaled], dtype=np.float32)
+
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: object = None,
+        episode_start: object = None,
+        deterministic: bool = True,
+    ) -> tuple[int | np.ndarray, None]:
+        """stable-baselines3's `predict` signature; a 2-D batch gives a batch of actions."""
+        observation = np.asarray(observation)
+        if observation.ndim == 2:
+            return np.stack([np.asarray(self(row)) for row in observation]), None
+        return self(observation), None

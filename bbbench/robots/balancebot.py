@@ -1,0 +1,252 @@
+"""The balancing bot: one body in a bullet world.
+
+`BalanceBot` applies a wheel-speed command, reads the state with named
+accessors, and says whether the bot has fallen. It knows nothing of rewards,
+observations or tasks.
+
+Conventions (the robot's own frame):
+
+- *forward* is the bot's +y axis; a positive wheel speed drives forward;
+- *pitch* is the lean of the torso towards forward, relative to gravity, in the
+  bot's sagittal plane (what an IMU's accelerometer measures): positive leans
+  forward, 0 is upright, whatever the heading or the slope underfoot;
+- *pitch rate* is the gyro reading about the axle (body -x), same sign as pitch;
+- *wheel speed* is the mean speed of the two wheels relative to the torso
+  (what the encoders measure), forward-positive;
+- *forward velocity* is the true horizontal velocity of the axle's midpoint
+  along the bot's heading, in m/s.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+URDF_PATH = Path(__file__).with_name("balancebot.urdf")
+
+# Tilt from vertical (rad) past which the bot has fallen. Tilt is measured
+# against gravity, so the test holds on slopes and bumps as on flat ground; a
+# centre-of-mass height would not. Measured with the PD baseline at three gain
+# settings: from rest, the wheels' torque limit brings the torso back from
+# 0.9 rad but not from 1.0 rad. At 1 rad the reward's upright term, 1 - |pitch|,
+# also reaches 0.
+FALL_TILT = 1.0
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """The robot's physical facts, read from its URDF (the one place they are written)."""
+
+    urdf_path: Path
+    wheel_joint_names: tuple[str, str]  # (left, right)
+    wheel_radius: float  # m
+    wheel_speed_limit: float  # rad/s, the motors' top speed
+    motor_torque_limit: float  # N m per wheel, the velocity servo's effort limit
+    axle_height: float  # m, axle above the link origin
+    torso_com_height: float  # m, torso centre of mass above the link origin
+
+    @property
+    def top_speed(self) -> float:
+        """Forward speed at the wheel-speed limit, in m/s."""
+        return self.wheel_speed_limit * self.wheel_radius
+
+
+def read_model(urdf_path: Path = URDF_PATH) -> RobotModel:
+    """Parse the facts `BalanceBot` needs out of the URDF."""
+    robot = ET.parse(urdf_path).getroot()
+    joints = {joint.get("name"): joint for joint in robot.iter("joint")}
+    links = {link.get("name"): link for link in robot.iter("link")}
+    left, right = joints["left_wheel_joint"], joints["right_wheel_joint"]
+    limit = left.find("limit")
+    wheel = links[left.find("child").get("link")]
+    torso = links[left.find("parent").get("link")]
+    return RobotModel(
+        urdf_path=urdf_path,
+        wheel_joint_names=(left.get("name"), right.get("name")),
+        wheel_radius=float(wheel.find("collision/geometry/cylinder").get("radius")),
+        wheel_speed_limit=float(limit.get("velocity")),
+        motor_torque_limit=float(limit.get("effort")),
+        axle_height=float(left.find("origin").get("xyz").split()[2]),
+        torso_com_height=float(torso.find("inertial/origin").get("xyz").split()[2]),
+    )
+
+
+MODEL = read_model()
+
+
+class BotState(NamedTuple):
+    """One reading of the bot. Angles in rad, rates in rad/s, velocities in m/s."""
+
+    position: tuple[float, float, float]  # torso centre of mass, world frame (m)
+    orientation: tuple[float, float, float, float]  # torso quaternion (x, y, z, w)
+    pitch: float
+    pitch_rate: float
+    tilt: float  # angle between the torso's axis and vertical, >= 0
+    wheel_speed: float
+    forward_velocity: float
+
+
+def tilt_from_quaternion(orientation: tuple[float, float, float, float]) -> float:
+    """Angle (rad) between the torso's axis and vertical: acos of the body z axis's height."""
+    qx, qy, _, _ = orientation
+    return math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (qx * qx + qy * qy))))
+
+
+# namedtuple's generated __new__ is a Python call; tuple.__new__ skips it on the hot path.
+_new_state = functools.partial(tuple.__new__, BotState)
+
+
+class BalanceBot:
+    """One balancing bot in a bullet world.
+
+    Args:
+        client: the world's bullet client (one per environment).
+        model: physical facts of the robot; the default is read from `balancebot.urdf`.
+
+    The body is loaded with `URDF_USE_INERTIA_FROM_FILE` so pybullet uses the
+    file's inertias, and the wheel servos use the file's finite torque limit.
+    """
+
+    def __init__(self, client: BulletClient, model: RobotModel = MODEL) -> None:
+        self.model = model
+        self.body = client.loadURDF(
+            str(model.urdf_path),
+            basePosition=(0.0, 0.0, 0.0),
+            flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+        )
+        names = {
+            client.getJointInfo(self.body, j)[1].decode(): j
+            for j in range(client.getNumJoints(self.body))
+        }
+        self.wheel_joints = tuple(names[name] for name in model.wheel_joint_names)
+        self._client = client
+        # The hot path calls pybullet directly: BulletClient builds a partial per call.
+        self._client_id = client._client
+        self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
+        self._com_above_axle = model.torso_com_height - model.axle_height
+        self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
+        self.command_wheel_speed(0.0)
+
+    # -- acting ---------------------------------------------------------------
+
+    def command_wheel_speed(self, speed: float) -> float:
+        """Drive both wheels' velocity servos at `speed` rad/s (forward-positive).
+
+        The command is clamped to the wheel-speed limit; the applied value is
+        returned and kept in `wheel_command`. NaN raises ValueError.
+        """
+        limit = self.model.wheel_speed_limit
+        if speed > limit:
+            speed = limit
+        elif speed < -limit:
+            speed = -limit
+        elif speed != speed:
+            raise ValueError("wheel speed command is NaN; expected a number of rad/s")
+        pybullet.setJointMotorControlArray(
+            self.body,
+            self.wheel_joints,
+            pybullet.VELOCITY_CONTROL,
+            targetVelocities=(speed, -speed),
+            forces=self._motor_forces,
+            physicsClientId=self._client_id,
+        )
+        self.wheel_command = speed
+        return speed
+
+    def reset(
+        self,
+        pitch: float = 0.0,
+        yaw: float = 0.0,
+        xy: tuple[float, float] = (0.0, 0.0),
+        ground_height: float = 0.0,
+    ) -> None:
+        """Put the bot at rest with its wheels on the ground at `xy`, leaning by `pitch` rad.
+
+        The torso is tilted about the axle, so the wheels touch the ground
+        whatever the lean. Joints, velocities and the wheel command are zeroed.
+        """
+        client, body, model = self._client, self.body, self.model
+        orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, yaw))
+        axle = (xy[0], xy[1], ground_height + model.wheel_radius)
+        # Place the torso's centre of mass (the base frame pybullet positions) above the axle.
+        up = client.getMatrixFromQuaternion(orientation)[2::3]  # body z axis in world
+        com_above_axle = model.torso_com_height - model.axle_height
+        com = tuple(a + com_above_axle * u for a, u in zip(axle, up, strict=True))
+        # Repositioning (not reloading) is cheap, and tests/test_determinism.py checks
+        # that an episode does not depend on the ones the world ran before it.
+        client.resetBasePositionAndOrientation(body, com, orientation)
+        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        for joint in self.wheel_joints:
+            client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
+        self.command_wheel_speed(0.0)
+
+    # -- sensing --------------------------------------------------------------
+
+    def read(self) -> BotState:
+        """Query the world once and return the bot's state in its own frame.
+
+        Plain float arithmetic: this runs every step, where numpy's per-call
+        cost on 3-vectors would dominate. Positional client ids: pybullet
+        parses them faster than keywords.
+        """
+        body, client_id = self.body, self._client_id
+        position, orientation = pybullet.getBasePositionAndOrientation(body, client_id)
+        (vx, vy, _), (wx, wy, wz) = pybullet.getBaseVelocity(body, client_id)
+        left, right = pybullet.getJointStates(body, self.wheel_joints, client_id)
+        # The torso's rotation matrix, row-major. Its columns are the body's x (axle),
+        # y (forward) and z (up) axes in the world; its last row is world "up" seen
+        # from the body, which gives pitch and tilt against gravity.
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = pybullet.getMatrixFromQuaternion(orientation)
+        # Velocity of the axle's midpoint: v_com + w x (-d * body_z).
+        d = self._com_above_axle
+        vx -= d * (wy * r22 - wz * r12)
+        vy -= d * (wz * r02 - wx * r22)
+        heading = math.hypot(r01, r11)  # horizontal length of the forward axis
+        return _new_state(
+            (
+                position,
+                orientation,
+                math.atan2(-r21, r22),  # pitch
+                0.0 - (r00 * wx + r10 * wy + r20 * wz),  # pitch rate; "0.0 -": no -0.0 at rest
+                tilt_from_quaternion(orientation),
+                # The right wheel's axis is reversed: its forward speed is minus its joint's.
+                0.5 * (left[1] - right[1]),  # wheel speed
+                (vx * r01 + vy * r11) / heading if heading > 1e-9 else 0.0,  # forward velocity
+            )
+        )
+
+    @staticmethod
+    def has_fallen(state: BotState) -> bool:
+        """Whether the torso has tilted past `FALL_TILT` from vertical."""
+        return state.tilt > FALL_TILT
+
+    # Named readings for interactive use; each queries the world. In a loop, call
+    # `read()` once and use its fields.
+    @property
+    def pitch(self) -> float:
+        return self.read().pitch
+
+    @property
+    def pitch_rate(self) -> float:
+        return self.read().pitch_rate
+
+    @property
+    def wheel_speed(self) -> float:
+        return self.read().wheel_speed
+
+    @property
+    def forward_velocity(self) -> float:
+        return self.read().forward_velocity
+
+    @property
+    def pose(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """(centre-of-mass position in m, orientation quaternion (x, y, z, w))."""
+        state = self.read()
+        return state.position, state.orientation

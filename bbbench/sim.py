@@ -1,0 +1,88 @@
+"""One pybullet world per environment, and its lifecycle.
+
+A `World` owns one `BulletClient`. It connects on first use (so constructing an
+environment is cheap and `gym.make` never opens a window by accident), never
+touches pybullet's global default connection, and pickles *without* its client:
+a copy made by cloudpickle or `copy.deepcopy` reconnects to a world of its own
+the next time it is used, so two copies never share bodies.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+GRAVITY = 9.81  # m/s^2
+
+
+class World:
+    """A pybullet physics world, created lazily and never shared.
+
+    Args:
+        time_step: simulated seconds advanced by one `step()`.
+        substeps: physics sub-steps per `step()` (pybullet's `numSubSteps`);
+            each lasts `time_step / substeps`. One `stepSimulation` call either way.
+        gui: open pybullet's GUI instead of a headless (DIRECT) server.
+    """
+
+    def __init__(self, time_step: float, substeps: int = 1, gui: bool = False) -> None:
+        if not time_step > 0:
+            raise ValueError(f"time_step must be positive seconds, got {time_step!r}")
+        if int(substeps) != substeps or substeps < 1:
+            raise ValueError(f"substeps must be a whole number >= 1, got {substeps!r}")
+        self.time_step = float(time_step)
+        self.substeps = int(substeps)
+        self.gui = bool(gui)
+        self._client: BulletClient | None = None
+
+    @property
+    def connected(self) -> bool:
+        return self._client is not None
+
+    @property
+    def client(self) -> BulletClient:
+        """The world's client, connecting (and configuring) it on first use."""
+        if self._client is None:
+            self._client = self._connect()
+        return self._client
+
+    @property
+    def client_id(self) -> int:
+        """The pybullet `physicsClientId`, for hot paths that call pybullet directly."""
+        return self.client._client
+
+    def _connect(self) -> BulletClient:
+        client = BulletClient(connection_mode=pybullet.GUI if self.gui else pybullet.DIRECT)
+        if self.gui:
+            # The side panels cost frames and hide the robot; the follow camera does the rest.
+            client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
+        self._configure(client)
+        return client
+
+    def _configure(self, client: BulletClient) -> None:
+        client.setGravity(0.0, 0.0, -GRAVITY)
+        # Identical results for identical calls, whatever the order pairs were found in.
+        client.setPhysicsEngineParameter(
+            fixedTimeStep=self.time_step,  # the whole step: pybullet divides it by numSubSteps
+            numSubSteps=self.substeps,
+            deterministicOverlappingPairs=1,
+        )
+
+    def close(self) -> None:
+        """Disconnect; the next use of `client` connects a fresh world."""
+        if self._client is not None:
+            # The server may already be gone (a GUI window closed by hand).
+            with contextlib.suppress(pybullet.error):
+                self._client.disconnect()
+            self._client = None
+
+    def __getstate__(self) -> dict:
+        # A pickled world is a description, never a connection: the copy builds its own.
+        state = self.__dict__.copy()
+        state["_client"] = None
+        return state
+
+    def __del__(self) -> None:
+        self.close()

@@ -1,0 +1,62 @@
+"""The action table shared by every single-bot task.
+
+An action changes the commanded wheel speed (rad/s); the command is then held
+by the wheels' velocity servos and clamped to the wheel-speed limit.
+"""
+
+from __future__ import annotations
+
+import operator
+
+import numpy as np
+from gymnasium import spaces
+
+# The tutorial's nine changes of commanded wheel speed, rad/s per control step.
+WHEEL_SPEED_CHANGES = (-1.0, -0.5, -0.2, -0.01, 0.0, 0.01, 0.2, 0.5, 1.0)
+# Continuous actions in [-1, 1] are scaled to the same largest change.
+MAX_WHEEL_SPEED_CHANGE = max(abs(change) for change in WHEEL_SPEED_CHANGES)
+
+ACTION_MODES = ("discrete", "continuous")
+
+
+def action_space(action_mode: str) -> spaces.Space:
+    """The action space of `action_mode` ("discrete" or "continuous")."""
+    if action_mode == "discrete":
+        return spaces.Discrete(len(WHEEL_SPEED_CHANGES))
+    if action_mode == "continuous":
+        return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+    raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+
+
+def discrete_change(action) -> float:
+    """The wheel-speed change (rad/s) of a discrete action index, or a clear ValueError."""
+    try:
+        index = operator.index(action)
+    except TypeError:
+        index = -1  # not an integer (a float, a NaN, an array of several values)
+    if 0 <= index < len(WHEEL_SPEED_CHANGES):
+        return WHEEL_SPEED_CHANGES[index]
+    raise ValueError(
+        f"discrete action {action!r} is not in the action space: expected an integer index "
+        f"0..{len(WHEEL_SPEED_CHANGES) - 1} into the wheel-speed changes "
+        f"{WHEEL_SPEED_CHANGES} rad/s"
+    )
+
+
+def continuous_change(action) -> float:
+    """The wheel-speed change (rad/s) of a continuous action in [-1, 1], or a clear ValueError."""
+    if type(action) is np.ndarray and action.shape == (1,):
+        value = float(action[0])
+    else:
+        try:
+            value = float(np.asarray(action, dtype=np.float64).reshape(1)[0])
+        except (TypeError, ValueError):
+            value = float("nan")
+    # NaN fails both comparisons: it is refused, never clamped.
+    if -1.0 <= value <= 1.0:
+        return value * MAX_WHEEL_SPEED_CHANGE
+    raise ValueError(
+        f"continuous action {action!r} is not in the action space: expected one finite "
+        f"number in [-1, 1] (scaled to a wheel-speed change of at most "
+        f"{MAX_WHEEL_SPEED_CHANGE} rad/s), shape (1,)"
+    )

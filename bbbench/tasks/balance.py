@@ -1,0 +1,282 @@
+"""`BalanceEnv`: the single-bot environment every single-bot task runs in."""
+
+from __future__ import annotations
+
+import time
+from typing import Any, ClassVar
+
+import numpy as np
+import pybullet
+from gymnasium import Env, logger
+
+from bbbench.robots import FALL_TILT, BalanceBot
+from bbbench.sim import World
+from bbbench.tasks.actions import (
+    ACTION_MODES,
+    action_space,
+    continuous_change,
+    discrete_change,
+)
+from bbbench.tasks.observation import observation_space, observe
+from bbbench.tasks.reward import base_reward
+from bbbench.tasks.spec import TaskSpec
+
+RENDER_WIDTH, RENDER_HEIGHT = 320, 240  # pixels of an "rgb_array" frame
+_CAMERA_DISTANCE = 1.6  # m from the bot
+_CAMERA_YAW = 90.0  # deg: looking along the axle, so the bot's lean is seen side-on
+_CAMERA_PITCH = -15.0  # deg
+
+
+class BalanceEnv(Env):
+    """Keep a two-wheeled balancing bot upright (and at its target velocity).
+
+    ## Description
+
+    The bot of the pybullet balancing-bot tutorial: a 0.8 kg torso, 0.2 x 0.05 x
+    0.4 m, on two 0.1 m wheels of 0.1 kg on one axle; 1.0 kg and 0.5 m tall in
+    all. The wheels' velocity servos hold a commanded wheel speed with at most
+    0.6 N m of torque each, up to 24.6 rad/s (2.46 m/s). The bot is an inverted
+    pendulum: left alone it falls; the agent keeps it up by changing the
+    commanded wheel speed, driving the wheels under the torso.
+
+    Every single-bot task of bbbench runs in this class and shares its robot,
+    action table, observation layout and reward; a task is a `TaskSpec` (see
+    `bbbench.spec(id)`). `bbbench/FlatBalance-v0` is the tutorial's task: flat
+    ground, target velocity 0 m/s.
+
+    ## Action Space
+
+    `action_mode="discrete"` (default): `Discrete(9)`, a change of the
+    commanded wheel speed per step (the tutorial's table):
+
+    | Num | Change of commanded wheel speed (rad/s) |
+    |-----|-----------------------------------------|
+    | 0   | -1.0                                    |
+    | 1   | -0.5                                    |
+    | 2   | -0.2                                    |
+    | 3   | -0.01                                   |
+    | 4   | 0.0                                     |
+    | 5   | 0.01                                    |
+    | 6   | 0.2                                     |
+    | 7   | 0.5                                     |
+    | 8   | 1.0                                     |
+
+    `action_mode="continuous"`: `Box(-1, 1, (1,), float32)`, scaled to a change
+    of -1.0 to 1.0 rad/s.
+
+    The command is clamped to the wheel-speed limit, +-24.6 rad/s. An action
+    outside the space (or NaN) raises `ValueError`; nothing is clamped silently.
+
+    ## Observation Space
+
+    `Box(5,)` of `float32`, the same for every single-bot task. Forward is the
+    bot's own +y axis; angles are measured in the bot's own frame against
+    gravity, so they mean the same whatever the heading or slope.
+
+    | Num | Observation     | Min     | Max    | Unit  | Meaning                            |
+    |-----|-----------------|---------|--------|-------|------------------------------------|
+    | 0   | pitch           | -pi     | pi     | rad   | torso lean from vertical, + fwd    |
+    | 1   | pitch_rate      | -34.907 | 34.907 | rad/s | gyro rate about the axle (1)       |
+    | 2   | wheel_speed     | -50     | 50     | rad/s | wheel speed vs the torso (2)       |
+    | 3   | wheel_command   | -24.6   | 24.6   | rad/s | speed the servos are told to hold  |
+    | 4   | target_velocity | -2.46   | 2.46   | m/s   | forward velocity the task asks for |
+
+    (1) saturates at 2000 deg/s, a common MEMS gyro's full scale. (2) what the
+    encoders measure; saturates at 50 rad/s, about twice the motors' top speed.
+
+    ## Rewards
+
+    One function for every task (`bbbench.tasks.reward.base_reward`):
+
+        reward = 0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|
+
+    with pitch in rad and the axle's true horizontal forward velocity in m/s.
+    At most 0.1 per step, so a 1500-step episode scores at most 150.
+
+    ## Starting State
+
+    The bot stands at the origin, heading along +y, at rest, leaning by a pitch
+    drawn uniformly from [-0.1, 0.1] rad (so doing nothing falls). `reset(seed=s)`
+    decides everything random through the env's one `np_random`.
+
+    ## Episode End
+
+    - Termination: the torso tilts more than 1 rad (57 degrees) from vertical (a fall).
+    - Truncation: 1500 steps (15 s at 0.01 s per step), by gymnasium's `TimeLimit`.
+
+    ## Arguments
+
+    ```python
+    import gymnasium as gym
+    import bbbench
+
+    env = gym.make("bbbench/FlatBalance-v0", action_mode="discrete", render_mode=None)
+    ```
+
+    - `action_mode`: `"discrete"` (default) or `"continuous"`.
+    - `render_mode`: `None`, `"rgb_array"` (320 x 240 frames from pybullet's
+      TinyRenderer, headless, a camera that follows the bot) or `"human"`
+      (pybullet's GUI window, real time).
+
+    The pybullet world is created on the first `reset()`; a pickled copy of the
+    env carries no world and builds its own on its next `reset()`.
+
+    ## Version History
+
+    - v0: initial release (FlatBalance).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
+
+    def __init__(
+        self,
+        task: str | TaskSpec = "bbbench/FlatBalance-v0",
+        action_mode: str = "discrete",
+        render_mode: str | None = None,
+        **unknown: Any,
+    ) -> None:
+        if unknown:
+            raise TypeError(
+                f"unknown keyword argument(s) {sorted(unknown)} for {task}: accepted keyword "
+                f"arguments are action_mode={ACTION_MODES} and render_mode="
+                f"{(None, *self.metadata['render_modes'])}"
+            )
+        if not isinstance(task, TaskSpec):
+            from bbbench.tasks.suite import spec  # the suite imports this module's path only
+
+            task = spec(task)
+        if action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        self.task = task
+        self.action_mode = action_mode
+        self.render_mode = render_mode
+        self._human = render_mode == "human"
+        self.action_space = action_space(action_mode)
+        self.observation_space = observation_space()
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
+        self._wheel_speed_change = (
+            discrete_change if action_mode == "discrete" else continuous_change
+        )
+        self._world = World(
+            time_step=task.control_dt, substeps=task.physics_substeps, gui=render_mode == "human"
+        )
+        self._bot: BalanceBot | None = None  # built with the world, on the first reset
+        self._targets: list[float] = []
+        self._steps = 0
+        self._last_frame_time = 0.0
+
+    # -- the gymnasium API ----------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        if options:
+            raise ValueError(f"reset() takes no options, got {sorted(options)}")
+        if self._bot is None:
+            self._build_world()
+        task, rng = self.task, self.np_random
+        # Draw order is part of the task's definition: tilt first, then targets.
+        pitch = float(rng.uniform(-task.initial_pitch, task.initial_pitch))
+        self._targets = task.command.targets(rng, task.max_episode_steps)
+        self._bot.reset(pitch=pitch, ground_height=task.terrain.height_at(0.0, 0.0))
+        self._steps = 0
+        observation = observe(self._bot.read(), self._bot.wheel_command, self._targets[0])
+        if self.render_mode == "human":
+            self._render_human()
+        return observation, {}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        bot = self._bot
+        if bot is None:
+            raise RuntimeError(
+                f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
+            )
+        command = bot.command_wheel_speed(bot.wheel_command + self._wheel_speed_change(action))
+        pybullet.stepSimulation(self._client_id)
+        state = bot.read()
+        self._steps = steps = self._steps + 1
+        try:
+            target = self._targets[steps]
+        except IndexError:  # past the time limit (an env used without TimeLimit)
+            target = self._targets[-1]
+        reward = base_reward(state.pitch, state.forward_velocity, target, self.task.reward)
+        if self._human:
+            self._render_human()
+        return observe(state, command, target), reward, state.tilt > FALL_TILT, False, {}
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            logger.warn(
+                "render() was called without a render_mode; make the env with "
+                'render_mode="rgb_array" or "human".'
+            )
+            return None
+        if self._bot is None:
+            raise RuntimeError(f"{self.task.id}: call reset() before render()")
+        if self.render_mode == "rgb_array":
+            return self._render_rgb()
+        self._render_human()
+        return None
+
+    def close(self) -> None:
+        self._world.close()
+        self._bot = None
+
+    # -- internals ------------------------------------------------------------
+
+    def _build_world(self) -> None:
+        client = self._world.client
+        self._client_id = self._world.client_id
+        self._ground = self.task.terrain.load(client)
+        self._bot = BalanceBot(client)
+
+    def _camera_target(self) -> tuple[float, float, float]:
+        x, y, _ = self._bot.read().position
+        return (x, y, 0.25)  # the bot's middle height, steady while it leans
+
+    def _render_rgb(self) -> np.ndarray:
+        client = self._world.client
+        view = client.computeViewMatrixFromYawPitchRoll(
+            cameraTargetPosition=self._camera_target(),
+            distance=_CAMERA_DISTANCE,
+            yaw=_CAMERA_YAW,
+            pitch=_CAMERA_PITCH,
+            roll=0.0,
+            upAxisIndex=2,
+        )
+        projection = client.computeProjectionMatrixFOV(
+            fov=50.0, aspect=RENDER_WIDTH / RENDER_HEIGHT, nearVal=0.05, farVal=50.0
+        )
+        _, _, rgba, _, _ = client.getCameraImage(
+            RENDER_WIDTH,
+            RENDER_HEIGHT,
+            viewMatrix=view,
+            projectionMatrix=projection,
+            renderer=pybullet.ER_TINY_RENDERER,
+        )
+        frame = np.asarray(rgba, dtype=np.uint8).reshape(RENDER_HEIGHT, RENDER_WIDTH, 4)
+        return np.ascontiguousarray(frame[:, :, :3])
+
+    def _render_human(self) -> None:
+        self._world.client.resetDebugVisualizerCamera(
+            _CAMERA_DISTANCE, _CAMERA_YAW, _CAMERA_PITCH, self._camera_target()
+        )
+        # Real time: a frame per control step, no faster than the simulated clock.
+        delay = self.task.control_dt - (time.perf_counter() - self._last_frame_time)
+        if delay > 0:
+            time.sleep(delay)
+        self._last_frame_time = time.perf_counter()
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The world pickles as a description; bodies and ids belong to the old connection.
+        state = self.__dict__.copy()
+        state["_bot"] = None
+        state.pop("_ground", None)
+        state.pop("_client_id", None)
+        return state

@@ -1,0 +1,48 @@
+"""The task is neither trivial nor impossible: doing nothing falls, the PD baseline stands."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import bbbench
+from bbbench.policies import PDController
+from conftest import FLAT
+
+SEEDS = range(20)
+
+
+def episode(env, policy, seed: int) -> tuple[int, bool, float]:
+    observation, _ = env.reset(seed=seed)
+    total, steps = 0.0, 0
+    while True:
+        observation, reward, terminated, truncated, _ = env.step(policy(observation))
+        total += reward
+        steps += 1
+        if terminated or truncated:
+            return steps, terminated, total
+
+
+def test_the_zero_action_falls_within_a_few_seconds_on_most_seeds():
+    env = bbbench.make(FLAT)
+    results = [episode(env, lambda observation: 4, seed) for seed in SEEDS]
+    fell_fast = [terminated and steps <= 300 for steps, terminated, _ in results]  # 3 s
+    assert sum(fell_fast) >= 0.9 * len(SEEDS)
+
+
+def test_the_pd_baseline_stands_the_full_episode_on_most_seeds(action_mode):
+    env = bbbench.make(FLAT, action_mode=action_mode)
+    policy = PDController(action_mode=action_mode)
+    results = [episode(env, policy, seed) for seed in SEEDS]
+    full = [steps == 1500 and not terminated for steps, terminated, _ in results]
+    assert sum(full) >= 0.9 * len(SEEDS)
+    assert np.mean([total for *_, total in results]) > 0.9 * bbbench.spec(FLAT).max_return
+
+
+def test_pd_predict_handles_a_batch_like_sb3():
+    policy = PDController()
+    env = bbbench.make(FLAT)
+    observation, _ = env.reset(seed=0)
+    actions, state = policy.predict(np.stack([observation, observation]))
+    assert state is None
+    assert actions.shape == (2,)
+    assert actions[0] == policy(observation)

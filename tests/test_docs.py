@@ -1,0 +1,49 @@
+"""The task docstring documents what the code does: its tables follow the definitions."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from bbbench.robots import FALL_TILT
+from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
+from bbbench.tasks.balance import BalanceEnv
+from bbbench.tasks.observation import OBSERVATION_LAYOUT
+from bbbench.tasks.reward import RewardWeights
+
+DOC = BalanceEnv.__doc__
+
+
+def table_rows(heading: str) -> list[list[str]]:
+    section = DOC.split(f"## {heading}")[1].split("## ")[0]
+    rows = [line.strip() for line in section.splitlines() if line.strip().startswith("|")]
+    return [[cell.strip() for cell in row.strip("|").split("|")] for row in rows[2:]]
+
+
+def as_number(text: str) -> float:
+    return {"pi": 3.141592653589793, "-pi": -3.141592653589793}.get(text) or float(text)
+
+
+def test_observation_table_matches_the_layout():
+    rows = table_rows("Observation Space")
+    assert [row[1] for row in rows] == [field.name for field in OBSERVATION_LAYOUT]
+    for row, field in zip(rows, OBSERVATION_LAYOUT, strict=True):
+        assert as_number(row[2]) == pytest.approx(field.low, abs=1e-3)
+        assert as_number(row[3]) == pytest.approx(field.high, abs=1e-3)
+        assert row[4] == field.unit
+
+
+def test_action_table_matches_the_wheel_speed_changes():
+    rows = table_rows("Action Space")
+    assert [float(row[1]) for row in rows] == list(WHEEL_SPEED_CHANGES)
+
+
+def test_reward_formula_and_fall_limit_match_the_code():
+    weights = RewardWeights()
+    formula = (
+        f"reward = {weights.upright} * (1 - |pitch|) - "
+        f"{weights.velocity} * |forward_velocity - target_velocity|"
+    )
+    assert formula in DOC
+    assert re.search(rf"more than {FALL_TILT:g} rad", DOC)
