@@ -27,6 +27,8 @@ class World:
         gui: open pybullet's GUI instead of a headless (DIRECT) server.
     """
 
+    _gui_world_open = False  # pybullet allows one GUI connection per process
+
     def __init__(self, time_step: float, substeps: int = 1, gui: bool = False) -> None:
         if not time_step > 0:
             raise ValueError(f"time_step must be positive seconds, got {time_step!r}")
@@ -54,8 +56,18 @@ class World:
         return self.client._client
 
     def _connect(self) -> BulletClient:
-        client = BulletClient(connection_mode=pybullet.GUI if self.gui else pybullet.DIRECT)
-        if self.gui:
+        if not self.gui:
+            client = BulletClient(connection_mode=pybullet.DIRECT)
+        else:
+            # pybullet allows one GUI per process; ask before it fails half-way.
+            if World._gui_world_open:
+                raise RuntimeError(
+                    'render_mode="human" opens pybullet\'s GUI, and pybullet allows one GUI '
+                    "per process: close() the other human-rendering env first, or use "
+                    'render_mode="rgb_array"'
+                )
+            client = BulletClient(connection_mode=pybullet.GUI)
+            World._gui_world_open = True
             # The side panels cost frames and hide the robot; the follow camera does the rest.
             client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
         self._configure(client)
@@ -77,6 +89,8 @@ class World:
             with contextlib.suppress(pybullet.error):
                 self._client.disconnect()
             self._client = None
+            if self.gui:
+                World._gui_world_open = False
 
     def __getstate__(self) -> dict:
         # A pickled world is a description, never a connection: the copy builds its own.
