@@ -120,6 +120,8 @@ def test_world_is_created_on_first_reset_only():
     assert env.unwrapped._world.connected
     env.close()
     assert not env.unwrapped._world.connected
+    observation, _ = env.reset(seed=0)  # a closed env builds a new world when reset
+    assert env.observation_space.contains(observation)
 
 
 def test_rgb_array_renders_frames_that_follow_the_bot():

@@ -67,6 +67,9 @@ def test_positive_wheel_speed_drives_forward_whatever_the_heading(world_and_bot,
     bot.reset(yaw=yaw)
     state = drive(world, bot, 5.0)
     assert state.wheel_speed == pytest.approx(5.0, abs=0.01)
+    left, right = bot.wheel_speeds  # both forward-positive, though the axes are opposite
+    assert left == pytest.approx(5.0, abs=0.01)
+    assert right == pytest.approx(5.0, abs=0.01)
     assert state.forward_velocity > 0.2
     # Accelerating forward pitches the torso back; the reading does not depend on heading
     # (to Bullet's contact solver, which works in world axes: 2e-5 rad apart at yaw -2).

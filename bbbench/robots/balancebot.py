@@ -246,6 +246,12 @@ class BalanceBot:
         return self.read().forward_velocity
 
     @property
+    def wheel_speeds(self) -> tuple[float, float]:
+        """(left, right) wheel speeds relative to the torso, rad/s, forward-positive."""
+        left, right = self._client.getJointStates(self.body, self.wheel_joints)
+        return left[1], -right[1]
+
+    @property
     def pose(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
         """(centre-of-mass position in m, orientation quaternion (x, y, z, w))."""
         state = self.read()
