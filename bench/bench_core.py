@@ -29,7 +29,7 @@ import pybullet
 import bbbench
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.robots.balancebot import tilt_from_quaternion
-from bbbench.sim import GRAVITY
+from bbbench.sim import GRAVITY, SOLVER_ITERATIONS
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.terrain import GROUND_FRICTION
 
@@ -84,6 +84,7 @@ class RawLoop:
             fixedTimeStep=spec.control_dt,
             numSubSteps=spec.physics_substeps,
             deterministicOverlappingPairs=1,
+            numSolverIterations=SOLVER_ITERATIONS,
             physicsClientId=cid,
         )
         plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=cid)

@@ -70,7 +70,8 @@ def read_model(urdf_path: Path = URDF_PATH) -> RobotModel:
     return RobotModel(
         urdf_path=urdf_path,
         wheel_joint_names=(left.get("name"), right.get("name")),
-        wheel_radius=float(wheel.find("collision/geometry/cylinder").get("radius")),
+        # The collision shape is what rolls: a sphere or a cylinder, radius either way.
+        wheel_radius=float(wheel.find("collision/geometry/*[@radius]").get("radius")),
         wheel_speed_limit=float(limit.get("velocity")),
         motor_torque_limit=float(limit.get("effort")),
         axle_height=float(left.find("origin").get("xyz").split()[2]),

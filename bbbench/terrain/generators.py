@@ -1,0 +1,151 @@
+"""Seeded, pure-numpy heightmap generators.
+
+Each generator is a frozen description with a `difficulty`-dependent height
+bound and a `__call__(rng, difficulty, shape, cell_size)` that returns heights
+(m) on a grid, `heights[i, j]` at x-index i and y-index j, always within
+`height_bounds(difficulty)`. Nothing here knows about robots or bullet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _check_difficulty(difficulty: float) -> float:
+    if not 0.0 <= difficulty <= 1.0:
+        raise ValueError(f"difficulty must be a number in [0, 1], got {difficulty!r}")
+    return float(difficulty)
+
+
+def _smooth_noise(
+    rng: np.random.Generator, shape: tuple[int, int], cell_size: float, feature_size: float
+) -> np.ndarray:
+    """White noise low-passed by a Gaussian of std `feature_size` m (FFT), scaled to [0, 1]."""
+    noise = rng.standard_normal(shape)
+    fx = np.fft.fftfreq(shape[0], d=cell_size)[:, None]
+    fy = np.fft.rfftfreq(shape[1], d=cell_size)[None, :]
+    kernel = np.exp(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
+    smooth = np.fft.irfft2(np.fft.rfft2(noise) * kernel, s=shape)
+    low, high = smooth.min(), smooth.max()
+    return (smooth - low) / (high - low) if high > low else np.zeros(shape)
+
+
+@dataclass(frozen=True)
+class Flat:
+    """Level ground."""
+
+    def height_bounds(self, difficulty: float) -> tuple[float, float]:
+        _check_difficulty(difficulty)
+        return (0.0, 0.0)
+
+    def __call__(
+        self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
+    ) -> np.ndarray:
+        _check_difficulty(difficulty)
+        return np.zeros(shape)
+
+
+@dataclass(frozen=True)
+class Bumps:
+    """Smooth random hills: low-passed noise, as high as `max_height(difficulty)`.
+
+    At difficulty 0 the hills are `min_height` (a fifth of the 0.1 m wheel
+    radius) high; at 1, `min_height + extra_height`.
+    """
+
+    min_height: float = 0.02  # m
+    extra_height: float = 0.06  # m at difficulty 1
+    feature_size: float = 0.35  # m, the std of the smoothing Gaussian
+
+    def max_height(self, difficulty: float) -> float:
+        return self.min_height + self.extra_height * _check_difficulty(difficulty)
+
+    def height_bounds(self, difficulty: float) -> tuple[float, float]:
+        return (0.0, self.max_height(difficulty))
+
+    def __call__(
+        self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
+    ) -> np.ndarray:
+        height = self.max_height(difficulty)
+        return height * _smooth_noise(rng, shape, cell_size, self.feature_size)
+
+
+@dataclass(frozen=True)
+class Obstacles:
+    """Scattered boxes and full-width steps (raised bands) on level ground.
+
+    Obstacle heights are drawn from [0.25, 1] x `max_height(difficulty)`; their
+    number grows with difficulty.
+    """
+
+    min_height: float = 0.015  # m at difficulty 0
+    extra_height: float = 0.035  # m more at difficulty 1
+    boxes_per_m2: float = 0.15  # at difficulty 0; twice that at 1
+    steps_per_m: float = 0.1  # full-width bands per metre of length
+
+    def max_height(self, difficulty: float) -> float:
+        return self.min_height + self.extra_height * _check_difficulty(difficulty)
+
+    def height_bounds(self, difficulty: float) -> tuple[float, float]:
+        return (0.0, self.max_height(difficulty))
+
+    def __call__(
+        self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
+    ) -> np.ndarray:
+        height = self.max_height(difficulty)
+        nx, ny = shape
+        heights = np.zeros(shape)
+        area = nx * ny * cell_size**2
+        for _ in range(rng.poisson(self.boxes_per_m2 * (1.0 + difficulty) * area)):
+            half_x, half_y = (rng.uniform(0.1, 0.4, size=2) / cell_size).astype(int) + 1
+            i, j = rng.integers(0, nx), rng.integers(0, ny)
+            box = heights[max(i - half_x, 0) : i + half_x, max(j - half_y, 0) : j + half_y]
+            np.maximum(box, rng.uniform(0.25, 1.0) * height, out=box)
+        for _ in range(rng.poisson(self.steps_per_m * ny * cell_size)):
+            depth = int(rng.uniform(0.3, 1.5) / cell_size) + 1
+            j = rng.integers(0, ny)
+            band = heights[:, j : j + depth]
+            np.maximum(band, rng.uniform(0.25, 1.0) * height, out=band)
+        return heights
+
+
+@dataclass(frozen=True)
+class Slopes:
+    """Ramps up and down along the driving direction (y), flat in x.
+
+    Each ramp's incline is drawn up to `max_incline(difficulty)`; heights stay
+    within [0, max_height].
+    """
+
+    min_incline: float = 0.05  # rad (about 3 degrees) at difficulty 0
+    extra_incline: float = 0.15  # rad more at difficulty 1
+    max_height: float = 0.5  # m
+    ramp_length: tuple[float, float] = (1.0, 3.0)  # m
+
+    def max_incline(self, difficulty: float) -> float:
+        return self.min_incline + self.extra_incline * _check_difficulty(difficulty)
+
+    def height_bounds(self, difficulty: float) -> tuple[float, float]:
+        _check_difficulty(difficulty)
+        return (0.0, self.max_height)
+
+    def __call__(
+        self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
+    ) -> np.ndarray:
+        incline = self.max_incline(difficulty)
+        nx, ny = shape
+        profile = np.zeros(ny)
+        j, level = 0, 0.0
+        while j < ny:
+            length = int(rng.uniform(*self.ramp_length) / cell_size) + 1
+            grade = np.tan(rng.uniform(-incline, incline))
+            ramp = level + grade * cell_size * np.arange(1, length + 1)
+            profile[j : j + length] = np.clip(ramp, 0.0, self.max_height)[: ny - j]
+            level = profile[min(j + length, ny) - 1]
+            j += length
+        return np.broadcast_to(profile, (nx, ny)).copy()
+
+
+GENERATORS = {"flat": Flat, "bumps": Bumps, "obstacles": Obstacles, "slopes": Slopes}
