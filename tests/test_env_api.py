@@ -2,13 +2,9 @@
 
 from __future__ import annotations
 
-import warnings
-
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env as gymnasium_check_env
-from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import bbbench
 from bbbench.tasks.balance import RENDER_HEIGHT, RENDER_WIDTH
@@ -21,18 +17,6 @@ def test_both_make_forms_give_the_registered_task():
     assert plain.spec.id == namespaced.spec.id == FLAT
     assert plain.spec.max_episode_steps == 1500
     assert bbbench.make(FLAT).spec.max_episode_steps == 1500
-
-
-def test_gymnasium_check_env_passes(action_mode):
-    env = gym.make(FLAT, action_mode=action_mode)
-    gymnasium_check_env(env.unwrapped, skip_render_check=True)
-
-
-def test_sb3_check_env_passes_without_warnings(action_mode):
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_check_env(gym.make(FLAT, action_mode=action_mode).unwrapped, warn=True)
-    assert [str(w.message) for w in caught] == []
 
 
 def test_spaces_are_the_documented_ones(flat_env, action_mode):

@@ -9,13 +9,13 @@ import pytest
 
 from bbbench.robots import FALL_TILT, MODEL, BalanceBot
 from bbbench.sim import World
-from bbbench.terrain import FlatGround
+from bbbench.terrain import FlatGround, load_ground
 
 
 @pytest.fixture
 def world_and_bot():
     world = World(time_step=0.01)
-    ground = FlatGround().load(world.client)
+    ground = load_ground(world.client, FlatGround()).body
     bot = BalanceBot(world.client)
     yield world, bot, ground
     world.close()

@@ -19,7 +19,8 @@ from bbbench.tasks.actions import (
 )
 from bbbench.tasks.observation import observation_space, observe
 from bbbench.tasks.reward import base_reward
-from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
+from bbbench.terrain import load_ground
 
 RENDER_WIDTH, RENDER_HEIGHT = 320, 240  # pixels of an "rgb_array" frame
 _CAMERA_DISTANCE = 1.6  # m from the bot
@@ -133,18 +134,26 @@ class BalanceEnv(Env):
         task: str | TaskSpec = "bbbench/FlatBalance-v0",
         action_mode: str = "discrete",
         render_mode: str | None = None,
+        difficulty: float | None = None,
         **unknown: Any,
     ) -> None:
-        if unknown:
-            raise TypeError(
-                f"unknown keyword argument(s) {sorted(unknown)} for {task}: accepted keyword "
-                f"arguments are action_mode={ACTION_MODES} and render_mode="
-                f"{(None, *self.metadata['render_modes'])}"
-            )
         if not isinstance(task, TaskSpec):
             from bbbench.tasks.suite import spec  # the suite imports this module's path only
 
             task = spec(task)
+        accepted = (
+            f"action_mode={ACTION_MODES}, render_mode="
+            f"{(None, *self.metadata['render_modes'])}"
+            + (", difficulty=<a number in [0, 1]>" if task.difficulty is not None else "")
+        )
+        if unknown or (difficulty is not None and task.difficulty is None):
+            given = sorted(unknown) + (["difficulty"] if difficulty is not None else [])
+            raise TypeError(
+                f"unknown keyword argument(s) {given} for {task.id}: accepted keyword "
+                f"arguments are {accepted}"
+            )
+        if difficulty is not None:
+            task = task.with_difficulty(difficulty)
         if action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -162,11 +171,14 @@ class BalanceEnv(Env):
         self._wheel_speed_change = (
             discrete_change if action_mode == "discrete" else continuous_change
         )
+        self._delay = task.sensors.delay_steps
         self._world = World(
             time_step=task.control_dt, substeps=task.physics_substeps, gui=render_mode == "human"
         )
         self._bot: BalanceBot | None = None  # built with the world, on the first reset
         self._targets: list[float] = []
+        self._errors: list[tuple[float, float, float]] | None = None
+        self._last_reading = (0.0, 0.0, 0.0)
         self._steps = 0
         self._last_frame_time = 0.0
 
@@ -180,16 +192,29 @@ class BalanceEnv(Env):
             raise ValueError(f"reset() takes no options, got {sorted(options)}")
         if self._bot is None:
             self._build_world()
-        task, rng = self.task, self.np_random
-        # Draw order is part of the task's definition: tilt first, then targets.
-        pitch = float(rng.uniform(-task.initial_pitch, task.initial_pitch))
-        self._targets = task.command.targets(rng, task.max_episode_steps)
-        self._bot.reset(pitch=pitch, ground_height=task.terrain.height_at(0.0, 0.0))
+        task = self.task
+        # One integer decides the episode: the seed given, or a training seed drawn
+        # from np_random. Each part draws from a stream of its own, so (say) a harder
+        # terrain does not change the same seed's commands.
+        episode_seed = (
+            seed if seed is not None else int(self.np_random.integers(TRAINING_SEEDS.stop))
+        )
+        terrain_rng, command_rng, start_rng, sensor_rng = (
+            np.random.default_rng(stream)
+            for stream in np.random.SeedSequence(episode_seed).spawn(4)
+        )
+        spawn_height = self._ground.reset(terrain_rng)
+        self._targets = task.command.targets(command_rng, task.max_episode_steps, task.control_dt)
+        pitch = float(start_rng.uniform(-task.initial_pitch, task.initial_pitch))
+        self._errors = task.sensors.episode_errors(sensor_rng, task.max_episode_steps)
+        self._bot.reset(pitch=pitch, ground_height=spawn_height)
         self._steps = 0
-        observation = observe(self._bot.read(), self._bot.wheel_command, self._targets[0])
-        if self.render_mode == "human":
+        state = self._bot.read()
+        self._last_reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        observation = self._sensed(state, self._bot.wheel_command, self._targets[0], 0)
+        if self._human:
             self._render_human()
-        return observation, {}
+        return observation, {"episode_seed": episode_seed}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         bot = self._bot
@@ -208,7 +233,21 @@ class BalanceEnv(Env):
         reward = base_reward(state.pitch, state.forward_velocity, target, self.task.reward)
         if self._human:
             self._render_human()
-        return observe(state, command, target), reward, state.tilt > FALL_TILT, False, {}
+        if self._errors is None and not self._delay:  # perfect sensors: the hot path
+            observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
+        else:
+            observation = self._sensed(state, command, target, steps)
+        return observation, reward, state.tilt > FALL_TILT, False, {}
+
+    def _sensed(self, state, command: float, target: float, step: int) -> np.ndarray:
+        """The observation through the task's sensor model: delayed, biased, noisy."""
+        reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        if self._delay:
+            reading, self._last_reading = self._last_reading, reading
+        if self._errors is not None:
+            errors = self._errors[min(step, len(self._errors) - 1)]
+            reading = (reading[0] + errors[0], reading[1] + errors[1], reading[2] + errors[2])
+        return observe(*reading, command, target)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -233,7 +272,7 @@ class BalanceEnv(Env):
     def _build_world(self) -> None:
         client = self._world.client
         self._client_id = self._world.client_id
-        self._ground = self.task.terrain.load(client)
+        self._ground = load_ground(client, self.task.terrain)
         self._bot = BalanceBot(client)
 
     def _camera_target(self) -> tuple[float, float, float]:

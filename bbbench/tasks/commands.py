@@ -13,6 +13,13 @@ import numpy as np
 from bbbench.robots import MODEL
 
 
+def _check_speed(name: str, value: float) -> None:
+    if not abs(value) <= MODEL.top_speed:
+        raise ValueError(
+            f"{name} must be within the bot's top speed +-{MODEL.top_speed:g} m/s, got {value!r}"
+        )
+
+
 @dataclass(frozen=True)
 class ConstantVelocity:
     """The same target forward velocity (m/s) for the whole episode."""
@@ -20,13 +27,36 @@ class ConstantVelocity:
     velocity: float = 0.0
 
     def __post_init__(self) -> None:
-        if not abs(self.velocity) <= MODEL.top_speed:
+        _check_speed("velocity", self.velocity)
+
+    def targets(self, rng: np.random.Generator, n_steps: int, dt: float) -> list[float]:
+        """Targets for steps 0..n_steps (the observation after reset, then after each step)."""
+        return [float(self.velocity)] * (n_steps + 1)
+
+
+@dataclass(frozen=True)
+class PiecewiseConstantVelocity:
+    """Targets drawn uniformly from [low, high] m/s, each held for U(hold) seconds."""
+
+    low: float = -1.0
+    high: float = 1.0
+    hold: tuple[float, float] = (2.0, 5.0)  # s
+
+    def __post_init__(self) -> None:
+        _check_speed("low", self.low)
+        _check_speed("high", self.high)
+        if not (self.low <= self.high and 0 < self.hold[0] <= self.hold[1]):
             raise ValueError(
-                f"target velocity must be within the bot's top speed "
-                f"+-{MODEL.top_speed:g} m/s, got {self.velocity!r}"
+                f"need low <= high and 0 < hold[0] <= hold[1], got low={self.low!r}, "
+                f"high={self.high!r}, hold={self.hold!r}"
             )
 
-    def targets(self, rng: np.random.Generator, n_steps: int) -> list[float]:
-        """Targets for steps 0..n_steps (observation after reset, then after each step)."""
-        del rng  # nothing random to draw
-        return [float(self.velocity)] * (n_steps + 1)
+    def targets(self, rng: np.random.Generator, n_steps: int, dt: float) -> list[float]:
+        targets: list[float] = []
+        while len(targets) <= n_steps:
+            steps = max(1, round(rng.uniform(*self.hold) / dt))
+            targets.extend([float(rng.uniform(self.low, self.high))] * steps)
+        return targets[: n_steps + 1]
+
+
+CommandSchedule = ConstantVelocity | PiecewiseConstantVelocity

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.robots import MODEL, BotState
+from bbbench.robots import MODEL
 
 OBSERVATION_DTYPE = np.float32
 
@@ -59,6 +59,7 @@ OBSERVATION_LAYOUT = (
 )
 INDEX = {field.name: i for i, field in enumerate(OBSERVATION_LAYOUT)}
 _OBSERVATION_SIZE = len(OBSERVATION_LAYOUT)
+_PI = math.pi
 
 
 def observation_space() -> spaces.Box:
@@ -70,23 +71,25 @@ def observation_space() -> spaces.Box:
     )
 
 
-def observe(state: BotState, wheel_command: float, target_velocity: float) -> np.ndarray:
+def observe(
+    pitch: float, pitch_rate: float, wheel_speed: float, wheel_command: float, target: float
+) -> np.ndarray:
     """The observation vector of one bot, in `OBSERVATION_LAYOUT` order.
 
-    `wheel_command` and `target_velocity` are within their bounds by
-    construction (the bot clamps its command; specs bound their targets).
+    Sensed readings (true or noisy) are clipped to their sensors' ranges;
+    `wheel_command` and `target` are within bounds by construction (the bot
+    clamps its command; specs bound their targets).
     """
-    pitch_rate, wheel_speed = state.pitch_rate, state.wheel_speed
     # fromiter with a known count skips numpy's type and shape discovery (bench/).
     return np.fromiter(
         (
-            state.pitch,  # atan2: always within [-pi, pi]
+            _PI if pitch > _PI else max(pitch, -_PI),
             GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
             ENCODER_SPEED_RANGE
             if wheel_speed > ENCODER_SPEED_RANGE
             else max(wheel_speed, -ENCODER_SPEED_RANGE),
             wheel_command,
-            target_velocity,
+            target,
         ),
         OBSERVATION_DTYPE,
         _OBSERVATION_SIZE,

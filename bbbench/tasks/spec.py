@@ -8,13 +8,20 @@ import json
 from dataclasses import dataclass, field
 
 from bbbench.robots import FALL_TILT, MODEL
-from bbbench.tasks.commands import ConstantVelocity
+from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.reward import RewardWeights
-from bbbench.terrain import FlatGround
+from bbbench.tasks.sensors import PerfectSensors, SensorModel
+from bbbench.terrain import FlatGround, HeightfieldTerrain
+
+# The train/test split (Procgen's, applied to terrain and commands): an episode
+# is decided by one integer seed. reset() without a seed plays a training seed;
+# every task's public evaluation seeds lie outside that range.
+TRAINING_SEEDS = range(2**31)
+EVAL_SEEDS = tuple(range(2**31, 2**31 + 100))
 
 # Fields that document a task without changing its behaviour: editing them
 # must not change the fingerprint.
-_DOCUMENTATION_FIELDS = ("summary",)
+_DOCUMENTATION_FIELDS = ("summary", "version_history")
 
 
 @dataclass(frozen=True)
@@ -27,14 +34,16 @@ class TaskSpec:
 
     id: str
     summary: str
-    terrain: FlatGround = field(default_factory=FlatGround)
-    command: ConstantVelocity = field(default_factory=ConstantVelocity)
+    terrain: FlatGround | HeightfieldTerrain = field(default_factory=FlatGround)
+    command: CommandSchedule = field(default_factory=ConstantVelocity)
+    sensors: SensorModel = field(default_factory=PerfectSensors)
     reward: RewardWeights = field(default_factory=RewardWeights)
     initial_pitch: float = 0.1  # rad: reset leans the bot by U(-initial_pitch, initial_pitch)
     control_dt: float = 0.01  # s per env step
     physics_substeps: int = 1  # pybullet sub-steps per env step
     max_episode_steps: int = 1500  # time limit (truncation)
-    eval_seeds: tuple[int, ...] = ()
+    eval_seeds: tuple[int, ...] = EVAL_SEEDS
+    version_history: tuple[str, ...] = ("v0: initial release.",)
 
     def __post_init__(self) -> None:
         if not self.id.startswith("bbbench/") or "-v" not in self.id:
@@ -52,6 +61,20 @@ class TaskSpec:
             )
         if len(set(self.eval_seeds)) != len(self.eval_seeds):
             raise ValueError(f"{self.id}: eval_seeds must not repeat")
+        if any(seed in TRAINING_SEEDS for seed in self.eval_seeds):
+            raise ValueError(f"{self.id}: eval_seeds must lie outside the training seeds")
+
+    @property
+    def difficulty(self) -> float | None:
+        """The terrain's difficulty in [0, 1]; None for flat ground."""
+        return getattr(self.terrain, "difficulty", None)
+
+    def with_difficulty(self, difficulty: float) -> TaskSpec:
+        """The same task on terrain of another difficulty (a different fingerprint)."""
+        if not isinstance(self.terrain, HeightfieldTerrain):
+            raise TypeError(f"{self.id} is on flat ground: it takes no difficulty")
+        terrain = dataclasses.replace(self.terrain, difficulty=difficulty)
+        return dataclasses.replace(self, terrain=terrain)
 
     @property
     def max_return(self) -> float:
@@ -68,9 +91,14 @@ class TaskSpec:
         }
         # Class names tell apart components whose fields happen to match.
         behaviour["components"] = [
-            type(self.terrain).__name__,
-            type(self.command).__name__,
-            type(self.reward).__name__,
+            type(component).__name__
+            for component in (
+                self.terrain,
+                getattr(self.terrain, "generator", None),
+                self.command,
+                self.sensors,
+                self.reward,
+            )
         ]
         digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
         digest.update(MODEL.urdf_path.read_bytes())

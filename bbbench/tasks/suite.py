@@ -7,10 +7,14 @@ from typing import Any
 
 import gymnasium
 
+from bbbench.tasks.commands import PiecewiseConstantVelocity
+from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
+from bbbench.terrain import Bumps, HeightfieldTerrain, Obstacles
 
-# Evaluation seeds are public and fixed per task version.
-_EVAL_SEEDS = tuple(range(1_000_000, 1_000_100))
+_VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0))
+# On terrain the bot must make progress across it: forward targets only.
+_FORWARD_TARGETS = PiecewiseConstantVelocity(low=0.2, high=0.8, hold=(2.0, 5.0))
 
 SUITE: dict[str, TaskSpec] = {
     spec.id: spec
@@ -18,7 +22,29 @@ SUITE: dict[str, TaskSpec] = {
         TaskSpec(
             id="bbbench/FlatBalance-v0",
             summary="stay upright and in place on flat ground (the tutorial's task)",
-            eval_seeds=_EVAL_SEEDS,
+        ),
+        TaskSpec(
+            id="bbbench/VelocityTracking-v0",
+            summary="follow a target velocity in [-1, 1] m/s that changes every 2-5 s",
+            command=_VELOCITY_TARGETS,
+        ),
+        TaskSpec(
+            id="bbbench/NoisySensors-v0",
+            summary="velocity tracking with a biased, noisy IMU and encoders",
+            command=_VELOCITY_TARGETS,
+            sensors=NoisySensors(),
+        ),
+        TaskSpec(
+            id="bbbench/Bumps-v0",
+            summary="drive forward at 0.2-0.8 m/s across smooth random hills",
+            terrain=HeightfieldTerrain(generator=Bumps(), difficulty=0.3),
+            command=_FORWARD_TARGETS,
+        ),
+        TaskSpec(
+            id="bbbench/Obstacles-v0",
+            summary="drive forward at 0.2-0.8 m/s over scattered boxes and steps",
+            terrain=HeightfieldTerrain(generator=Obstacles(), difficulty=0.3),
+            command=_FORWARD_TARGETS,
         ),
     )
 }
@@ -31,10 +57,13 @@ def register_suite() -> None:
     for task in SUITE.values():
         if task.id in gymnasium.registry:
             continue
+        kwargs = {"task": task.id}
+        if task.difficulty is not None:  # recorded in env.spec, default or not
+            kwargs["difficulty"] = task.difficulty
         gymnasium.register(
             id=task.id,
             entry_point=_ENTRY_POINT,
-            kwargs={"task": task.id},
+            kwargs=kwargs,
             max_episode_steps=task.max_episode_steps,
         )
 

@@ -1,11 +1,28 @@
 """Ground for the robots to stand on.
 
-Flat ground for now. Procedural terrain arrives as pure-numpy heightmap
-generators, with conversion to meshes and loading into a bullet world kept in
-small modules of their own. Nothing here knows about robots.
+- `generators`: seeded, pure-numpy heightmap generators with a difficulty;
+- `heightmap`: `Heightmap` and `HeightfieldTerrain`, a generator placed as a strip;
+- `mesh`: heightmaps as trimesh meshes, exported for inspection;
+- `bullet`: loading ground into a bullet world (plane or heightfield).
+
+Nothing here knows about robots.
 """
 
-from bbbench.terrain.bullet import GROUND_FRICTION, add_ground_plane
-from bbbench.terrain.flat import FlatGround
+from bbbench.terrain.bullet import add_ground_plane, load_ground
+from bbbench.terrain.flat import GROUND_FRICTION, FlatGround
+from bbbench.terrain.generators import GENERATORS, Bumps, Flat, Obstacles, Slopes
+from bbbench.terrain.heightmap import HeightfieldTerrain, Heightmap
 
-__all__ = ["GROUND_FRICTION", "FlatGround", "add_ground_plane"]
+__all__ = [
+    "GENERATORS",
+    "GROUND_FRICTION",
+    "Bumps",
+    "Flat",
+    "FlatGround",
+    "HeightfieldTerrain",
+    "Heightmap",
+    "Obstacles",
+    "Slopes",
+    "add_ground_plane",
+    "load_ground",
+]

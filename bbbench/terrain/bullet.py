@@ -8,11 +8,8 @@ import pybullet
 import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
-from bbbench.terrain.heightmap import Heightmap
-
-# Bullet multiplies the friction of the two bodies in contact: a ground of 1.0
-# leaves each body's own friction (the bot's wheels: 0.8) as the contact's.
-GROUND_FRICTION = 1.0
+from bbbench.terrain.flat import GROUND_FRICTION, FlatGround
+from bbbench.terrain.heightmap import HeightfieldTerrain, Heightmap
 
 # A checkered, tiled plane: motion is visible in rendered frames.
 _PLANE_MESH = os.path.join(pybullet_data.getDataPath(), "plane100.obj")
@@ -87,3 +84,46 @@ class HeightfieldBody:
         self._client.resetBasePositionAndOrientation(
             self.body, (center_x, center_y, (low + high) / 2.0), (0.0, 0.0, 0.0, 1.0)
         )
+
+
+# The bot's wheels span 0.12 m either side of its centre: spawn above the highest node there.
+_SPAWN_RADIUS = 0.15  # m
+
+
+class PlaneGround:
+    """Flat ground in a world; the same every episode."""
+
+    def __init__(self, client: BulletClient, terrain: FlatGround) -> None:
+        self.body = add_ground_plane(client, terrain.friction)
+
+    def reset(self, rng) -> float:
+        """Nothing to draw: the spawn height is 0."""
+        return 0.0
+
+
+class HeightfieldGround:
+    """Procedural ground in a world: a new heightmap each episode, on a plane past its edges."""
+
+    def __init__(self, client: BulletClient, terrain: HeightfieldTerrain) -> None:
+        self.terrain = terrain
+        self.field = HeightfieldBody(
+            client, terrain.grid_shape, terrain.cell_size, terrain.height_bounds
+        )
+        self.body = self.field.body
+        self.edge = add_ground_plane(client, height=terrain.height_bounds[0] - terrain.edge_drop)
+        self.heightmap: Heightmap | None = None
+
+    def reset(self, rng) -> float:
+        """Draw this episode's terrain from `rng`, show it, and return the spawn height (m)."""
+        self.heightmap = self.terrain.generate(rng)
+        self.field.show(self.heightmap)
+        return self.heightmap.max_height_near(0.0, 0.0, _SPAWN_RADIUS)
+
+
+def load_ground(
+    client: BulletClient, terrain: FlatGround | HeightfieldTerrain
+) -> PlaneGround | HeightfieldGround:
+    """Build the ground a task's spec describes in a world."""
+    if isinstance(terrain, FlatGround):
+        return PlaneGround(client, terrain)
+    return HeightfieldGround(client, terrain)

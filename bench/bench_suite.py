@@ -1,0 +1,92 @@
+"""Suite benchmark: every single-bot task's step rate against FlatBalance-v0's.
+
+    python bench/bench_suite.py [--steps 30000] [--chunk 250]
+
+Each task is driven by the same policy (the PD baseline) on its evaluation
+seeds, resetting when an episode ends. Only the env's own time is counted
+(`step` and `reset`, policy excluded), and the tasks run alternately in
+chunks so they share the machine's slow and fast phases. Also reports the
+mean time of a reset, which on terrain tasks draws and loads a new terrain.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import bbbench
+from bbbench.policies import PDController
+
+REFERENCE = "bbbench/FlatBalance-v0"
+
+
+class TaskLoop:
+    """One task under the PD baseline, timing only the env's calls."""
+
+    def __init__(self, task_id: str) -> None:
+        self.env = bbbench.make(task_id)
+        self.policy = PDController()
+        self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
+        self.elapsed = 0.0
+        self.steps = 0
+        self.falls = 0
+        self.episodes = 0
+        self.reset_times: list[float] = []
+        self.observation = self._reset()
+
+    def _reset(self):
+        began = time.perf_counter()
+        observation, _ = self.env.reset(seed=next(self.seeds))
+        took = time.perf_counter() - began
+        self.elapsed += took
+        self.reset_times.append(took)
+        self.episodes += 1
+        return observation
+
+    def run(self, steps: int) -> None:
+        step, policy, observation = self.env.step, self.policy, self.observation
+        for _ in range(steps):
+            action = policy(observation)
+            began = time.perf_counter()
+            observation, _, terminated, truncated, _ = step(action)
+            self.elapsed += time.perf_counter() - began
+            if terminated or truncated:
+                self.falls += terminated
+                observation = self._reset()
+        self.steps += steps
+        self.observation = observation
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=30_000, help="steps per task")
+    parser.add_argument("--chunk", type=int, default=250, help="steps per alternation")
+    args = parser.parse_args()
+
+    loops = {task_id: TaskLoop(task_id) for task_id in bbbench.list_tasks()}
+    for _ in range(0, args.steps, args.chunk):
+        for loop in loops.values():
+            loop.run(args.chunk)
+    reference = loops[REFERENCE].steps / loops[REFERENCE].elapsed
+
+    print(
+        f"Suite benchmark: {args.steps} PD-baseline steps per task on its eval seeds, "
+        f"alternating every {args.chunk} steps; env time only (step + reset)"
+    )
+    print(f"  {'task':28s} {'steps/s':>8s} {'x Flat':>7s} {'reset ms':>9s} {'falls':>6s}")
+    for task_id, loop in loops.items():
+        rate = loop.steps / loop.elapsed
+        reset_ms = 1e3 * statistics.fmean(loop.reset_times[1:] or loop.reset_times)
+        print(
+            f"  {task_id:28s} {rate:8.0f} {rate / reference:7.3f} {reset_ms:9.2f} "
+            f"{loop.falls:>3d}/{loop.episodes - 1}"
+        )
+    print(
+        "  targets: Bumps-v0 and Obstacles-v0 >= 0.7 x FlatBalance-v0; "
+        "a reset that builds a new terrain <= 20 ms"
+    )
+
+
+if __name__ == "__main__":
+    main()
