@@ -28,9 +28,10 @@ import pybullet
 
 import bbbench
 from bbbench.robots import FALL_TILT, MODEL
-from bbbench.robots.balancebot import tilt_from_quaternion
+from bbbench.robots.balancebot import WHEEL_CONTACT_PROCESSING_THRESHOLD, tilt_from_quaternion
 from bbbench.sim import GRAVITY, SOLVER_ITERATIONS
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
+from bbbench.tasks.spec import TRAINING_SEEDS, episode_streams
 from bbbench.terrain import GROUND_FRICTION
 
 TASK = "bbbench/FlatBalance-v0"
@@ -94,14 +95,24 @@ class RawLoop:
             str(MODEL.urdf_path), flags=pybullet.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid
         )
         self.joints = (0, 1)
+        for joint in self.joints:  # the robot's contact setting, as BalanceBot applies it
+            pybullet.changeDynamics(
+                self.body,
+                joint,
+                contactProcessingThreshold=WHEEL_CONTACT_PROCESSING_THRESHOLD,
+                physicsClientId=cid,
+            )
         self.forces = (MODEL.motor_torque_limit,) * 2
-        self.rng = np.random.default_rng(SEED)  # what gymnasium's reset(seed=SEED) seeds
+        self.np_random = np.random.default_rng(SEED)  # what gymnasium's reset(seed=SEED) seeds
         self.episodes = 0
         self.reset()
 
     def reset(self) -> None:
         cid, body = self.cid, self.body
-        pitch = float(self.rng.uniform(-self.initial_pitch, self.initial_pitch))
+        # The env's episode seeds: SEED first, then training seeds drawn from np_random.
+        episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if self.episodes else SEED
+        start = episode_streams(episode_seed).start
+        pitch = float(start.uniform(-self.initial_pitch, self.initial_pitch))
         com_above_axle = MODEL.torso_com_height - MODEL.axle_height
         orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, 0.0))
         # Placed exactly as BalanceBot.reset places it, to the last bit.

@@ -19,7 +19,7 @@ from bbbench.tasks.actions import (
 )
 from bbbench.tasks.observation import observation_space, observe
 from bbbench.tasks.reward import base_reward
-from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
 RENDER_WIDTH, RENDER_HEIGHT = 320, 240  # pixels of an "rgb_array" frame
@@ -194,19 +194,15 @@ class BalanceEnv(Env):
             self._build_world()
         task = self.task
         # One integer decides the episode: the seed given, or a training seed drawn
-        # from np_random. Each part draws from a stream of its own, so (say) a harder
-        # terrain does not change the same seed's commands.
-        episode_seed = (
-            seed if seed is not None else int(self.np_random.integers(TRAINING_SEEDS.stop))
+        # from np_random.
+        episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if seed is None else seed
+        streams = episode_streams(episode_seed)
+        spawn_height = self._ground.reset(streams.terrain)
+        self._targets = task.command.targets(
+            streams.command, task.max_episode_steps, task.control_dt
         )
-        terrain_rng, command_rng, start_rng, sensor_rng = (
-            np.random.default_rng(stream)
-            for stream in np.random.SeedSequence(episode_seed).spawn(4)
-        )
-        spawn_height = self._ground.reset(terrain_rng)
-        self._targets = task.command.targets(command_rng, task.max_episode_steps, task.control_dt)
-        pitch = float(start_rng.uniform(-task.initial_pitch, task.initial_pitch))
-        self._errors = task.sensors.episode_errors(sensor_rng, task.max_episode_steps)
+        pitch = float(streams.start.uniform(-task.initial_pitch, task.initial_pitch))
+        self._errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
         self._bot.reset(pitch=pitch, ground_height=spawn_height)
         self._steps = 0
         state = self._bot.read()

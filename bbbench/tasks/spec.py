@@ -6,6 +6,9 @@ import dataclasses
 import hashlib
 import json
 from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
 
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
@@ -18,6 +21,22 @@ from bbbench.terrain import FlatGround, HeightfieldTerrain
 # every task's public evaluation seeds lie outside that range.
 TRAINING_SEEDS = range(2**31)
 EVAL_SEEDS = tuple(range(2**31, 2**31 + 100))
+
+
+class EpisodeStreams(NamedTuple):
+    """Independent generators for the parts of one episode, all from its seed."""
+
+    terrain: np.random.Generator
+    command: np.random.Generator
+    start: np.random.Generator
+    sensors: np.random.Generator
+
+
+def episode_streams(episode_seed: int) -> EpisodeStreams:
+    """The episode's generators: a harder terrain does not change the same seed's commands."""
+    children = np.random.SeedSequence(episode_seed).spawn(len(EpisodeStreams._fields))
+    return EpisodeStreams(*(np.random.default_rng(child) for child in children))
+
 
 # Fields that document a task without changing its behaviour: editing them
 # must not change the fingerprint.
