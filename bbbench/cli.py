@@ -11,6 +11,9 @@ import numpy as np
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.tasks.spec import episode_streams
+from bbbench.terrain import HeightfieldTerrain
+from bbbench.terrain.mesh import export
 
 USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
 
@@ -87,6 +90,31 @@ def cmd_rollout(args: argparse.Namespace) -> None:
     )
 
 
+def cmd_terrain(args: argparse.Namespace) -> None:
+    try:
+        spec = bbbench.spec(args.task)
+        if args.difficulty is not None:
+            spec = spec.with_difficulty(args.difficulty)
+    except (ValueError, TypeError) as error:
+        raise UsageError(str(error)) from None
+    if not isinstance(spec.terrain, HeightfieldTerrain):
+        terrain_tasks = [t for t in bbbench.list_tasks() if bbbench.spec(t).difficulty is not None]
+        raise UsageError(
+            f"{spec.id} is on flat ground: there is no terrain to write. Tasks with terrain: "
+            f"{', '.join(terrain_tasks)}"
+        )
+    heightmap = spec.terrain.generate(episode_streams(args.seed).terrain)
+    try:
+        path = export(heightmap, args.out)
+    except (ValueError, OSError) as error:
+        raise UsageError(str(error)) from None
+    low, high = float(heightmap.heights.min()), float(heightmap.heights.max())
+    print(
+        f"wrote {path}: {spec.id} (difficulty {spec.difficulty:g}), episode seed {args.seed}, "
+        f"{heightmap.extent[0]:g} x {heightmap.extent[1]:g} m, heights {low:.3f}..{high:.3f} m"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bbbench", description="A benchmark suite for two-wheeled balancing robots."
@@ -116,6 +144,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="the env's action mode",
     )
     rollout.set_defaults(run=cmd_rollout)
+
+    terrain = commands.add_parser(
+        "terrain", help="write the terrain of a task's episode seed as a mesh (.obj, .stl, ...)"
+    )
+    terrain.add_argument("--task", default="bbbench/Bumps-v0", help="a task with terrain")
+    terrain.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
+    terrain.add_argument("--difficulty", type=float, help="in [0, 1]; default: the task's")
+    terrain.add_argument("--out", required=True, help="output file: .obj, .stl, .ply or .glb")
+    terrain.set_defaults(run=cmd_terrain)
     return parser
 
 

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
+import trimesh
 
 import bbbench
 from bbbench.cli import main
@@ -51,3 +54,30 @@ def test_python_dash_m_is_the_same_command():
         [sys.executable, "-m", "bbbench", "list"], capture_output=True, text=True, check=True
     )
     assert FLAT in done.stdout
+
+
+def test_terrain_writes_the_episodes_mesh(tmp_path, capsys):
+    out = tmp_path / "terrain.obj"
+    assert main(["terrain", "--task", "bbbench/Bumps-v0", "--seed", "3", "--out", str(out)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    env = bbbench.make("bbbench/Bumps-v0")
+    env.reset(seed=3)  # the file holds exactly the terrain that episode plays on
+    heights = env.unwrapped._ground.heightmap.heights
+    vertices = trimesh.load(out, process=False).vertices
+    assert np.allclose(np.sort(vertices[:, 2]), np.sort(heights.ravel()), atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["terrain", "--task", "bbbench/FlatBalance-v0"], "flat ground"),
+        (["terrain", "--difficulty", "3"], r"difficulty must be a number in \[0, 1\]"),
+        (["terrain", "--task", "Bumps-v0"], "Did you mean 'bbbench/Bumps-v0'"),
+    ],
+)
+def test_terrain_mistakes_are_exit_2(argv, message, tmp_path, capsys):
+    assert main([*argv, "--out", str(tmp_path / "t.obj")]) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err)
+    assert "Traceback" not in err
+    assert not (tmp_path / "t.obj").exists()

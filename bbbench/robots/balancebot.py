@@ -43,8 +43,8 @@ FALL_TILT = 1.0
 # its last contact points behind it, rising only slowly off the ground (a cycloid
 # starts vertically); Bullet keeps them for several steps, and the solver iterated
 # over up to 4 per wheel. Measured (docs/performance.md): 0 makes driving cheapest
-# but bumpy ground becomes a train of small impacts (PD falls on 9/20 Bumps seeds
-# instead of 1/20); 1 mm keeps most of the speed and the ride.
+# but bumpy ground becomes a train of small impacts (the PD baseline fell on 9/20
+# Bumps seeds, against 1/20 with Bullet's default); 1 mm keeps most of the speed.
 WHEEL_CONTACT_PROCESSING_THRESHOLD = 0.001
 
 

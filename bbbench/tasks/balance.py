@@ -42,8 +42,20 @@ class BalanceEnv(Env):
 
     Every single-bot task of bbbench runs in this class and shares its robot,
     action table, observation layout and reward; a task is a `TaskSpec` (see
-    `bbbench.spec(id)`). `bbbench/FlatBalance-v0` is the tutorial's task: flat
-    ground, target velocity 0 m/s.
+    `bbbench.spec(id)`), and differs only in its ground, its command schedule
+    and its sensors:
+
+    | Task                | Ground                     | Target velocity (m/s)   | Sensors        |
+    |---------------------|----------------------------|-------------------------|----------------|
+    | FlatBalance-v0      | flat                       | 0                       | perfect        |
+    | VelocityTracking-v0 | flat                       | U(-1, 1), held 2-5 s    | perfect        |
+    | NoisySensors-v0     | flat                       | U(-1, 1), held 2-5 s    | biased, noisy  |
+    | Bumps-v0            | smooth hills, difficulty   | U(0.2, 0.8), held 2-5 s | perfect        |
+    | Obstacles-v0        | boxes and steps, difficulty| U(0.2, 0.8), held 2-5 s | perfect        |
+
+    NoisySensors: per episode, a pitch bias ~ N(0, 0.1) rad; per step, Gaussian
+    noise of 0.05 rad on pitch, 0.01 rad/s on pitch rate, 0.05 rad/s on wheel
+    speed (the tutorial's values). The reward always uses the true state.
 
     ## Action Space
 
@@ -96,9 +108,13 @@ class BalanceEnv(Env):
 
     ## Starting State
 
-    The bot stands at the origin, heading along +y, at rest, leaning by a pitch
-    drawn uniformly from [-0.1, 0.1] rad (so doing nothing falls). `reset(seed=s)`
-    decides everything random through the env's one `np_random`.
+    The bot stands at the origin, heading along +y, at rest on level ground (on
+    terrain tasks, a level pad of radius 0.5 m), leaning by a pitch drawn
+    uniformly from [-0.1, 0.1] rad (so doing nothing falls). An episode is
+    decided by one integer seed: `reset(seed=s)` plays episode s; `reset()`
+    plays a training seed below 2**31 drawn from the env's `np_random` (the
+    seed is in `info["episode_seed"]`). Each task's public evaluation seeds,
+    `bbbench.spec(id).eval_seeds`, lie at or above 2**31.
 
     ## Episode End
 
@@ -118,13 +134,17 @@ class BalanceEnv(Env):
     - `render_mode`: `None`, `"rgb_array"` (320 x 240 frames from pybullet's
       TinyRenderer, headless, a camera that follows the bot) or `"human"`
       (pybullet's GUI window, real time).
+    - `difficulty` (terrain tasks only): a number in [0, 1]; higher hills and
+      obstacles. The default is the task's (0.3), and `env.spec` records it.
 
     The pybullet world is created on the first `reset()`; a pickled copy of the
     env carries no world and builds its own on its next `reset()`.
 
     ## Version History
 
-    - v0: initial release (FlatBalance).
+    - FlatBalance-v0, VelocityTracking-v0, NoisySensors-v0, Bumps-v0,
+      Obstacles-v0: initial release.
+
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
