@@ -47,8 +47,21 @@ class Flat:
         return np.zeros(shape)
 
 
+class _HeightGrowsWithDifficulty:
+    """Heights from 0 up to `min_height + extra_height * difficulty` (m)."""
+
+    min_height: float
+    extra_height: float
+
+    def max_height(self, difficulty: float) -> float:
+        return self.min_height + self.extra_height * _check_difficulty(difficulty)
+
+    def height_bounds(self, difficulty: float) -> tuple[float, float]:
+        return (0.0, self.max_height(difficulty))
+
+
 @dataclass(frozen=True)
-class Bumps:
+class Bumps(_HeightGrowsWithDifficulty):
     """Smooth random hills: low-passed noise, as high as `max_height(difficulty)`.
 
     At difficulty 0 the hills are `min_height` (a fifth of the 0.1 m wheel
@@ -59,12 +72,6 @@ class Bumps:
     extra_height: float = 0.06  # m at difficulty 1
     feature_size: float = 0.35  # m, the std of the smoothing Gaussian
 
-    def max_height(self, difficulty: float) -> float:
-        return self.min_height + self.extra_height * _check_difficulty(difficulty)
-
-    def height_bounds(self, difficulty: float) -> tuple[float, float]:
-        return (0.0, self.max_height(difficulty))
-
     def __call__(
         self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
     ) -> np.ndarray:
@@ -73,7 +80,7 @@ class Bumps:
 
 
 @dataclass(frozen=True)
-class Obstacles:
+class Obstacles(_HeightGrowsWithDifficulty):
     """Scattered boxes and full-width steps (raised bands) on level ground.
 
     Obstacle heights are drawn from [0.25, 1] x `max_height(difficulty)`; their
@@ -84,12 +91,6 @@ class Obstacles:
     extra_height: float = 0.035  # m more at difficulty 1
     boxes_per_m2: float = 0.15  # at difficulty 0; twice that at 1
     steps_per_m: float = 0.1  # full-width bands per metre of length
-
-    def max_height(self, difficulty: float) -> float:
-        return self.min_height + self.extra_height * _check_difficulty(difficulty)
-
-    def height_bounds(self, difficulty: float) -> tuple[float, float]:
-        return (0.0, self.max_height(difficulty))
 
     def __call__(
         self, rng: np.random.Generator, difficulty: float, shape: tuple[int, int], cell_size: float
