@@ -9,7 +9,7 @@ import numpy as np
 import pybullet
 from gymnasium import Env, logger
 
-from bbbench.robots import FALL_TILT, BalanceBot
+from bbbench.robots import FALL_TILT, BalanceBot, BotState
 from bbbench.sim import World
 from bbbench.tasks.actions import (
     ACTION_MODES,
@@ -255,7 +255,7 @@ class BalanceEnv(Env):
             observation = self._sensed(state, command, target, steps)
         return observation, reward, state.tilt > FALL_TILT, False, {}
 
-    def _sensed(self, state, command: float, target: float, step: int) -> np.ndarray:
+    def _sensed(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
         """The observation through the task's sensor model: delayed, biased, noisy."""
         reading = (state.pitch, state.pitch_rate, state.wheel_speed)
         if self._delay:
