@@ -28,7 +28,11 @@ import pybullet
 
 import bbbench
 from bbbench.robots import FALL_TILT, MODEL
-from bbbench.robots.balancebot import WHEEL_CONTACT_PROCESSING_THRESHOLD, tilt_from_quaternion
+from bbbench.robots.balancebot import (
+    WHEEL_CONTACT_PROCESSING_THRESHOLD,
+    spawn_pose,
+    tilt_from_quaternion,
+)
 from bbbench.sim import GRAVITY, SOLVER_ITERATIONS
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.spec import TRAINING_SEEDS, episode_streams
@@ -113,13 +117,7 @@ class RawLoop:
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if self.episodes else SEED
         start = episode_streams(episode_seed).start
         pitch = float(start.uniform(-self.initial_pitch, self.initial_pitch))
-        com_above_axle = MODEL.torso_com_height - MODEL.axle_height
-        orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, 0.0))
-        # Placed exactly as BalanceBot.reset places it, to the last bit.
-        up = pybullet.getMatrixFromQuaternion(orientation)[2::3]
-        com = tuple(
-            a + com_above_axle * u for a, u in zip((0.0, 0.0, MODEL.wheel_radius), up, strict=True)
-        )
+        com, orientation = spawn_pose(pitch)  # the pose BalanceBot.reset gives the same lean
         pybullet.resetBasePositionAndOrientation(body, com, orientation, physicsClientId=cid)
         pybullet.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
         for joint in self.joints:

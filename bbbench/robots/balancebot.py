@@ -61,6 +61,11 @@ class RobotModel:
     torso_com_height: float  # m, torso centre of mass above the link origin
 
     @property
+    def com_above_axle(self) -> float:
+        """Height of the torso's centre of mass above the axle, m."""
+        return self.torso_com_height - self.axle_height
+
+    @property
     def top_speed(self) -> float:
         """Forward speed at the wheel-speed limit, in m/s."""
         return self.wheel_speed_limit * self.wheel_radius
@@ -108,6 +113,22 @@ def tilt_from_quaternion(orientation: tuple[float, float, float, float]) -> floa
     return math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (qx * qx + qy * qy))))
 
 
+def spawn_pose(
+    pitch: float,
+    yaw: float = 0.0,
+    xy: tuple[float, float] = (0.0, 0.0),
+    ground_height: float = 0.0,
+    model: RobotModel = MODEL,
+) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    """Torso centre of mass and orientation with the wheels on the ground at `xy`, leaning
+    by `pitch` rad about the axle: the base pose pybullet's reset takes."""
+    orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, yaw))
+    axle = (xy[0], xy[1], ground_height + model.wheel_radius)
+    up = pybullet.getMatrixFromQuaternion(orientation)[2::3]  # body z axis in world
+    com = tuple(a + model.com_above_axle * u for a, u in zip(axle, up, strict=True))
+    return com, orientation
+
+
 # namedtuple's generated __new__ is a Python call; tuple.__new__ skips it on the hot path.
 _new_state = functools.partial(tuple.__new__, BotState)
 
@@ -143,7 +164,7 @@ class BalanceBot:
         # The hot path calls pybullet directly: BulletClient builds a partial per call.
         self._client_id = client._client
         self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
-        self._com_above_axle = model.torso_com_height - model.axle_height
+        self._com_above_axle = model.com_above_axle
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
         self.command_wheel_speed(0.0)
 
@@ -185,13 +206,8 @@ class BalanceBot:
         The torso is tilted about the axle, so the wheels touch the ground
         whatever the lean. Joints, velocities and the wheel command are zeroed.
         """
-        client, body, model = self._client, self.body, self.model
-        orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, yaw))
-        axle = (xy[0], xy[1], ground_height + model.wheel_radius)
-        # Place the torso's centre of mass (the base frame pybullet positions) above the axle.
-        up = client.getMatrixFromQuaternion(orientation)[2::3]  # body z axis in world
-        com_above_axle = model.torso_com_height - model.axle_height
-        com = tuple(a + com_above_axle * u for a, u in zip(axle, up, strict=True))
+        client, body = self._client, self.body
+        com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model)
         # Repositioning (not reloading) is cheap, and tests/test_determinism.py checks
         # that an episode does not depend on the ones the world ran before it.
         client.resetBasePositionAndOrientation(body, com, orientation)

@@ -19,6 +19,7 @@ from bbbench.tasks.actions import (
 )
 from bbbench.tasks.observation import observation_space, observe
 from bbbench.tasks.reward import base_reward
+from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
@@ -192,8 +193,10 @@ class BalanceEnv(Env):
             discrete_change if action_mode == "discrete" else continuous_change
         )
         self._delay = task.sensors.delay_steps
+        # Decided by the task, not per step: perfect, undelayed sensors take the hot path.
+        self._perfect_sensors = isinstance(task.sensors, PerfectSensors) and not self._delay
         self._world = World(
-            time_step=task.control_dt, substeps=task.physics_substeps, gui=render_mode == "human"
+            time_step=task.control_dt, substeps=task.physics_substeps, gui=self._human
         )
         self._bot: BalanceBot | None = None  # built with the world, on the first reset
         self._targets: list[float] = []
@@ -249,7 +252,7 @@ class BalanceEnv(Env):
         reward = base_reward(state.pitch, state.forward_velocity, target, self.task.reward)
         if self._human:
             self._render_human()
-        if self._errors is None and not self._delay:  # perfect sensors: the hot path
+        if self._perfect_sensors:
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
             observation = self._sensed(state, command, target, steps)
