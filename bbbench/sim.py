@@ -18,6 +18,26 @@ GRAVITY = 9.81  # m/s^2
 SOLVER_ITERATIONS = 10
 
 
+def physics_parameters() -> dict[str, int]:
+    """The engine settings every bbbench world uses besides gravity and its time step.
+
+    A function, so a test can patch `SOLVER_ITERATIONS` and see the change.
+    (docs/performance.md measures each.)
+    """
+    return {
+        # Identical results for identical calls, whatever the order pairs were found in.
+        "deterministicOverlappingPairs": 1,
+        # pybullet's default is 50. Contacts are what the solver iterates over, and
+        # terrain makes more of them: at 50, a bot on a heightfield stepped at 0.63x
+        # its rate on a plane; at 10, 0.77-0.83x.
+        "numSolverIterations": SOLVER_ITERATIONS,
+        # Friction as two independent directions (the pyramid approximation of
+        # PhysX and Unity) rather than bullet's default cone: +4% on flat ground,
+        # +15% driving across terrain.
+        "enableConeFriction": 0,
+    }
+
+
 class World:
     """A pybullet physics world, created lazily and never shared.
 
@@ -79,12 +99,7 @@ class World:
         client.setPhysicsEngineParameter(
             fixedTimeStep=self.time_step,  # the whole step: pybullet divides it by numSubSteps
             numSubSteps=self.substeps,
-            # Identical results for identical calls, whatever the order pairs were found in.
-            deterministicOverlappingPairs=1,
-            # pybullet's default is 50. Contacts are what the solver iterates over, and
-            # terrain makes more of them: at 50, a bot on a heightfield stepped at 0.63x
-            # its rate on a plane; at 10, 0.77-0.83x (docs/performance.md).
-            numSolverIterations=SOLVER_ITERATIONS,
+            **physics_parameters(),
         )
 
     def close(self) -> None:

@@ -33,7 +33,7 @@ from bbbench.robots.balancebot import (
     spawn_pose,
     tilt_from_quaternion,
 )
-from bbbench.sim import GRAVITY, SOLVER_ITERATIONS
+from bbbench.sim import GRAVITY, physics_parameters
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.spec import TRAINING_SEEDS, episode_streams
 from bbbench.terrain import GROUND_FRICTION
@@ -88,9 +88,8 @@ class RawLoop:
         pybullet.setPhysicsEngineParameter(
             fixedTimeStep=spec.control_dt,
             numSubSteps=spec.physics_substeps,
-            deterministicOverlappingPairs=1,
-            numSolverIterations=SOLVER_ITERATIONS,
             physicsClientId=cid,
+            **physics_parameters(),
         )
         plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=cid)
         ground = pybullet.createMultiBody(0.0, plane, physicsClientId=cid)

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import re
 
+import gymnasium as gym
 import pytest
 
+import bbbench
 from bbbench.robots import FALL_TILT
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.balance import BalanceEnv
@@ -47,3 +49,19 @@ def test_reward_formula_and_fall_limit_match_the_code():
     )
     assert formula in DOC
     assert re.search(rf"more than {FALL_TILT:g} rad", DOC)
+
+
+@pytest.mark.parametrize("task_id", bbbench.list_tasks())
+def test_every_task_has_its_own_class_and_docstring_with_version_history(task_id):
+    env = gym.make(task_id)
+    cls = type(env.unwrapped)
+    assert issubclass(cls, BalanceEnv)
+    assert cls is not BalanceEnv
+    doc = cls.__doc__
+    assert doc.lstrip().startswith(f"`{task_id}`")
+    history = doc.split("## Version History")[1]
+    version = task_id.rsplit("-", 1)[1]
+    assert re.search(rf"^\s*- {version}: \S", history, re.MULTILINE)
+    assert all(entry in history for entry in bbbench.spec(task_id).version_history)
+    # The class plays its task when made directly, too.
+    assert cls().task.id == task_id

@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 from bbbench.sim import World
-from bbbench.terrain.bullet import HeightfieldBody
+from bbbench.terrain.bullet import HeightfieldBody, HeightfieldGround
 from bbbench.terrain.generators import GENERATORS, Bumps
 from bbbench.terrain.heightmap import HeightfieldTerrain
 from bbbench.terrain.mesh import export, to_trimesh
@@ -56,6 +56,42 @@ def test_the_start_pad_is_level():
     xs, ys = heightmap.node_coordinates()
     pad = np.hypot(xs[:, None], ys[None, :]) <= 0.5
     assert np.ptp(heightmap.heights[pad]) < 1e-12
+
+
+@pytest.mark.parametrize("name", GENERATOR_NAMES)
+def test_the_strip_fades_to_flat_ground_at_its_edges(name):
+    heightmap = terrain(name, 1.0).generate(np.random.default_rng(3))
+    edges = np.concatenate(
+        [
+            heightmap.heights[0],
+            heightmap.heights[-1],
+            heightmap.heights[:, 0],
+            heightmap.heights[:, -1],
+        ]
+    )
+    assert np.all(edges == 0.0)
+
+
+def test_flat_ground_surrounds_the_strip():
+    """Past every edge a ray meets flat ground at z = 0, not a drop."""
+    spec = terrain("bumps", 1.0)
+    world = World(time_step=0.01)
+    ground = HeightfieldGround(world.client, spec)
+    ground.reset(np.random.default_rng(0))
+    x_min, x_max, y_min, y_max = spec.bounds
+    outside = [
+        (x_min - 1, 0),
+        (x_max + 1, 0),
+        (0, y_min - 1),
+        (0, y_max + 1),
+        (x_max + 20, y_max + 20),
+    ]
+    hits = world.client.rayTestBatch(
+        [(x, y, 5.0) for x, y in outside], [(x, y, -5.0) for x, y in outside]
+    )
+    assert all(hit[0] in ground.surround for hit in hits)
+    assert [hit[3][2] for hit in hits] == pytest.approx([0.0] * len(outside), abs=1e-9)
+    world.close()
 
 
 def test_mesh_has_two_upward_triangles_per_cell():

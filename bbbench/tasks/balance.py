@@ -41,7 +41,8 @@ class BalanceEnv(Env):
     pendulum: left alone it falls; the agent keeps it up by changing the
     commanded wheel speed, driving the wheels under the torso.
 
-    Every single-bot task of bbbench runs in this class and shares its robot,
+    Every single-bot task of bbbench is this class (a subclass per task, in
+    `bbbench.tasks.envs`, documents each) and shares its robot,
     action table, observation layout and reward; a task is a `TaskSpec` (see
     `bbbench.spec(id)`), and differs only in its ground, its command schedule
     and its sensors:
@@ -143,9 +144,8 @@ class BalanceEnv(Env):
 
     ## Version History
 
-    - FlatBalance-v0, VelocityTracking-v0, NoisySensors-v0, Bumps-v0,
-      Obstacles-v0: initial release.
-
+    Each task's own class documents it: `bbbench.tasks.envs.FlatBalanceEnv`,
+    `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 100}

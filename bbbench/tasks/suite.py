@@ -49,7 +49,15 @@ SUITE: dict[str, TaskSpec] = {
     )
 }
 
-_ENTRY_POINT = "bbbench.tasks.balance:BalanceEnv"
+
+def task_name(task_id: str) -> str:
+    """'Bumps' for 'bbbench/Bumps-v0': the task without namespace or version."""
+    return task_id.split("/", 1)[-1].rsplit("-v", 1)[0]
+
+
+def entry_point(task_id: str) -> str:
+    """The class that plays a task, one per task name (`bbbench/tasks/envs.py`)."""
+    return f"bbbench.tasks.envs:{task_name(task_id)}Env"
 
 
 def register_suite() -> None:
@@ -62,7 +70,7 @@ def register_suite() -> None:
             kwargs["difficulty"] = task.difficulty
         gymnasium.register(
             id=task.id,
-            entry_point=_ENTRY_POINT,
+            entry_point=entry_point(task.id),
             kwargs=kwargs,
             max_episode_steps=task.max_episode_steps,
         )

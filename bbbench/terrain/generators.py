@@ -19,15 +19,25 @@ def _check_difficulty(difficulty: float) -> float:
     return float(difficulty)
 
 
+def _fast_fft_length(n: int) -> int:
+    """The next multiple of 16 from n: FFTs of prime lengths are many times slower."""
+    return -(-n // 16) * 16
+
+
 def _smooth_noise(
     rng: np.random.Generator, shape: tuple[int, int], cell_size: float, feature_size: float
 ) -> np.ndarray:
-    """White noise low-passed by a Gaussian of std `feature_size` m (FFT), scaled to [0, 1]."""
-    noise = rng.standard_normal(shape)
-    fx = np.fft.fftfreq(shape[0], d=cell_size)[:, None]
-    fy = np.fft.rfftfreq(shape[1], d=cell_size)[None, :]
+    """White noise low-passed by a Gaussian of std `feature_size` m (FFT), scaled to [0, 1].
+
+    The noise is drawn on a larger grid of FFT-friendly size and cropped, which
+    also cuts off the FFT's wrap-around between opposite edges.
+    """
+    padded = (_fast_fft_length(shape[0]), _fast_fft_length(shape[1]))
+    noise = rng.standard_normal(padded)
+    fx = np.fft.fftfreq(padded[0], d=cell_size)[:, None]
+    fy = np.fft.rfftfreq(padded[1], d=cell_size)[None, :]
     kernel = np.exp(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
-    smooth = np.fft.irfft2(np.fft.rfft2(noise) * kernel, s=shape)
+    smooth = np.fft.irfft2(np.fft.rfft2(noise) * kernel, s=padded)[: shape[0], : shape[1]]
     low, high = smooth.min(), smooth.max()
     return (smooth - low) / (high - low) if high > low else np.zeros(shape)
 
@@ -99,16 +109,21 @@ class Obstacles(_HeightGrowsWithDifficulty):
         nx, ny = shape
         heights = np.zeros(shape)
         area = nx * ny * cell_size**2
-        for _ in range(rng.poisson(self.boxes_per_m2 * (1.0 + difficulty) * area)):
-            half_x, half_y = (rng.uniform(0.1, 0.4, size=2) / cell_size).astype(int) + 1
-            i, j = rng.integers(0, nx), rng.integers(0, ny)
+        # All draws at once, boxes then steps; only the painting loops.
+        n_boxes = rng.poisson(self.boxes_per_m2 * (1.0 + difficulty) * area)
+        half_sizes = (rng.uniform(0.1, 0.4, size=(n_boxes, 2)) / cell_size).astype(int) + 1
+        centres = np.stack([rng.integers(0, nx, n_boxes), rng.integers(0, ny, n_boxes)], axis=1)
+        box_heights = rng.uniform(0.25, 1.0, n_boxes) * height
+        for (half_x, half_y), (i, j), level in zip(half_sizes, centres, box_heights, strict=True):
             box = heights[max(i - half_x, 0) : i + half_x, max(j - half_y, 0) : j + half_y]
-            np.maximum(box, rng.uniform(0.25, 1.0) * height, out=box)
-        for _ in range(rng.poisson(self.steps_per_m * ny * cell_size)):
-            depth = int(rng.uniform(0.3, 1.5) / cell_size) + 1
-            j = rng.integers(0, ny)
+            np.maximum(box, level, out=box)
+        n_steps = rng.poisson(self.steps_per_m * ny * cell_size)
+        depths = (rng.uniform(0.3, 1.5, n_steps) / cell_size).astype(int) + 1
+        starts = rng.integers(0, ny, n_steps)
+        step_heights = rng.uniform(0.25, 1.0, n_steps) * height
+        for depth, j, level in zip(depths, starts, step_heights, strict=True):
             band = heights[:, j : j + depth]
-            np.maximum(band, rng.uniform(0.25, 1.0) * height, out=band)
+            np.maximum(band, level, out=band)
         return heights
 
 

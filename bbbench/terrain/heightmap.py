@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,17 +64,23 @@ class HeightfieldTerrain:
 
     The strip is `size` = (width in x, length in y) m of `cell_size` m cells;
     the bot starts at the origin, `start_margin` m from the strip's near end,
-    on a level pad of radius `start_pad` m, and drives along +y. Past the strip
-    the ground drops `edge_drop` m to a plane.
+    on a level pad of radius `start_pad` m, and drives along +y. Around the
+    strip the ground is flat at height 0, and the strip's heights fade to 0
+    over its outer `border` m, so the bot can leave it anywhere.
     """
 
     generator: TerrainGenerator = field(default_factory=Flat)
     difficulty: float = 0.0
-    size: tuple[float, float] = (4.0, 24.0)
-    cell_size: float = 0.15  # m: 0.1 m cells stepped 8-10% slower (docs/performance.md)
+    # m: 12 m of driving at the fastest target, 0.8 m/s, fit with room to spare. The
+    # bot cannot steer and obstacles turn it: the PD baseline leaves the strip's sides
+    # in some Obstacles episodes and drives on, on the flat ground around it.
+    size: tuple[float, float] = (8.0, 20.0)
+    # m: each node costs about 0.25 us when a new terrain replaces the old (pybullet
+    # rebuilds its render mesh too), and 0.2 m cells step faster than 0.15 m.
+    cell_size: float = 0.2
     start_margin: float = 3.0
     start_pad: float = 0.5
-    edge_drop: float = 0.3
+    border: float = 0.5
 
     def __post_init__(self) -> None:
         self.generator.height_bounds(self.difficulty)  # validates difficulty
@@ -81,6 +88,11 @@ class HeightfieldTerrain:
             raise ValueError(
                 f"terrain needs cell_size > 0 and a size of at least two cells, got "
                 f"size={self.size!r}, cell_size={self.cell_size!r}"
+            )
+        if not 0 < self.border <= min(self.size) / 2:
+            raise ValueError(
+                f"border must be in (0, {min(self.size) / 2}] m for a strip of {self.size!r} m, "
+                f"got {self.border!r}"
             )
 
     @property
@@ -91,18 +103,43 @@ class HeightfieldTerrain:
         )
 
     @property
+    def origin(self) -> tuple[float, float]:
+        """The strip's first corner (x, y), m."""
+        return (-self.size[0] / 2.0, -self.start_margin)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """The strip's (x min, x max, y min, y max), m; flat ground lies beyond."""
+        nx, ny = self.grid_shape
+        x0, y0 = self.origin
+        return (x0, x0 + (nx - 1) * self.cell_size, y0, y0 + (ny - 1) * self.cell_size)
+
+    @property
     def height_bounds(self) -> tuple[float, float]:
         return self.generator.height_bounds(self.difficulty)
 
     def generate(self, rng: np.random.Generator) -> Heightmap:
         """One episode's ground, drawn from `rng`."""
         heights = self.generator(rng, self.difficulty, self.grid_shape, self.cell_size)
-        origin = (-self.size[0] / 2.0, -self.start_margin)
-        heightmap = Heightmap(heights, self.cell_size, origin)
-        xs, ys = heightmap.node_coordinates()
-        # Level the start pad, blending into the terrain over one more pad radius.
+        pad, keep, fade = self._shaping
+        # Level the start pad, blending into the terrain over one more pad radius,
+        # and fade to the flat ground around the strip.
+        pad_height = float(heights[pad].mean())
+        shaped = (pad_height + (heights - pad_height) * keep) * fade
+        return Heightmap(shaped, self.cell_size, self.origin)
+
+    @functools.cached_property
+    def _shaping(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The same every episode: the start pad's nodes, how much of the drawn terrain
+        each node keeps around the pad, and each node's fade to the flat surround."""
+        xs, ys = Heightmap(
+            np.zeros(self.grid_shape), self.cell_size, self.origin
+        ).node_coordinates()
         distance = np.hypot(xs[:, None], ys[None, :])
-        blend = np.clip((distance - self.start_pad) / self.start_pad, 0.0, 1.0)
-        pad_height = float(heights[distance <= self.start_pad].mean())
-        leveled = pad_height + (heights - pad_height) * blend
-        return Heightmap(leveled, self.cell_size, origin)
+        keep = np.clip((distance - self.start_pad) / self.start_pad, 0.0, 1.0)
+        x_min, x_max, y_min, y_max = self.bounds
+        to_edge = np.minimum(
+            np.minimum(xs - x_min, x_max - xs)[:, None], np.minimum(ys - y_min, y_max - ys)[None, :]
+        )
+        fade = np.clip(to_edge / self.border, 0.0, 1.0)
+        return distance <= self.start_pad, keep, fade
