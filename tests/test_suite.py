@@ -17,7 +17,9 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TRAINING_SEEDS
+from bbbench.terrain import Bumps, HeightfieldTerrain
 from conftest import FLAT, fixed_actions, rollout
 
 TASKS = bbbench.list_tasks()
@@ -189,3 +191,22 @@ def test_the_pd_baseline_survives_most_bumps_eval_seeds_at_low_difficulty():
         if not terminated:
             assert env.unwrapped._bot.read().position[1] > 2.0
     assert survived >= 0.8 * len(seeds)
+
+
+@pytest.mark.parametrize(
+    ("make", "names"),
+    [
+        (lambda: Bumps(heigth=0.1), "min_height, extra_height, feature_size"),
+        (lambda: HeightfieldTerrain(cellsize=0.1), "generator, difficulty, size, cell_size"),
+        (lambda: NoisySensors(bias=0.1), "bias_std, noise_std, delay_steps"),
+    ],
+    ids=["generator", "terrain", "sensors"],
+)
+def test_an_unknown_terrain_or_noise_parameter_names_the_accepted_ones(make, names):
+    with pytest.raises(TypeError, match="accepted: " + names):
+        make()
+
+
+def test_noise_needs_one_deviation_per_reading():
+    with pytest.raises(ValueError, match="one standard deviation per reading"):
+        NoisySensors(noise_std=(0.1, 0.2))

@@ -6,10 +6,9 @@ from the episode's generator, so `reset(seed=...)` decides them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from bbbench.parameters import parameters
 from bbbench.robots import MODEL
 
 
@@ -20,7 +19,7 @@ def _check_speed(name: str, value: float) -> None:
         )
 
 
-@dataclass(frozen=True)
+@parameters
 class ConstantVelocity:
     """The same target forward velocity (m/s) for the whole episode."""
 
@@ -34,7 +33,7 @@ class ConstantVelocity:
         return [float(self.velocity)] * (n_steps + 1)
 
 
-@dataclass(frozen=True)
+@parameters
 class PiecewiseConstantVelocity:
     """Targets drawn uniformly from [low, high] m/s, each held for U(hold) seconds."""
 

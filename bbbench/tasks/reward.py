@@ -11,10 +11,10 @@ With the default weights a step earns at most 0.1 (upright, on target), so a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from bbbench.parameters import parameters
 
 
-@dataclass(frozen=True)
+@parameters
 class RewardWeights:
     """Weights of the base reward's two terms."""
 

@@ -5,14 +5,14 @@ The reward always uses the true state; only the observation is affected.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from bbbench.parameters import parameters
 
 SENSED = ("pitch", "pitch_rate", "wheel_speed")  # the readings a sensor model may corrupt
 
 
-@dataclass(frozen=True)
+@parameters
 class PerfectSensors:
     """Readings equal the true state, with no delay."""
 
@@ -22,7 +22,7 @@ class PerfectSensors:
         return None
 
 
-@dataclass(frozen=True)
+@parameters
 class NoisySensors:
     """A per-episode bias plus per-step Gaussian noise on pitch, pitch rate and wheel speed.
 
@@ -37,6 +37,12 @@ class NoisySensors:
     delay_steps: int = 0
 
     def __post_init__(self) -> None:
+        for name in ("bias_std", "noise_std"):
+            if len(getattr(self, name)) != len(SENSED):
+                raise ValueError(
+                    f"{name} takes one standard deviation per reading {SENSED}, "
+                    f"got {getattr(self, name)!r}"
+                )
         if any(not s >= 0 for s in (*self.bias_std, *self.noise_std)):
             raise ValueError(f"standard deviations must be >= 0, got {self!r}")
         if self.delay_steps not in (0, 1):

@@ -6,11 +6,12 @@ import dataclasses
 import functools
 import hashlib
 import json
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import NamedTuple
 
 import numpy as np
 
+from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.reward import RewardWeights
@@ -44,7 +45,7 @@ def episode_streams(episode_seed: int) -> EpisodeStreams:
 _DOCUMENTATION_FIELDS = ("summary", "version_history")
 
 
-@dataclass(frozen=True)
+@parameters
 class TaskSpec:
     """One task of the suite. A task is a row of specs, not a class.
 

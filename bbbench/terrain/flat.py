@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from bbbench.parameters import parameters
 
 GROUND_FRICTION = 1.0  # Bullet multiplies frictions: the wheels' 0.8 is the contact's
 
 
-@dataclass(frozen=True)
+@parameters
 class FlatGround:
     """An infinite plane at z = 0."""
 

@@ -8,9 +8,9 @@ bound and a `__call__(rng, difficulty, shape, cell_size)` that returns heights
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from bbbench.parameters import parameters
 
 
 def _check_difficulty(difficulty: float) -> float:
@@ -42,7 +42,7 @@ def _smooth_noise(
     return (smooth - low) / (high - low) if high > low else np.zeros(shape)
 
 
-@dataclass(frozen=True)
+@parameters
 class Flat:
     """Level ground."""
 
@@ -70,7 +70,7 @@ class _HeightGrowsWithDifficulty:
         return (0.0, self.max_height(difficulty))
 
 
-@dataclass(frozen=True)
+@parameters
 class Bumps(_HeightGrowsWithDifficulty):
     """Smooth random hills: low-passed noise, as high as `max_height(difficulty)`.
 
@@ -89,7 +89,7 @@ class Bumps(_HeightGrowsWithDifficulty):
         return height * _smooth_noise(rng, shape, cell_size, self.feature_size)
 
 
-@dataclass(frozen=True)
+@parameters
 class Obstacles(_HeightGrowsWithDifficulty):
     """Scattered boxes and full-width steps (raised bands) on level ground.
 
@@ -127,7 +127,7 @@ class Obstacles(_HeightGrowsWithDifficulty):
         return heights
 
 
-@dataclass(frozen=True)
+@parameters
 class Slopes:
     """Ramps up and down along the driving direction (y), flat in x.
 

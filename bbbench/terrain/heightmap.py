@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bbbench.parameters import parameters
 from bbbench.terrain.generators import Bumps, Flat, Obstacles, Slopes
 
 TerrainGenerator = Flat | Bumps | Obstacles | Slopes
@@ -58,7 +59,7 @@ class Heightmap:
         return float(patch.max()) if patch.size else 0.0
 
 
-@dataclass(frozen=True)
+@parameters
 class HeightfieldTerrain:
     """A procedural ground: a generator, its difficulty, and the strip it covers.
 
