@@ -2,12 +2,16 @@
 
 It reads only the shared observation layout, so it runs on any task:
 
-    desired command = kp * pitch + kd * pitch_rate + kv * (velocity - target_velocity)
+    desired command = target_velocity / wheel_radius
+                      + kp * pitch + kd * pitch_rate + kv * (velocity - target_velocity)
 
 where velocity = wheel_radius * (wheel_speed + pitch_rate) is the encoders'
 estimate of forward velocity (wheel speed is measured relative to the torso).
 Leaning forward, it drives forward to get the wheels back under the torso;
-the velocity term stops it drifting away from its target. The action is the
+the velocity term stops it drifting away from its target. The first term
+feeds the target forward: balanced at a steady speed, the command equals the
+wheel speed, and without it that balance would settle at a speed of
+kv / (kv - 1 / wheel_radius) times the target (2x with these gains). The action is the
 change towards the desired command: the nearest entry of the discrete table,
 or the clipped change in continuous mode.
 """
@@ -50,7 +54,8 @@ class PDController:
         pitch_rate = float(observation[INDEX["pitch_rate"]])
         velocity = MODEL.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
         velocity_error = velocity - float(observation[INDEX["target_velocity"]])
-        desired = self.kp * pitch + self.kd * pitch_rate + self.kv * velocity_error
+        feedforward = float(observation[INDEX["target_velocity"]]) / MODEL.wheel_radius
+        desired = feedforward + self.kp * pitch + self.kd * pitch_rate + self.kv * velocity_error
         return desired - float(observation[INDEX["wheel_command"]])
 
     def __call__(self, observation: np.ndarray) -> int | np.ndarray:
