@@ -53,9 +53,13 @@ class PDController:
         pitch = float(observation[INDEX["pitch"]])
         pitch_rate = float(observation[INDEX["pitch_rate"]])
         velocity = MODEL.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
-        velocity_error = velocity - float(observation[INDEX["target_velocity"]])
-        feedforward = float(observation[INDEX["target_velocity"]]) / MODEL.wheel_radius
-        desired = feedforward + self.kp * pitch + self.kd * pitch_rate + self.kv * velocity_error
+        target = float(observation[INDEX["target_velocity"]])
+        desired = (
+            target / MODEL.wheel_radius  # fed forward
+            + self.kp * pitch
+            + self.kd * pitch_rate
+            + self.kv * (velocity - target)
+        )
         return desired - float(observation[INDEX["wheel_command"]])
 
     def __call__(self, observation: np.ndarray) -> int | np.ndarray:

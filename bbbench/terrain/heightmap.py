@@ -44,11 +44,7 @@ class Heightmap:
 
     def node_coordinates(self) -> tuple[np.ndarray, np.ndarray]:
         """World x of every row and y of every column of `heights`."""
-        nx, ny = self.shape
-        return (
-            self.origin[0] + self.cell_size * np.arange(nx),
-            self.origin[1] + self.cell_size * np.arange(ny),
-        )
+        return _node_coordinates(self.origin, self.cell_size, self.shape)
 
     def max_height_near(self, x: float, y: float, radius: float) -> float:
         """The highest node within `radius` m of (x, y) (0 off the map): where to spawn."""
@@ -57,6 +53,15 @@ class Heightmap:
         cols = np.abs(ys - y) <= radius + self.cell_size
         patch = self.heights[np.ix_(rows, cols)]
         return float(patch.max()) if patch.size else 0.0
+
+
+def _node_coordinates(
+    origin: tuple[float, float], cell_size: float, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    return (
+        origin[0] + cell_size * np.arange(shape[0]),
+        origin[1] + cell_size * np.arange(shape[1]),
+    )
 
 
 @parameters
