@@ -4,14 +4,25 @@
     import bbbench
 
     env = gym.make("bbbench/FlatBalance-v0")
+    parallel_env = bbbench.make_parallel("bbbench/MultiBalance-v0", n_bots=8)
+    vec_env = bbbench.make_vec("bbbench/MultiBalance-v0", n_envs=2)  # for stable-baselines3
     bbbench.spec("bbbench/FlatBalance-v0").eval_seeds
 
 Importing bbbench registers every task of the suite with gymnasium.
 """
 
-from bbbench.tasks import TaskSpec, list_tasks, make, register_suite, spec
+from bbbench.tasks import TaskSpec, list_tasks, make, make_parallel, register_suite, spec
 
 __version__ = "0.1.0"
-__all__ = ["TaskSpec", "__version__", "list_tasks", "make", "spec"]
+__all__ = ["TaskSpec", "__version__", "list_tasks", "make", "make_parallel", "make_vec", "spec"]
 
 register_suite()
+
+
+def __getattr__(name: str):
+    # make_vec imports stable-baselines3 (and torch): only when it is asked for.
+    if name == "make_vec":
+        from bbbench.vec import make_vec
+
+        return make_vec
+    raise AttributeError(f"module 'bbbench' has no attribute {name!r}")

@@ -35,10 +35,13 @@ def _policy(name: str, env) -> Callable[[np.ndarray], object]:
 
 def cmd_list(args: argparse.Namespace) -> None:
     specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
-    rows = [("task", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")]
+    rows = [
+        ("task", "bots", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")
+    ]
     rows += [
         (
             spec.id,
+            str(spec.group.n_bots) if spec.multi_agent else "1",
             str(spec.max_episode_steps),
             f"{spec.control_dt:g}",
             f"{spec.max_return:g}",

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 
+import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
@@ -101,6 +102,42 @@ class World:
             numSubSteps=self.substeps,
             **physics_parameters(),
         )
+
+    def camera_image(
+        self,
+        target: tuple[float, float, float],
+        distance: float,
+        yaw: float,
+        pitch: float,
+        size: tuple[int, int],
+    ) -> np.ndarray:
+        """An RGB frame (height, width, 3) of uint8 from pybullet's TinyRenderer (headless).
+
+        The camera looks at `target` from `distance` m, turned by `yaw` and
+        `pitch` degrees (pybullet's debug-camera convention); `size` is (width, height).
+        """
+        client = self.client
+        width, height = size
+        view = client.computeViewMatrixFromYawPitchRoll(
+            cameraTargetPosition=target,
+            distance=distance,
+            yaw=yaw,
+            pitch=pitch,
+            roll=0.0,
+            upAxisIndex=2,
+        )
+        projection = client.computeProjectionMatrixFOV(
+            fov=50.0, aspect=width / height, nearVal=0.05, farVal=100.0
+        )
+        _, _, rgba, _, _ = client.getCameraImage(
+            width,
+            height,
+            viewMatrix=view,
+            projectionMatrix=projection,
+            renderer=pybullet.ER_TINY_RENDERER,
+        )
+        frame = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
+        return np.ascontiguousarray(frame[:, :, :3])
 
     def close(self) -> None:
         """Disconnect; the next use of `client` connects a fresh world."""

@@ -51,7 +51,7 @@ def test_reward_formula_and_fall_limit_match_the_code():
     assert re.search(rf"more than {FALL_TILT:g} rad", DOC)
 
 
-@pytest.mark.parametrize("task_id", bbbench.list_tasks())
+@pytest.mark.parametrize("task_id", bbbench.list_tasks(multi_agent=False))
 def test_every_task_has_its_own_class_and_docstring_with_version_history(task_id):
     env = gym.make(task_id)
     cls = type(env.unwrapped)

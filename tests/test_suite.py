@@ -22,7 +22,7 @@ from bbbench.tasks.spec import TRAINING_SEEDS
 from bbbench.terrain import Bumps, HeightfieldTerrain
 from conftest import FLAT, fixed_actions, rollout
 
-TASKS = bbbench.list_tasks()
+TASKS = bbbench.list_tasks(multi_agent=False)
 
 
 def test_the_suite_has_its_five_single_bot_tasks():

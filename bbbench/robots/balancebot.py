@@ -105,6 +105,8 @@ class BotState(NamedTuple):
     tilt: float  # angle between the torso's axis and vertical, >= 0
     wheel_speed: float
     forward_velocity: float
+    velocity: tuple[float, float]  # the axle's horizontal velocity, world frame (m/s)
+    heading: tuple[float, float]  # the bot's forward direction, horizontal unit vector
 
 
 def tilt_from_quaternion(orientation: tuple[float, float, float, float]) -> float:
@@ -237,7 +239,9 @@ class BalanceBot:
         d = self._com_above_axle
         vx -= d * (wy * r22 - wz * r12)
         vy -= d * (wz * r02 - wx * r22)
-        heading = math.hypot(r01, r11)  # horizontal length of the forward axis
+        length = math.hypot(r01, r11)  # horizontal length of the forward axis
+        # Pointing straight up or down there is no heading: say +y.
+        heading = (r01 / length, r11 / length) if length > 1e-9 else (0.0, 1.0)
         return _new_state(
             (
                 position,
@@ -247,7 +251,9 @@ class BalanceBot:
                 tilt_from_quaternion(orientation),
                 # The right wheel's axis is reversed: its forward speed is minus its joint's.
                 0.5 * (left[1] - right[1]),  # wheel speed
-                (vx * r01 + vy * r11) / heading if heading > 1e-9 else 0.0,  # forward velocity
+                vx * heading[0] + vy * heading[1],  # forward velocity
+                (vx, vy),
+                heading,
             )
         )
 

@@ -299,27 +299,13 @@ class BalanceEnv(Env):
         return (x, y, 0.25)  # the bot's middle height, steady while it leans
 
     def _render_rgb(self) -> np.ndarray:
-        client = self._world.client
-        view = client.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=self._camera_target(),
-            distance=_CAMERA_DISTANCE,
-            yaw=_CAMERA_YAW,
-            pitch=_CAMERA_PITCH,
-            roll=0.0,
-            upAxisIndex=2,
+        return self._world.camera_image(
+            self._camera_target(),
+            _CAMERA_DISTANCE,
+            _CAMERA_YAW,
+            _CAMERA_PITCH,
+            (RENDER_WIDTH, RENDER_HEIGHT),
         )
-        projection = client.computeProjectionMatrixFOV(
-            fov=50.0, aspect=RENDER_WIDTH / RENDER_HEIGHT, nearVal=0.05, farVal=50.0
-        )
-        _, _, rgba, _, _ = client.getCameraImage(
-            RENDER_WIDTH,
-            RENDER_HEIGHT,
-            viewMatrix=view,
-            projectionMatrix=projection,
-            renderer=pybullet.ER_TINY_RENDERER,
-        )
-        frame = np.asarray(rgba, dtype=np.uint8).reshape(RENDER_HEIGHT, RENDER_WIDTH, 4)
-        return np.ascontiguousarray(frame[:, :, :3])
 
     def _render_human(self) -> None:
         self._world.client.resetDebugVisualizerCamera(

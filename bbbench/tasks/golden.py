@@ -34,6 +34,8 @@ def golden_actions() -> list[int]:
 
 def rollout_hash(spec) -> str:
     """Hash of the task's golden rollout (discrete actions, the spec as given)."""
+    if spec.multi_agent:
+        return _multi_rollout_hash(spec)
     from bbbench.tasks.balance import BalanceEnv  # the env needs the suite; import late
 
     env = BalanceEnv(spec)
@@ -55,6 +57,32 @@ def rollout_hash(spec) -> str:
             if terminated:
                 break
         rounded = np.round(np.concatenate(values).astype(np.float64), DECIMALS) + 0.0  # no -0.0
+        digest.update(rounded.tobytes())
+    env.close()
+    return digest.hexdigest()[:16]
+
+
+def _multi_rollout_hash(spec) -> str:
+    """The same for a multi-bot task: bot j plays the fixed sequence shifted by j steps."""
+    from bbbench.tasks.multi import MultiBalanceEnv
+
+    env = MultiBalanceEnv(spec)
+    actions = golden_actions()
+    digest = hashlib.sha256()
+    for seed in GOLDEN_SEEDS:
+        observations, _ = env.reset(seed=seed)
+        values = [np.asarray(env._targets, dtype=np.float64).ravel()]
+        heightmap = getattr(env._ground, "heightmap", None)
+        if heightmap is not None:
+            values.append(heightmap.heights.ravel())
+        values.extend(observations.values())
+        for t in range(GOLDEN_STEPS):
+            if not env.agents:
+                break
+            step = {a: actions[(t + env._index[a]) % GOLDEN_STEPS] for a in env.agents}
+            observations, rewards, *_ = env.step(step)
+            values.extend(np.append(observations[a], rewards[a]) for a in observations)
+        rounded = np.round(np.concatenate(values).astype(np.float64), DECIMALS) + 0.0
         digest.update(rounded.tobytes())
     env.close()
     return digest.hexdigest()[:16]

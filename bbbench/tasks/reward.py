@@ -28,6 +28,16 @@ class RewardWeights:
                 raise ValueError(f"reward weight {name!r} must be >= 0, got {value!r}")
 
 
+def reward_terms(
+    pitch: float, forward_velocity: float, target_velocity: float, weights: RewardWeights
+) -> tuple[float, float]:
+    """The base reward's two terms, (upright, velocity); `base_reward` is their sum."""
+    return (
+        weights.upright * (1.0 - abs(pitch)),
+        -weights.velocity * abs(forward_velocity - target_velocity),
+    )
+
+
 def base_reward(
     pitch: float, forward_velocity: float, target_velocity: float, weights: RewardWeights
 ) -> float:

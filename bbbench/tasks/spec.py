@@ -14,6 +14,7 @@ import numpy as np
 from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
+from bbbench.tasks.group import Group
 from bbbench.tasks.reward import RewardWeights
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
@@ -64,6 +65,7 @@ class TaskSpec:
     physics_substeps: int = 1  # pybullet sub-steps per env step
     max_episode_steps: int = 1500  # time limit (truncation)
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
+    group: Group | None = None  # several bots in one world (a PettingZoo task), or one
     version_history: tuple[str, ...] = ("v0: initial release.",)
 
     def __post_init__(self) -> None:
@@ -98,8 +100,23 @@ class TaskSpec:
         return dataclasses.replace(self, terrain=terrain)
 
     @property
+    def multi_agent(self) -> bool:
+        """Whether the task is several bots in one world (`bbbench.make_parallel`)."""
+        return self.group is not None
+
+    def with_n_bots(self, n_bots: int) -> TaskSpec:
+        """The same multi-bot task with another number of bots (a different fingerprint)."""
+        if self.group is None:
+            raise TypeError(f"{self.id} has one bot: it takes no n_bots")
+        return dataclasses.replace(self, group=dataclasses.replace(self.group, n_bots=n_bots))
+
+    def with_time_limit(self, max_episode_steps: int) -> TaskSpec:
+        """The same task with another time limit (a different fingerprint)."""
+        return dataclasses.replace(self, max_episode_steps=max_episode_steps)
+
+    @property
     def max_return(self) -> float:
-        """The best possible episode return: every step upright and on target."""
+        """The best possible episode return (per bot): every step upright and on target."""
         return self.reward.upright * self.max_episode_steps
 
     @property
@@ -119,6 +136,7 @@ class TaskSpec:
                 self.command,
                 self.sensors,
                 self.reward,
+                self.group,
             )
         ]
         digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())

@@ -6,8 +6,10 @@ import difflib
 from typing import Any
 
 import gymnasium
+from pettingzoo import ParallelEnv
 
 from bbbench.tasks.commands import PiecewiseConstantVelocity
+from bbbench.tasks.group import Group
 from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain, Obstacles
@@ -46,6 +48,26 @@ SUITE: dict[str, TaskSpec] = {
             terrain=HeightfieldTerrain(generator=Obstacles(), difficulty=0.3),
             command=_FORWARD_TARGETS,
         ),
+        TaskSpec(
+            id="bbbench/MultiBalance-v0",
+            summary="4 bots (2-16) whose paths cross on flat ground, each at 0.2-0.8 m/s",
+            command=_FORWARD_TARGETS,
+            group=Group(),
+        ),
+        TaskSpec(
+            id="bbbench/MultiBumps-v0",
+            summary="4 bots (2-16) whose paths cross on smooth random hills",
+            terrain=HeightfieldTerrain(
+                generator=Bumps(),
+                difficulty=0.3,
+                # A square around the spawn circle, level along it.
+                size=(12.0, 12.0),
+                start_margin=6.0,
+                start_ring=Group().spawn_radius,
+            ),
+            command=_FORWARD_TARGETS,
+            group=Group(),
+        ),
     )
 }
 
@@ -56,14 +78,21 @@ def task_name(task_id: str) -> str:
 
 
 def entry_point(task_id: str) -> str:
-    """The class that plays a task, one per task name (`bbbench/tasks/envs.py`)."""
+    """The class that plays a task: one per single-bot task name (`bbbench/tasks/envs.py`),
+    one for every multi-bot task (`bbbench/tasks/multi.py`)."""
+    if SUITE[task_id].multi_agent:
+        return "bbbench.tasks.multi:MultiBalanceEnv"
     return f"bbbench.tasks.envs:{task_name(task_id)}Env"
 
 
 def register_suite() -> None:
-    """Register every task of the suite with gymnasium (idempotent)."""
+    """Register every single-bot task of the suite with gymnasium (idempotent).
+
+    Multi-bot tasks are PettingZoo environments, which gymnasium's registry
+    cannot make: `make_parallel` makes them from the same table.
+    """
     for task in SUITE.values():
-        if task.id in gymnasium.registry:
+        if task.multi_agent or task.id in gymnasium.registry:
             continue
         kwargs = {"task": task.id}
         if task.difficulty is not None:  # recorded in env.spec, default or not
@@ -76,9 +105,13 @@ def register_suite() -> None:
         )
 
 
-def list_tasks() -> list[str]:
-    """The IDs of every task in the suite, sorted."""
-    return sorted(SUITE)
+def list_tasks(multi_agent: bool | None = None) -> list[str]:
+    """The IDs of the suite's tasks, sorted: all, or only multi-bot (True) or single-bot (False)."""
+    return sorted(
+        task_id
+        for task_id, task in SUITE.items()
+        if multi_agent is None or task.multi_agent == multi_agent
+    )
 
 
 def spec(task_id: str) -> TaskSpec:
@@ -99,6 +132,23 @@ def spec(task_id: str) -> TaskSpec:
 
 
 def make(task_id: str, **kwargs: Any) -> gymnasium.Env:
-    """`gymnasium.make` for a bbbench task, with a clear error for an unknown ID."""
-    spec(task_id)
+    """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID."""
+    if spec(task_id).multi_agent:
+        raise ValueError(
+            f"{task_id} is a multi-bot (PettingZoo) task: make it with "
+            f"bbbench.make_parallel({task_id!r}), or bbbench.make_vec for stable-baselines3"
+        )
     return gymnasium.make(task_id, **kwargs)
+
+
+def make_parallel(task_id: str, **kwargs: Any) -> ParallelEnv:
+    """A multi-bot task as a PettingZoo `ParallelEnv` (see `MultiBalanceEnv` for keywords)."""
+    if not spec(task_id).multi_agent:
+        raise ValueError(
+            f"{task_id} is a single-bot task: make it with bbbench.make({task_id!r}) or "
+            f"gymnasium.make; the multi-bot tasks are "
+            f"{', '.join(list_tasks(multi_agent=True))}"
+        )
+    from bbbench.tasks.multi import MultiBalanceEnv
+
+    return MultiBalanceEnv(task_id, **kwargs)

@@ -100,6 +100,10 @@ class PlaneGround:
         """Nothing to draw: the spawn height is 0."""
         return 0.0
 
+    def spawn_height(self, x: float, y: float) -> float:
+        """Height (m) to set a bot's wheels at to stand at (x, y): 0."""
+        return 0.0
+
 
 # m: how far the flat ground around a terrain strip reaches; more than a bot can
 # drive in an episode (15 s at the motors' 2.46 m/s top speed).
@@ -160,7 +164,11 @@ class HeightfieldGround:
         """Draw this episode's terrain from `rng`, show it, and return the spawn height (m)."""
         self.heightmap = self.terrain.generate(rng)
         self.field.show(self.heightmap)
-        return self.heightmap.max_height_near(0.0, 0.0, _SPAWN_RADIUS)
+        return self.spawn_height(0.0, 0.0)
+
+    def spawn_height(self, x: float, y: float) -> float:
+        """Height (m) to set a bot's wheels at to stand at (x, y) of this episode's terrain."""
+        return self.heightmap.max_height_near(x, y, _SPAWN_RADIUS)
 
 
 def load_ground(

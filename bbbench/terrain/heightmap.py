@@ -73,6 +73,10 @@ class HeightfieldTerrain:
     on a level pad of radius `start_pad` m, and drives along +y. Around the
     strip the ground is flat at height 0, and the strip's heights fade to 0
     over its outer `border` m, so the bot can leave it anywhere.
+
+    With `start_ring` > 0 the level pad is a ring instead: every point within
+    `start_pad` m of the circle of that radius around the origin, where a
+    group of bots starts (the multi-bot tasks).
     """
 
     generator: TerrainGenerator = field(default_factory=Flat)
@@ -87,6 +91,7 @@ class HeightfieldTerrain:
     start_margin: float = 3.0
     start_pad: float = 0.5
     border: float = 0.5
+    start_ring: float = 0.0  # m: 0 for a disc at the origin, else a ring of this radius
 
     def __post_init__(self) -> None:
         self.generator.height_bounds(self.difficulty)  # validates difficulty
@@ -95,6 +100,8 @@ class HeightfieldTerrain:
                 f"terrain needs cell_size > 0 and a size of at least two cells, got "
                 f"size={self.size!r}, cell_size={self.cell_size!r}"
             )
+        if not self.start_ring >= 0:
+            raise ValueError(f"start_ring must be a radius >= 0 m, got {self.start_ring!r}")
         if not 0 < self.border <= min(self.size) / 2:
             raise ValueError(
                 f"border must be in (0, {min(self.size) / 2}] m for a strip of {self.size!r} m, "
@@ -138,10 +145,8 @@ class HeightfieldTerrain:
     def _shaping(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The same every episode: the start pad's nodes, how much of the drawn terrain
         each node keeps around the pad, and each node's fade to the flat surround."""
-        xs, ys = Heightmap(
-            np.zeros(self.grid_shape), self.cell_size, self.origin
-        ).node_coordinates()
-        distance = np.hypot(xs[:, None], ys[None, :])
+        xs, ys = _node_coordinates(self.origin, self.cell_size, self.grid_shape)
+        distance = np.abs(np.hypot(xs[:, None], ys[None, :]) - self.start_ring)
         keep = np.clip((distance - self.start_pad) / self.start_pad, 0.0, 1.0)
         x_min, x_max, y_min, y_max = self.bounds
         to_edge = np.minimum(
