@@ -26,7 +26,7 @@ from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
 RENDER_WIDTH, RENDER_HEIGHT = 480, 360  # pixels of an "rgb_array" frame of the group
-_CAMERA_YAW, _CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole group in view
+CAMERA_YAW, CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole group in view
 
 
 class MultiBalanceEnv(ParallelEnv):
@@ -225,8 +225,7 @@ class MultiBalanceEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        if options:
-            raise ValueError(f"reset() takes no options, got {sorted(options)}")
+        # No options are defined; PettingZoo's API test passes some, and expects them ignored.
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
             episode_seed = int(seed)
@@ -359,17 +358,18 @@ class MultiBalanceEnv(ParallelEnv):
             return None
         if self._bots is None:
             raise RuntimeError(f"{self.task.id}: call reset() before render()")
+        target, distance = self._camera()
+        return self._world.camera_image(
+            target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
+        )
+
+    def _camera(self) -> tuple[tuple[float, float, float], float]:
+        """Where the camera looks, and from how far, to frame every bot."""
         positions = np.array([state.position for state in self._states])
         low, high = positions.min(axis=0), positions.max(axis=0)
         center = (low + high) / 2.0
         spread = float(np.hypot(*(high - low)[:2]))
-        return self._world.camera_image(
-            (float(center[0]), float(center[1]), 0.2),
-            max(2.0, 0.6 * spread + 1.5),
-            _CAMERA_YAW,
-            _CAMERA_PITCH,
-            (RENDER_WIDTH, RENDER_HEIGHT),
-        )
+        return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
 
     def close(self) -> None:
         self._world.close()
