@@ -186,6 +186,73 @@ def test_determinism_across_processes_over_several_episodes():
     assert there == [episodes_digest(task, seeds, n_bots=5) for task in MULTI_TASKS]
 
 
+def test_an_episode_does_not_depend_on_the_episodes_before_it():
+    """Bots that fell and left the world come back exactly as in a fresh world."""
+    seed = bbbench.spec(BUMPS).eval_seeds[1]
+    fresh = episodes_digest(BUMPS, [seed], steps=150, n_bots=6)
+    env = bbbench.make_parallel(BUMPS, n_bots=6)
+    for other in (5, 6):
+        env.reset(seed=other)
+        for t in range(150):
+            if not env.agents:
+                break
+            env.step(fixed_actions(env, t))
+    assert len(env._ended_at) > 0  # some bots fell, and were set aside
+    after = hashlib.sha256()
+    observations, _ = env.reset(seed=seed)
+    for agent in sorted(observations):
+        after.update(observations[agent].tobytes())
+    for t in range(150):
+        if not env.agents:
+            break
+        observations, rewards, terminations, _, _ = env.step(fixed_actions(env, t))
+        for agent in sorted(observations):
+            after.update(observations[agent].tobytes())
+            after.update(np.float64(rewards[agent]).tobytes())
+            after.update(bytes([terminations[agent]]))
+    assert after.hexdigest() == fresh
+
+
+def test_a_fallen_bot_leaves_the_world():
+    env = bbbench.make_parallel(MULTI, n_bots=2)
+    observations, _ = env.reset(seed=3)
+    assert observations["bot_1"][5:7].any()  # each sees the other
+    while len(env.agents) == 2:
+        observations, _, terminations, _, _ = env.step({"bot_0": 0, "bot_1": 4})
+    assert env.agents == ["bot_1"]
+    assert terminations["bot_0"]
+    observations, *_ = env.step({"bot_1": 4})
+    assert not observations["bot_1"][5:].any()  # nobody left to see
+    x, _, _ = env._bots[0].read().position
+    assert x > 100
+
+
+def test_the_inlined_observation_and_reward_agree_with_the_shared_definitions():
+    from bbbench.tasks.observation import observe, sensed
+    from bbbench.tasks.reward import reward_terms
+
+    rng = np.random.default_rng(0)
+    for pitch, rate, wheel in rng.uniform(-80, 80, size=(200, 3)):
+        expected = observe(pitch, rate, wheel, 1.5, 0.5)
+        np.testing.assert_array_equal(
+            np.array([*sensed(pitch, rate, wheel), 1.5, 0.5], dtype=np.float32), expected
+        )
+    env = bbbench.make_parallel(MULTI, n_bots=3)
+    env.reset(seed=8)
+    for t in range(40):
+        live = list(zip(env.agents, env._live, strict=True))
+        _, rewards, _, _, infos = env.step(fixed_actions(env, t))
+        for agent, i in live:
+            state = env._bots[i].read() if agent in env.agents else None
+            if state is None:
+                continue
+            terms = reward_terms(
+                state.pitch, state.forward_velocity, env._targets[i, t + 1], env.task.reward
+            )
+            assert (infos[agent]["reward_upright"], infos[agent]["reward_velocity"]) == terms
+            assert rewards[agent] == sum(terms)
+
+
 def test_reset_without_a_seed_continues_the_seeded_sequence():
     env = bbbench.make_parallel(MULTI)
     _, first = env.reset(seed=42)
@@ -333,7 +400,7 @@ def assert_every_bot_in_view(env) -> None:
     projection = np.array(
         client.computeProjectionMatrixFOV(50.0, RENDER_WIDTH / RENDER_HEIGHT, 0.05, 100.0)
     ).reshape(4, 4, order="F")
-    for bot in env._bots:
+    for bot in env._live_bots:  # a fallen bot has left the world
         for height in (0.0, 0.5):  # the wheels' contact and the torso's top
             x, y, _ = bot.read().position
             clip = projection @ view @ np.array([x, y, height, 1.0])

@@ -131,6 +131,9 @@ def spawn_pose(
     return com, orientation
 
 
+# (group, mask) of a dynamic body's links as pybullet loads them: collide with everything.
+_DYNAMIC_COLLISION_FILTER = (1, -1)
+
 # namedtuple's generated __new__ is a Python call; tuple.__new__ skips it on the hot path.
 _new_state = functools.partial(tuple.__new__, BotState)
 
@@ -168,6 +171,7 @@ class BalanceBot:
         self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
         self._com_above_axle = model.com_above_axle
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
+        self._set_aside = False
         self.command_wheel_speed(0.0)
 
     # -- acting ---------------------------------------------------------------
@@ -209,6 +213,10 @@ class BalanceBot:
         whatever the lean. Joints, velocities and the wheel command are zeroed.
         """
         client, body = self._client, self.body
+        if self._set_aside:
+            for link in (-1, *self.wheel_joints):
+                client.setCollisionFilterGroupMask(body, link, *_DYNAMIC_COLLISION_FILTER)
+            self._set_aside = False
         com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model)
         # Repositioning (not reloading) is cheap, and tests/test_determinism.py checks
         # that an episode does not depend on the ones the world ran before it.
@@ -217,6 +225,20 @@ class BalanceBot:
         for joint in self.wheel_joints:
             client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
         self.command_wheel_speed(0.0)
+
+    def set_aside(self, place: tuple[float, float, float]) -> None:
+        """Take the bot out of the world until its next `reset()`: it collides with
+        nothing and is moved to `place`, far from everything (it falls freely there).
+
+        Cheaper than removing the body: its id, and so the world's pair order, stay.
+        """
+        client, body = self._client, self.body
+        for link in (-1, *self.wheel_joints):
+            client.setCollisionFilterGroupMask(body, link, 0, 0)
+        client.resetBasePositionAndOrientation(body, place, (0.0, 0.0, 0.0, 1.0))
+        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.command_wheel_speed(0.0)
+        self._set_aside = True
 
     # -- sensing --------------------------------------------------------------
 

@@ -1,8 +1,8 @@
 """Several bots in one world: how many, where they start, what each senses of the others.
 
 `Group` is the part of a multi-bot task's spec that single-bot tasks lack;
-`spawn_poses` draws an episode's start, and `neighbour_block` computes the
-observation block about each bot's nearest neighbours, for all bots at once.
+`spawn_poses` draws an episode's start, and `nearest_others` finds each bot's
+neighbours for its observation.
 """
 
 from __future__ import annotations
@@ -94,50 +94,14 @@ def spawn_poses(rng: np.random.Generator, group: Group) -> list[tuple[tuple[floa
     return poses
 
 
-def neighbour_block(
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    headings: np.ndarray,
-    group: Group,
-    observers: list[int] | None = None,
-) -> np.ndarray:
-    """For each observing bot, its nearest other bots in its own frame, nearest first.
+def nearest_others(positions: list[complex], k: int) -> list[list[int]]:
+    """For each bot, the indices of the (up to) `k` other bots nearest it, nearest first.
 
-    Args:
-        positions: (n,) horizontal positions of every bot in the world, as
-            complex numbers x + iy (m): one numpy operation rotates them.
-        velocities: (n,) their horizontal velocities, complex (m/s).
-        headings: (n,) their forward directions, complex unit numbers.
-        observers: the indices of the bots to compute the block for (default all).
-
-    Returns an (len(observers), K * 4) array: for each of the K nearest bots
-    within range, its position right of and ahead of the observer (m) and its
-    velocity relative to the observer's, in the same axes (m/s); zeros where
-    there are fewer. Distance ties go to the lower bot index.
+    Positions are horizontal, as complex numbers x + iy (m). Distance ties go to
+    the lower index.
     """
-    n, k = len(positions), group.neighbours
-    if observers is None:
-        observers = range(n)
-    rows = np.asarray(observers, dtype=np.intp)
-    m, slots = len(rows), min(k, n - 1)
-    offsets = positions - positions[rows, None]  # [r, j]: bot j seen from bot rows[r]
-    distance = np.abs(offsets)
-    distance[np.arange(m), rows] = np.inf  # not itself
-    distance[distance > group.neighbour_range] = np.inf
-    nearest = np.argsort(distance, axis=1, kind="stable")[:, :slots]
-    index = np.arange(m)[:, None]
-    unseen = distance[index, nearest] == np.inf
-    # Multiplying by i * conj(heading) turns a world vector x + iy into the bot's
-    # frame as right + i forward: viewed as floats, the block's field order.
-    turn = (1j * np.conj(headings[rows]))[:, None, None]
-    pairs = np.stack((offsets[index, nearest], velocities[nearest] - velocities[rows, None]), -1)
-    local = (pairs * turn).view(np.float64)  # (m, slots, 4)
-    local[unseen] = 0.0
-    rates = local[..., 2:]
-    np.minimum(rates, NEIGHBOUR_SPEED_RANGE, out=rates)
-    np.maximum(rates, -NEIGHBOUR_SPEED_RANGE, out=rates)
-    if slots == k:
-        return local.reshape(m, k * len(NEIGHBOUR_FIELDS))
-    block = np.zeros((m, k * len(NEIGHBOUR_FIELDS)))
-    block[:, : slots * len(NEIGHBOUR_FIELDS)] = local.reshape(m, -1)
-    return block
+    n = len(positions)
+    points = np.array(positions, dtype=complex)
+    distance = np.abs(points[None, :] - points[:, None])
+    distance.flat[:: n + 1] = np.inf  # not itself
+    return np.argsort(distance, axis=1, kind="stable")[:, : min(k, n - 1)].tolist()

@@ -18,13 +18,14 @@ from bbbench.tasks.actions import (
     continuous_change,
     discrete_change,
 )
-from bbbench.tasks.group import neighbour_block, spawn_poses
-from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, observe
-from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, nearest_others, spawn_poses
+from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, sensed
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
+# m: where fallen bots are set aside, far beyond anything an episode reaches.
+_SET_ASIDE_X = 1000.0
 RENDER_WIDTH, RENDER_HEIGHT = 480, 360  # pixels of an "rgb_array" frame of the group
 CAMERA_YAW, CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole group in view
 
@@ -40,8 +41,9 @@ class MultiBalanceEnv(ParallelEnv):
     their paths cross: each must keep upright and follow its own target
     velocity without knocking the others over. The bots cannot steer; a bot
     avoids another by slowing down, stopping or backing off, at a cost in
-    velocity tracking. A fallen bot stays in the world where it fell, its
-    wheels braked, an obstacle for the others.
+    velocity tracking. A bot that falls leaves the world at once (as its
+    agent leaves `env.agents`): it is no obstacle, and no neighbour, to the
+    others.
 
     | Task            | Ground                   | Target velocity (m/s), per bot | Bots        |
     |-----------------|--------------------------|--------------------------------|-------------|
@@ -77,9 +79,9 @@ class MultiBalanceEnv(ParallelEnv):
 
     for k = 0 (nearest) to K - 1, measured horizontally in this bot's own frame
     (forward along its heading, right along its axle) between the bots' torso
-    centres, with the axles' velocities. Neighbours are every other bot in the
-    world, fallen ones included (they are obstacles), within 5 m; slots beyond
-    the bots in range are zeros. Relative velocities saturate at 10 m/s.
+    centres, with the axles' velocities. Neighbours are the other bots in the
+    world (fallen ones have left it) within 5 m; slots beyond the bots in
+    range are zeros. Relative velocities saturate at 10 m/s.
 
     ## Rewards
 
@@ -102,8 +104,8 @@ class MultiBalanceEnv(ParallelEnv):
     ## Episode End
 
     - Termination, per agent: its torso tilts more than 1 rad from vertical (a
-      fall). It is terminated in that step's dicts and leaves `env.agents`; it
-      is never revived.
+      fall). It is terminated in that step's dicts, leaves `env.agents`, and
+      its bot leaves the world; it is never revived.
     - Truncation: after 1500 steps (15 s) every agent left is truncated.
     - `step({})` once no agent is left returns empty dicts.
 
@@ -193,12 +195,14 @@ class MultiBalanceEnv(ParallelEnv):
             dtype=OBSERVATION_DTYPE,
         )
         self._observation_size = self._observation_space.shape[0]
+        self._reward_weights = (task.reward.upright, task.reward.velocity)
         self._change = discrete_change if action_mode == "discrete" else continuous_change
         self._world = World(time_step=task.control_dt, substeps=task.physics_substeps)
         self._bots: list[BalanceBot] | None = None  # built with the world, on the first reset
         self._np_random: np.random.Generator | None = None
         self._targets = np.zeros((group.n_bots, 1))
         self._live: list[int] = []  # indices of the bots in self.agents, in order
+        self._live_bots: list[BalanceBot] = []  # and the bots themselves
         self._ended_at: dict[str, int] = {}  # agent -> step its episode ended
         self._states: list[BotState] = []
         self._steps = 0
@@ -240,12 +244,14 @@ class MultiBalanceEnv(ParallelEnv):
         self._ground.reset(streams.terrain)
         poses = spawn_poses(streams.start, group)
         pitches = streams.start.uniform(-task.initial_pitch, task.initial_pitch, size=group.n_bots)
-        self._targets = np.array(
+        targets = np.array(
             [
                 task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
                 for _ in range(group.n_bots)
             ]
         )
+        self._targets = targets
+        self._targets_by_step = targets.T.tolist()  # [step][bot], floats for the hot path
         for bot, ((x, y), yaw), pitch in zip(self._bots, poses, pitches, strict=True):
             bot.reset(
                 pitch=float(pitch),
@@ -255,55 +261,72 @@ class MultiBalanceEnv(ParallelEnv):
             )
         self._steps = 0
         self._live = list(range(group.n_bots))
+        self._live_bots = list(self._bots)
         self.agents = self.possible_agents[:]
         self._ended_at = {}
         self._states = [bot.read() for bot in self._bots]
-        observations = self._observe(self._targets[:, 0].tolist())
+        observations = self._observe(self._states, self._targets_by_step[0])
         infos = {agent: {"episode_seed": episode_seed} for agent in self.agents}
         return dict(zip(self.agents, observations, strict=True)), infos
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        agents, bots = self.agents, self._bots
+        agents = self.agents
         if len(actions) != len(agents) or not all(agent in actions for agent in agents):
             self._refuse(actions)
         if not agents:
             return {}, {}, {}, {}, {}
-        change = self._change
-        for agent, i in zip(agents, self._live, strict=True):
-            bot = bots[i]
+        change, live_bots = self._change, self._live_bots
+        for agent, bot in zip(agents, live_bots, strict=True):
             try:
                 bot.command_wheel_speed(bot.wheel_command + change(actions[agent]))
             except ValueError as error:
                 raise ValueError(f"action for {agent!r}: {error}") from None
         pybullet.stepSimulation(self._client_id)
         self._steps = steps = self._steps + 1
-        self._states = states = [bot.read() for bot in bots]
-        targets = self._targets[:, min(steps, self._targets.shape[1] - 1)].tolist()
-        observations = self._observe(targets)
-        weights = self.task.reward
+        # Only the bots still in the world: a fallen one was set aside.
+        self._states = states = [bot.read() for bot in live_bots]
+        every_target = self._targets_by_step[min(steps, len(self._targets_by_step) - 1)]
+        targets = [every_target[i] for i in self._live]
+        observations = self._observe(states, targets)
+        upright_weight, velocity_weight = self._reward_weights
         truncated = steps >= self.task.max_episode_steps
         rewards, terminations, truncations, infos = {}, {}, {}, {}
-        still_live = []
-        for agent, i in zip(agents, self._live, strict=True):
-            state = states[i]
-            upright, velocity = reward_terms(
-                state.pitch, state.forward_velocity, targets[i], weights
-            )
+        fallen_any = False
+        for agent, state, target in zip(agents, states, targets, strict=True):
+            # reward.reward_terms, inlined on the hot path (tests/test_multi.py checks they agree).
+            upright = upright_weight * (1.0 - abs(state.pitch))
+            velocity = -velocity_weight * abs(state.forward_velocity - target)
             rewards[agent] = upright + velocity
-            fallen = state.tilt > FALL_TILT
-            terminations[agent] = fallen
-            truncations[agent] = truncated
             infos[agent] = {"reward_upright": upright, "reward_velocity": velocity}
-            if fallen:
-                bots[i].command_wheel_speed(0.0)  # it lies where it fell, wheels braked
-            if fallen or truncated:
-                self._ended_at[agent] = steps
-            else:
-                still_live.append(i)
+            truncations[agent] = truncated
+            fallen = terminations[agent] = state.tilt > FALL_TILT
+            fallen_any |= fallen
         returned = dict(zip(agents, observations, strict=True))
-        self._live = still_live
-        self.agents = [self.possible_agents[i] for i in still_live]
+        if truncated:
+            self._end(agents, steps)
+        elif fallen_any:
+            self._end([agent for agent in agents if terminations[agent]], steps)
         return returned, rewards, terminations, truncations, infos
+
+    def _end(self, ended: list[str], steps: int) -> None:
+        """Take the agents whose episodes ended out of `agents`, and their bots out of the world."""
+        for agent in ended:
+            self._ended_at[agent] = steps
+            i = self._index[agent]
+            # Far from everything and from each other, until the next reset.
+            self._bots[i].set_aside((_SET_ASIDE_X + 10.0 * i, 0.0, 10.0))
+        gone = set(ended)
+        kept = [
+            (agent, i, bot, state)
+            for agent, i, bot, state in zip(
+                self.agents, self._live, self._live_bots, self._states, strict=True
+            )
+            if agent not in gone
+        ]
+        self.agents = [agent for agent, *_ in kept]
+        self._live = [i for _, i, _, _ in kept]
+        self._live_bots = [bot for *_, bot, _ in kept]
+        self._states = [state for *_, state in kept] or self._states
 
     def _refuse(self, actions: dict[str, Any]) -> None:
         """Raise the error that says what is wrong with the keys of `actions`."""
@@ -327,25 +350,39 @@ class MultiBalanceEnv(ParallelEnv):
             f"action for each agent in env.agents ({len(self.agents)} now)"
         )
 
-    def _observe(self, targets: np.ndarray) -> np.ndarray:
-        """Observations of the live bots, one row each, in `self.agents` order."""
-        states, live, bots = self._states, self._live, self._bots
-        observations = np.empty((len(live), self._observation_size), OBSERVATION_DTYPE)
-        for row, i in enumerate(live):
-            state = states[i]
-            observations[row, :5] = observe(
-                state.pitch,
-                state.pitch_rate,
-                state.wheel_speed,
-                bots[i].wheel_command,
+    def _observe(self, states: list[BotState], targets: list[float]) -> np.ndarray:
+        """Observations of the bots in `states` (the live ones), one row each.
+
+        Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call
+        cost would outweigh its arithmetic (bench/bench_multi.py).
+        """
+        group = self.group
+        k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
+        fill = [0.0] * self._observation_size
+        positions = [complex(state.position[0], state.position[1]) for state in states]
+        velocities = [complex(*state.velocity) for state in states]
+        nearest = nearest_others(positions, k)
+        rows = []
+        for i, state in enumerate(states):
+            row = [
+                *sensed(state.pitch, state.pitch_rate, state.wheel_speed),
+                self._live_bots[i].wheel_command,
                 targets[i],
-            )
-        # Horizontal vectors as complex numbers x + iy: the block is a few numpy calls.
-        positions = np.array([complex(*state.position[:2]) for state in states])
-        velocities = np.array([complex(*state.velocity) for state in states])
-        headings = np.array([complex(*state.heading) for state in states])
-        observations[:, 5:] = neighbour_block(positions, velocities, headings, self.group, live)
-        return observations
+            ]
+            here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
+            turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
+            for j in nearest[i]:
+                offset = (positions[j] - here) * turn
+                if abs(offset) > reach:
+                    break  # the rest are farther
+                moving = (velocities[j] - velocity) * turn
+                right, ahead = moving.real, moving.imag  # saturated at the sensor's range:
+                right = top if right > top else -top if right < -top else right
+                ahead = top if ahead > top else -top if ahead < -top else ahead
+                row += (offset.real, offset.imag, right, ahead)
+            row += fill[len(row) :]
+            rows.append(row)
+        return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -390,6 +427,7 @@ class MultiBalanceEnv(ParallelEnv):
         state["_bots"] = None
         state["agents"] = []
         state["_live"] = []
+        state["_live_bots"] = []
         state["_states"] = []
         state.pop("_ground", None)
         state.pop("_client_id", None)

@@ -94,3 +94,18 @@ def observe(
         OBSERVATION_DTYPE,
         _OBSERVATION_SIZE,
     )
+
+
+def sensed(pitch: float, pitch_rate: float, wheel_speed: float) -> tuple[float, float, float]:
+    """The three sensed readings clipped as `observe` clips them, as Python floats.
+
+    For callers that build many observations at once (the multi-bot env);
+    tests/test_multi.py checks that the two agree.
+    """
+    return (
+        _PI if pitch > _PI else max(pitch, -_PI),
+        GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
+        ENCODER_SPEED_RANGE
+        if wheel_speed > ENCODER_SPEED_RANGE
+        else max(wheel_speed, -ENCODER_SPEED_RANGE),
+    )
