@@ -65,6 +65,12 @@ def cmd_rollout(args: argparse.Namespace) -> None:
         raise UsageError(str(error)) from None
     if args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if spec.multi_agent:
+        raise UsageError(
+            f"{spec.id} is a multi-bot task and rollout plays single-bot tasks: "
+            f"choose one of {', '.join(bbbench.list_tasks(multi_agent=False))}, or play it "
+            f"from Python with bbbench.make_parallel({spec.id!r})"
+        )
     env = bbbench.make(spec.id, action_mode=args.action_mode)
     policy = _policy(args.policy, env)
     env.action_space.seed(args.seed)

@@ -37,6 +37,20 @@ def test_unknown_task_is_exit_2_with_a_suggestion_and_no_traceback(capsys):
     assert "Traceback" not in err
 
 
+def test_rollout_of_a_multi_bot_task_says_what_to_use(capsys):
+    assert main(["rollout", "--task", "bbbench/MultiBalance-v0"]) == 2
+    err = capsys.readouterr().err
+    assert "multi-bot task" in err
+    assert "make_parallel" in err
+    assert "Traceback" not in err
+
+
+def test_terrain_of_a_multi_bot_task_is_written(tmp_path, capsys):
+    path = tmp_path / "square.obj"
+    assert main(["terrain", "--task", "bbbench/MultiBumps-v0", "--out", str(path)]) == 0
+    assert path.stat().st_size > 0
+
+
 @pytest.mark.parametrize(
     "argv", [["rollout", "--episodes", "0"], ["rollout", "--policy", "ppo"], ["frobnicate"]]
 )
