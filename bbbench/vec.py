@@ -109,7 +109,7 @@ class BotSlotsVecEnv(VecEnv):
                 rewards[slot] = reward
                 self._returns[slot] += reward
                 self._lengths[slot] += 1
-                info = infos[slot] = dict(step_infos[agent])
+                info = infos[slot] = step_infos[agent]  # a fresh dict every step
                 if terminations[agent] or truncations[agent]:
                     dones[slot] = True
                     info["terminal_observation"] = observations[agent]

@@ -19,58 +19,32 @@ import argparse
 import time
 
 import numpy as np
+from bench_suite import REFERENCE, TaskLoop  # the same single-bot loop as the suite's bench
 
 import bbbench
 from bbbench.policies import PDController
 
-REFERENCE = "bbbench/FlatBalance-v0"
 MULTI_TASKS = ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
 
 
-class SingleLoop:
-    """The reference: one single-bot env, one bot-step per step."""
-
-    def __init__(self, task_id: str) -> None:
-        self.name = task_id
-        self.env = bbbench.make(task_id)
-        self.policy = PDController()
-        self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
-        self.stepping = self.resetting = 0.0
-        self.bot_steps = self.world_steps = self.episodes = 0
-        self.observation = self._reset()
-
-    def _reset(self):
-        began = time.perf_counter()
-        observation, _ = self.env.reset(seed=next(self.seeds))
-        self.resetting += time.perf_counter() - began
-        self.episodes += 1
-        return observation
-
-    def run(self, steps: int) -> None:
-        step, policy, observation = self.env.step, self.policy, self.observation
-        for _ in range(steps):
-            action = policy(observation)
-            began = time.perf_counter()
-            observation, _, terminated, truncated, _ = step(action)
-            self.stepping += time.perf_counter() - began
-            if terminated or truncated:
-                observation = self._reset()
-        self.observation = observation
-        self.bot_steps += steps
-        self.world_steps += steps
-
-
-class MultiLoop(SingleLoop):
-    """One multi-bot world, every live bot under the PD baseline."""
+class MultiLoop:
+    """One multi-bot world, every live bot under the PD baseline; timed as `TaskLoop`."""
 
     def __init__(self, task_id: str, n_bots: int) -> None:
         self.name = f"{task_id} x{n_bots}"
         self.env = bbbench.make_parallel(task_id, n_bots=n_bots)
         self.policy = PDController()
         self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
-        self.stepping = self.resetting = 0.0
-        self.bot_steps = self.world_steps = self.episodes = 0
+        self.elapsed = self.stepping = 0.0  # step and reset; step only
+        self.steps = self.bot_steps = self.episodes = 0  # world-steps; live bots stepped
         self.observation = self._reset()
+
+    def _reset(self):
+        began = time.perf_counter()
+        observations, _ = self.env.reset(seed=next(self.seeds))
+        self.elapsed += time.perf_counter() - began
+        self.episodes += 1
+        return observations
 
     def run(self, steps: int) -> None:
         env, policy, observations = self.env, self.policy, self.observation
@@ -78,38 +52,39 @@ class MultiLoop(SingleLoop):
             actions = {agent: policy(observations[agent][:5]) for agent in env.agents}
             began = time.perf_counter()
             observations, *_ = env.step(actions)
-            self.stepping += time.perf_counter() - began
+            took = time.perf_counter() - began
+            self.elapsed += took
+            self.stepping += took
             self.bot_steps += len(actions)
             if not env.agents:
                 observations = self._reset()
         self.observation = observations
-        self.world_steps += steps
+        self.steps += steps
 
 
 def measure(loops, steps: int, chunk: int) -> None:
     for loop in loops:
         loop.run(chunk)  # warm up: worlds built, first terrains drawn
-        loop.stepping = loop.resetting = 0.0
-        loop.bot_steps = loop.world_steps = loop.episodes = 0
-    done = 0
-    while done < steps:
+        loop.elapsed = loop.stepping = 0.0
+        loop.steps = loop.episodes = 0
+        loop.bot_steps = 0  # a single-bot TaskLoop's bot-steps are its steps
+    for _ in range(0, steps, chunk):
         for loop in loops:
             loop.run(chunk)
-        done += chunk
-    reference = loops[0]
-    rate = reference.bot_steps / reference.stepping
-    rate_reset = reference.bot_steps / (reference.stepping + reference.resetting)
+    bot_steps = [loop.bot_steps or loop.steps for loop in loops]
+    rate = bot_steps[0] / loops[0].stepping
+    rate_reset = bot_steps[0] / loops[0].elapsed
     print(
         f"{'task':34s} {'world-steps/s':>13s} {'bots/step':>9s} {'bot-steps/s':>11s} "
         f"{'ratio':>6s} {'with resets':>11s} {'episodes':>8s}"
     )
-    for loop in loops:
-        bot_rate = loop.bot_steps / loop.stepping
-        with_resets = loop.bot_steps / (loop.stepping + loop.resetting)
+    for loop, bots in zip(loops, bot_steps, strict=True):
+        name = getattr(loop, "name", REFERENCE)
+        bot_rate = bots / loop.stepping
         print(
-            f"{loop.name:34s} {loop.world_steps / loop.stepping:13.0f} "
-            f"{loop.bot_steps / loop.world_steps:9.2f} {bot_rate:11.0f} "
-            f"{bot_rate / rate:6.3f} {with_resets / rate_reset:11.3f} {loop.episodes:8d}"
+            f"{name:34s} {loop.steps / loop.stepping:13.0f} {bots / loop.steps:9.2f} "
+            f"{bot_rate:11.0f} {bot_rate / rate:6.3f} "
+            f"{bots / loop.elapsed / rate_reset:11.3f} {loop.episodes:8d}"
         )
 
 
@@ -157,7 +132,7 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=250)
     parser.add_argument("--adapters", action="store_true")
     args = parser.parse_args()
-    loops = [SingleLoop(REFERENCE), *(MultiLoop(task, args.bots) for task in MULTI_TASKS)]
+    loops = [TaskLoop(REFERENCE), *(MultiLoop(task, args.bots) for task in MULTI_TASKS)]
     measure(loops, args.steps, args.chunk)
     if args.adapters:
         compare_adapters(args.bots, 1500)

@@ -67,7 +67,7 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=250, help="steps per alternation")
     args = parser.parse_args()
 
-    loops = {task_id: TaskLoop(task_id) for task_id in bbbench.list_tasks()}
+    loops = {task_id: TaskLoop(task_id) for task_id in bbbench.list_tasks(multi_agent=False)}
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
             loop.run(args.chunk)

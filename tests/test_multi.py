@@ -28,21 +28,28 @@ def fixed_actions(env, step: int) -> dict:
     return {agent: (step * 7 + 3 * env._index[agent]) % 9 for agent in env.agents}
 
 
+def play(env, seed: int, steps: int, digest=None):
+    """Play episode `seed` with `fixed_actions` for up to `steps` steps; hash what it gives."""
+    digest = hashlib.sha256() if digest is None else digest
+    observations, _ = env.reset(seed=seed)
+    for agent in sorted(observations):
+        digest.update(observations[agent].tobytes())
+    for t in range(steps):
+        if not env.agents:
+            break
+        observations, rewards, terminations, _, _ = env.step(fixed_actions(env, t))
+        for agent in sorted(observations):
+            digest.update(observations[agent].tobytes())
+            digest.update(np.float64(rewards[agent]).tobytes())
+            digest.update(bytes([terminations[agent]]))
+    return digest
+
+
 def episodes_digest(task_id: str, seeds, steps: int = 60, **kwargs) -> str:
     env = bbbench.make_parallel(task_id, **kwargs)
     digest = hashlib.sha256()
     for seed in seeds:
-        observations, _ = env.reset(seed=seed)
-        for agent in sorted(observations):
-            digest.update(observations[agent].tobytes())
-        for t in range(steps):
-            if not env.agents:
-                break
-            observations, rewards, terminations, _, _ = env.step(fixed_actions(env, t))
-            for agent in sorted(observations):
-                digest.update(observations[agent].tobytes())
-                digest.update(np.float64(rewards[agent]).tobytes())
-                digest.update(bytes([terminations[agent]]))
+        play(env, seed, steps, digest)
     env.close()
     return digest.hexdigest()
 
@@ -192,25 +199,9 @@ def test_an_episode_does_not_depend_on_the_episodes_before_it():
     fresh = episodes_digest(BUMPS, [seed], steps=150, n_bots=6)
     env = bbbench.make_parallel(BUMPS, n_bots=6)
     for other in (5, 6):
-        env.reset(seed=other)
-        for t in range(150):
-            if not env.agents:
-                break
-            env.step(fixed_actions(env, t))
+        play(env, other, 150)
     assert len(env._ended_at) > 0  # some bots fell, and were set aside
-    after = hashlib.sha256()
-    observations, _ = env.reset(seed=seed)
-    for agent in sorted(observations):
-        after.update(observations[agent].tobytes())
-    for t in range(150):
-        if not env.agents:
-            break
-        observations, rewards, terminations, _, _ = env.step(fixed_actions(env, t))
-        for agent in sorted(observations):
-            after.update(observations[agent].tobytes())
-            after.update(np.float64(rewards[agent]).tobytes())
-            after.update(bytes([terminations[agent]]))
-    assert after.hexdigest() == fresh
+    assert play(env, seed, 150).hexdigest() == fresh
 
 
 def test_a_fallen_bot_leaves_the_world():

@@ -60,11 +60,6 @@ class Group:
                 f"heading_jitter must be in [0, pi/2) rad, got {self.heading_jitter!r}"
             )
 
-    @property
-    def observation_size(self) -> int:
-        """Values in the neighbour block: `neighbours` x (right, forward, and their rates)."""
-        return self.neighbours * len(NEIGHBOUR_FIELDS)
-
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Low and high of the neighbour block, bot by bot."""
         one = np.array([self.neighbour_range] * 2 + [NEIGHBOUR_SPEED_RANGE] * 2, dtype=np.float64)
