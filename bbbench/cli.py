@@ -6,10 +6,15 @@ import argparse
 import statistics
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress
+from rich.table import Table
 
 import bbbench
+from bbbench.files import write_atomic
 from bbbench.policies import PDController
 from bbbench.tasks.spec import episode_streams
 from bbbench.terrain import HeightfieldTerrain
@@ -124,6 +129,113 @@ def cmd_terrain(args: argparse.Namespace) -> None:
     )
 
 
+def cmd_eval(args: argparse.Namespace) -> int:
+    # Imported here: `bbbench list` should not pay for torch.
+    from bbbench import evaluation
+    from bbbench.evaluation.video import check_video_path, record_episode
+    from bbbench.policies import PolicyError, load_policy
+
+    if args.episodes is not None and args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    if args.backend == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise UsageError("--backend ray needs Ray: pip install 'bbbench[ray]'") from None
+    if args.json is not None and not Path(args.json).parent.is_dir():
+        raise UsageError(f"--json {args.json}: no directory {Path(args.json).parent}")
+    try:
+        if args.video is not None:
+            check_video_path(args.video)
+        policy = load_policy(args.policy)
+        task_ids = evaluation.select_tasks(policy, args.task)
+    except (PolicyError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
+    if args.episodes is not None and args.episodes > most:
+        raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
+
+    per_task = args.episodes or most
+    total = per_task * len(task_ids)
+    console = Console(stderr=True)
+    with Progress(
+        *Progress.get_default_columns(),
+        MofNCompleteColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    ) as progress:
+        bar = progress.add_task(f"{policy.name}: {len(task_ids)} task(s)", total=total)
+        result = evaluation.evaluate(
+            policy,
+            task_ids,
+            episodes=args.episodes,
+            workers=args.workers,
+            backend=args.backend,
+            address=args.address,
+            stochastic=args.stochastic,
+            on_result=lambda index, episode: progress.advance(bar),
+        )
+    document = result.document
+    Console().print(_results_table(document))
+    if args.json is not None:
+        write_atomic(args.json, evaluation.dumps(document).encode())
+        print(f"wrote {args.json}")
+    if args.video is not None:
+        task_id = task_ids[0]
+        seed = bbbench.spec(task_id).eval_seeds[0]
+        frames = record_episode(policy, task_id, seed, args.video, stochastic=args.stochastic)
+        print(f"wrote {args.video}: {task_id}, episode seed {seed}, {frames} frames")
+    if result.missing:
+        missing = ", ".join(f"{task_id} seed {seed}" for task_id, seed in result.missing)
+        print(
+            f"bbbench: {len(result.missing)} episode(s) missing, their worker died twice: "
+            f"{missing}",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+def _results_table(document: dict) -> Table:
+    policy = document["policy"]
+    title = (
+        f"{policy['name']} ({policy['algorithm']}, {policy['action_mode']} actions, "
+        f"{'deterministic' if document['deterministic'] else 'stochastic'})"
+    )
+    table = Table(title=title, title_justify="left")
+    table.add_column("task", no_wrap=True)
+    for column in ("episodes", "mean [95% CI]", "IQM", "success", "normalized"):
+        table.add_column(column, justify="right", no_wrap=True)
+    for task in document["tasks"]:
+        score = task["aggregate"]
+        if not score["episodes"]:
+            table.add_row(task["task"].removeprefix("bbbench/"), "0", "-", "-", "-", "-")
+            continue
+        low, high = score["mean_ci"]
+        normalized = score["normalized_score"]
+        table.add_row(
+            task["task"].removeprefix("bbbench/"),
+            str(score["episodes"]) + (f" (-{len(task['missing'])})" if task["missing"] else ""),
+            f"{score['mean']:.2f} [{low:.2f}, {high:.2f}]",
+            f"{score['iqm']:.2f}",
+            f"{score['success_rate']:.0%}",
+            "-" if normalized is None else f"{normalized:.3f}",
+        )
+    overall = document["overall"]
+    if overall["tasks"] > 1:
+        low, high = overall["normalized_iqm_ci"]
+        table.caption = (
+            f"IQM of normalized scores over {overall['tasks']} tasks: "
+            f"{overall['normalized_iqm']:.3f} (95% CI {low:.3f} to {high:.3f})"
+        )
+    return table
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bbbench", description="A benchmark suite for two-wheeled balancing robots."
@@ -162,17 +274,43 @@ def build_parser() -> argparse.ArgumentParser:
     terrain.add_argument("--difficulty", type=float, help="in [0, 1]; default: the task's")
     terrain.add_argument("--out", required=True, help="output file: .obj, .stl, .ply or .glb")
     terrain.set_defaults(run=cmd_terrain)
+
+    evaluate = commands.add_parser(
+        "eval",
+        help="score a policy on the suite's fixed evaluation seeds",
+        description="Score a policy on the suite's fixed evaluation seeds: every task it fits, "
+        "or those given with --task. POLICY is a stable-baselines3 .zip (read without "
+        "unpickling anything) or a built-in: reference (the default, a PPO policy shipped "
+        "with bbbench), pd, random.",
+    )
+    evaluate.add_argument("policy", nargs="?", default="reference", metavar="POLICY")
+    evaluate.add_argument(
+        "--task", action="extend", nargs="+", metavar="ID", help="task ID(s); default: all it fits"
+    )
+    evaluate.add_argument(
+        "--episodes", type=int, help="the first N eval seeds of each task (default: all)"
+    )
+    evaluate.add_argument("--workers", type=int, help="worker processes (default: every core)")
+    evaluate.add_argument("--backend", choices=("local", "ray"), default="local")
+    evaluate.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
+    evaluate.add_argument(
+        "--video", metavar="OUT", help="write the first task's first episode (.gif or .mp4)"
+    )
+    evaluate.add_argument(
+        "--stochastic", action="store_true", help="sample actions (default: deterministic)"
+    )
+    evaluate.set_defaults(run=cmd_eval)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        args.run(args)
+        return args.run(args) or 0
     except UsageError as error:
         print(f"bbbench: error: {error}", file=sys.stderr)
         return USAGE_ERROR
-    return 0
 
 
 if __name__ == "__main__":

@@ -1,5 +1,27 @@
-"""Policies that ship with bbbench: baselines to compare submissions against."""
+"""Policies `bbbench eval` scores: the built-in baselines and submitted stable-baselines3 zips.
 
+from bbbench.policies import load_policy
+policy = load_policy("pd")              # or "random", "reference", or "policy.zip"
+"""
+
+from bbbench.policies.base import (
+    BUILTIN_POLICIES,
+    Policy,
+    PolicyError,
+    RefusedForSafety,
+    fitting_tasks,
+    load_policy,
+    register_policy,
+)
 from bbbench.policies.pd import PDController
 
-__all__ = ["PDController"]
+__all__ = [
+    "BUILTIN_POLICIES",
+    "PDController",
+    "Policy",
+    "PolicyError",
+    "RefusedForSafety",
+    "fitting_tasks",
+    "load_policy",
+    "register_policy",
+]

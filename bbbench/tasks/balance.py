@@ -107,6 +107,8 @@ class BalanceEnv(Env):
 
     with pitch in rad and the axle's true horizontal forward velocity in m/s.
     At most 0.1 per step, so a 1500-step episode scores at most 150.
+    `info["velocity_error"]` after each step is |forward_velocity - target_velocity|
+    in m/s (true, not sensed).
 
     ## Starting State
 
@@ -250,13 +252,14 @@ class BalanceEnv(Env):
         except IndexError:  # past the time limit (an env used without TimeLimit)
             target = self._targets[-1]
         reward = base_reward(state.pitch, state.forward_velocity, target, self.task.reward)
+        info = {"velocity_error": abs(state.forward_velocity - target)}
         if self._human:
             self._render_human()
         if self._perfect_sensors:
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
             observation = self._sensed(state, command, target, steps)
-        return observation, reward, state.tilt > FALL_TILT, False, {}
+        return observation, reward, state.tilt > FALL_TILT, False, info
 
     def _sensed(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
         """The observation through the task's sensor model: delayed, biased, noisy."""

@@ -18,7 +18,7 @@ from bbbench.tasks.actions import (
     continuous_change,
     discrete_change,
 )
-from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, nearest_others, spawn_poses
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others, spawn_poses
 from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, sensed
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
@@ -89,7 +89,8 @@ class MultiBalanceEnv(ParallelEnv):
     `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|`, at most
     0.1 per step. There is no collision penalty: a collision costs what it
     costs, a fall ends that bot's episode. `infos[agent]` carries the two
-    terms, `"reward_upright"` and `"reward_velocity"`.
+    terms, `"reward_upright"` and `"reward_velocity"`, and `"velocity_error"`,
+    |forward_velocity - target_velocity| in m/s.
 
     ## Starting State
 
@@ -187,13 +188,7 @@ class MultiBalanceEnv(ParallelEnv):
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
         self._action_space = action_space(action_mode)
-        single = observation_space()
-        low, high = group.bounds()
-        self._observation_space = spaces.Box(
-            low=np.concatenate([single.low, low]).astype(OBSERVATION_DTYPE),
-            high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
-            dtype=OBSERVATION_DTYPE,
-        )
+        self._observation_space = agent_observation_space(group)
         self._observation_size = self._observation_space.shape[0]
         self._reward_weights = (task.reward.upright, task.reward.velocity)
         self._change = discrete_change if action_mode == "discrete" else continuous_change
@@ -294,10 +289,15 @@ class MultiBalanceEnv(ParallelEnv):
         fallen_any = False
         for agent, state, target in zip(agents, states, targets, strict=True):
             # reward.reward_terms, inlined on the hot path (tests/test_multi.py checks they agree).
+            error = abs(state.forward_velocity - target)
             upright = upright_weight * (1.0 - abs(state.pitch))
-            velocity = -velocity_weight * abs(state.forward_velocity - target)
+            velocity = -velocity_weight * error
             rewards[agent] = upright + velocity
-            infos[agent] = {"reward_upright": upright, "reward_velocity": velocity}
+            infos[agent] = {
+                "reward_upright": upright,
+                "reward_velocity": velocity,
+                "velocity_error": error,
+            }
             truncations[agent] = truncated
             fallen = terminations[agent] = state.tilt > FALL_TILT
             fallen_any |= fallen
@@ -432,6 +432,17 @@ class MultiBalanceEnv(ParallelEnv):
         state.pop("_ground", None)
         state.pop("_client_id", None)
         return state
+
+
+def agent_observation_space(group: Group) -> spaces.Box:
+    """One bot's observation space: the single-bot layout, then its neighbours'."""
+    single = observation_space()
+    low, high = group.bounds()
+    return spaces.Box(
+        low=np.concatenate([single.low, low]).astype(OBSERVATION_DTYPE),
+        high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
+        dtype=OBSERVATION_DTYPE,
+    )
 
 
 def _version_history() -> str:

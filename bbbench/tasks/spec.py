@@ -41,17 +41,18 @@ def episode_streams(episode_seed: int) -> EpisodeStreams:
     return EpisodeStreams(*(np.random.default_rng(child) for child in children))
 
 
-# Fields that document a task without changing its behaviour: editing them
-# must not change the fingerprint.
-_DOCUMENTATION_FIELDS = ("summary", "version_history")
+# Fields that document or score a task without changing its behaviour: editing
+# them must not change the fingerprint.
+_NOT_BEHAVIOUR_FIELDS = ("summary", "version_history", "random_return")
 
 
 @parameters
 class TaskSpec:
     """One task of the suite. A task is a row of specs, not a class.
 
-    Changing any field but `summary` changes `fingerprint`, and so needs a new
-    version of the task ID.
+    Changing any field but `summary`, `version_history` and `random_return` (which
+    is measured from the others) changes `fingerprint`, and so needs a new version of
+    the task ID.
     """
 
     id: str
@@ -67,6 +68,9 @@ class TaskSpec:
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
     version_history: tuple[str, ...] = ("v0: initial release.",)
+    # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
+    # of the normalized score. Measured once (`python -m bbbench.evaluation.reference`).
+    random_return: float | None = None
 
     def __post_init__(self) -> None:
         if not self.id.startswith("bbbench/") or "-v" not in self.id:
@@ -125,7 +129,7 @@ class TaskSpec:
         behaviour = {
             key: value
             for key, value in dataclasses.asdict(self).items()
-            if key not in _DOCUMENTATION_FIELDS
+            if key not in _NOT_BEHAVIOUR_FIELDS
         }
         # Class names tell apart components whose fields happen to match.
         behaviour["components"] = [

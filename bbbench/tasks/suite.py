@@ -6,10 +6,13 @@ import difflib
 from typing import Any
 
 import gymnasium
+from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from bbbench.tasks.actions import action_space
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
+from bbbench.tasks.observation import observation_space
 from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain, Obstacles
@@ -129,6 +132,17 @@ def spec(task_id: str) -> TaskSpec:
         f"unknown task {task_id!r}.{hint} Known tasks: {', '.join(list_tasks())} "
         f"(see `bbbench list`)."
     )
+
+
+def agent_spaces(task_id: str, action_mode: str) -> tuple[spaces.Box, spaces.Space]:
+    """The observation and action space of one bot of a task (every bot's, on a multi-bot
+    task), without building the task."""
+    task = spec(task_id)
+    if task.group is None:
+        return observation_space(), action_space(action_mode)
+    from bbbench.tasks.multi import agent_observation_space
+
+    return agent_observation_space(task.group), action_space(action_mode)
 
 
 def make(task_id: str, **kwargs: Any) -> gymnasium.Env:

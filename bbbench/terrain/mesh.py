@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from bbbench.files import write_atomic
 from bbbench.terrain.heightmap import Heightmap
 
 EXPORT_FORMATS = (".obj", ".stl", ".ply", ".glb")
@@ -40,7 +41,4 @@ def export(heightmap: Heightmap, path: str | Path) -> Path:
             f"{', '.join(EXPORT_FORMATS)}"
         )
     data = to_trimesh(heightmap).export(file_type=path.suffix.lower()[1:])
-    temporary = path.with_name(f".{path.name}.partial")
-    temporary.write_bytes(data if isinstance(data, bytes) else data.encode())
-    temporary.replace(path)
-    return path
+    return write_atomic(path, data if isinstance(data, bytes) else data.encode())

@@ -1,0 +1,106 @@
+"""Scoring a policy on the suite's fixed evaluation seeds (`bbbench eval`).
+
+from bbbench.evaluation import evaluate
+from bbbench.policies import load_policy
+
+evaluation = evaluate(load_policy("policy.zip"), ["bbbench/FlatBalance-v0"], episodes=10)
+evaluation.document["tasks"][0]["aggregate"]["iqm"]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
+from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
+from bbbench.evaluation.results import document, dumps
+from bbbench.policies.base import Policy, PolicyError, describe_space, fitting_tasks
+from bbbench.tasks.suite import agent_spaces, list_tasks, spec
+
+__all__ = ["BACKENDS", "EpisodeResult", "Evaluation", "dumps", "evaluate", "select_tasks"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Evaluation:
+    """What `evaluate` returns: the results document, and the episodes it lacks."""
+
+    document: dict[str, Any]
+    missing: list[tuple[str, int]]  # (task ID, seed) of episodes whose worker died twice
+    steps: int  # environment steps played (bot-steps on multi-bot tasks count once)
+
+
+def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list[str]:
+    """The tasks to evaluate: those requested (each must fit the policy), else every task
+    of the suite the policy fits. `ValueError` for an unknown ID; `PolicyError` otherwise."""
+    if requested:
+        task_ids = list(dict.fromkeys(spec(task_id).id for task_id in requested))
+        unfit = [(task_id, policy.mismatch(task_id)) for task_id in task_ids]
+        unfit = [reason for _, reason in unfit if reason]
+        if unfit:
+            raise PolicyError(f"{policy.name} ({_spaces(policy)}) cannot play: {'; '.join(unfit)}")
+        return task_ids
+    task_ids = fitting_tasks(policy)
+    if not task_ids:
+        wants = "; ".join(policy.mismatch(task_id) or "" for task_id in list_tasks())
+        raise PolicyError(f"{policy.name} ({_spaces(policy)}) fits no task of the suite: {wants}")
+    return task_ids
+
+
+def _spaces(policy: Policy) -> str:
+    text = getattr(policy, "spaces_text", None)
+    if text is not None:
+        return text()
+    return (
+        f"any observation -> {describe_space(agent_spaces(list_tasks()[0], policy.action_mode)[1])}"
+    )
+
+
+def evaluate(
+    policy: Policy,
+    task_ids: Sequence[str],
+    episodes: int | None = None,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    stochastic: bool = False,
+    on_result: Callable[[int, EpisodeResult | None], None] | None = None,
+) -> Evaluation:
+    """Play the first `episodes` eval seeds (default: all) of each task, each episode
+    seeded with `reset(seed=s)`, on `workers` processes (default: every core) of the
+    local machine or of Ray; aggregate them into the results document."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if episodes is not None and episodes < 1:
+        raise ValueError(f"episodes must be at least 1, got {episodes}")
+    workers = default_workers() if workers is None else workers
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    tasks = [spec(task_id) for task_id in task_ids]
+    seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
+    jobs = [
+        (task.id, seed)
+        for task, task_seeds in zip(tasks, seeds, strict=True)
+        for seed in task_seeds
+    ]
+    runner = EpisodeRunner(
+        actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
+        action_mode=policy.action_mode,
+        sampled=stochastic or policy.random_actions,
+    )
+    report = on_result or (lambda index, result: None)
+    if backend == "ray":
+        flat = run_ray(runner, jobs, workers, report, address=address)
+    else:
+        flat = run_local(runner, jobs, workers, report)
+    results, start = [], 0
+    for task_seeds in seeds:
+        results.append(flat[start : start + len(task_seeds)])
+        start += len(task_seeds)
+    missing = [job for job, result in zip(jobs, flat, strict=True) if result is None]
+    steps = sum(result.length for result in flat if result is not None)
+    record = policy.record()
+    return Evaluation(
+        document(record, tasks, seeds, results, deterministic=not stochastic), missing, steps
+    )

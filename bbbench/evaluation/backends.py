@@ -1,0 +1,177 @@
+"""Where episodes run: local worker processes, or Ray tasks on a local or remote Ray.
+
+Both take the same jobs, (task ID, episode seed), and hand back one
+`EpisodeResult` per job, or None for a job whose worker died twice: a dead
+worker's episode is retried once on a fresh worker, then reported missing.
+Which worker plays an episode never changes its result (episodes are seeded
+and envs are history-free), so both backends give identical results.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+from collections import deque
+from collections.abc import Callable, Sequence
+from multiprocessing.connection import Connection, wait
+
+from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
+
+Job = tuple[str, int]  # (task ID, episode seed)
+OnResult = Callable[[int, EpisodeResult | None], None]
+BACKENDS = ("local", "ray")
+ATTEMPTS = 2  # a job whose worker dies is tried once more
+
+
+def default_workers() -> int:
+    """All the cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+# -- local worker processes --------------------------------------------------------
+
+
+def _serve(connection: Connection, runner: EpisodeRunner) -> None:
+    """A worker: plays the episodes it is sent, keeping its envs, until told to stop."""
+    try:
+        while (job := connection.recv()) is not None:
+            index, task_id, seed = job
+            connection.send((index, runner(task_id, seed)))
+    except (EOFError, KeyboardInterrupt):
+        pass
+    finally:
+        runner.close()
+
+
+class _Worker:
+    def __init__(self, context, runner: EpisodeRunner) -> None:
+        self.connection, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, runner), daemon=True)
+        self.process.start()
+        child.close()
+        self.job: tuple[int, str, int] | None = None
+
+    def send(self, job: tuple[int, str, int]) -> None:
+        self.job = job
+        self.connection.send(job)
+
+    def stop(self) -> None:
+        with contextlib.suppress(OSError):
+            self.connection.send(None)
+        self.process.join(timeout=5)
+        if self.process.is_alive():
+            self.process.kill()
+        self.connection.close()
+
+
+def run_local(
+    runner: EpisodeRunner, jobs: Sequence[Job], workers: int, on_result: OnResult
+) -> list[EpisodeResult | None]:
+    """Run `jobs` on `workers` processes; each process keeps its envs between episodes."""
+    # fork starts a worker in milliseconds with the policy already in memory; the
+    # workers never touch torch, which the parent may have used to load the policy.
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    context = multiprocessing.get_context(method)
+    results: list[EpisodeResult | None] = [None] * len(jobs)
+    pending = deque((index, *job) for index, job in enumerate(jobs))
+    tries = [0] * len(jobs)
+    pool = [_Worker(context, runner) for _ in range(min(workers, len(jobs)))]
+    try:
+        while pending or any(worker.job for worker in pool):
+            for worker in pool:
+                if worker.job is None and pending:
+                    job = pending.popleft()
+                    tries[job[0]] += 1
+                    worker.send(job)
+            busy = [worker for worker in pool if worker.job is not None]
+            ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
+            for slot, worker in enumerate(pool):
+                if worker.job is None:
+                    continue
+                if worker.connection in ready:
+                    try:
+                        index, result = worker.connection.recv()
+                    except (EOFError, OSError):
+                        pass  # it died mid-answer: handled below as a death
+                    else:
+                        results[index] = result
+                        worker.job = None
+                        on_result(index, result)
+                        continue
+                if worker.process.sentinel in ready or not worker.process.is_alive():
+                    index = worker.job[0]
+                    worker.job = None
+                    worker.stop()
+                    pool[slot] = _Worker(context, runner)
+                    if tries[index] < ATTEMPTS:
+                        pending.appendleft((index, *jobs[index]))
+                    else:
+                        on_result(index, None)
+    finally:
+        for worker in pool:
+            worker.stop()
+    return results
+
+
+# -- Ray -----------------------------------------------------------------------------
+
+
+class _RayWorker:
+    """A Ray actor: one `EpisodeRunner`, kept between episodes like a local worker."""
+
+    def __init__(self, runner: EpisodeRunner) -> None:
+        self.runner = runner
+
+    def play(self, index: int, task_id: str, seed: int) -> tuple[int, EpisodeResult]:
+        return index, self.runner(task_id, seed)
+
+
+def run_ray(
+    runner: EpisodeRunner,
+    jobs: Sequence[Job],
+    workers: int,
+    on_result: OnResult,
+    address: str | None = None,
+) -> list[EpisodeResult | None]:
+    """Run `jobs` as tasks of `workers` Ray actors, on a local Ray or the cluster at
+    `address`. Ray restarts a dead actor and retries its task once."""
+    import ray
+    from ray.exceptions import RayActorError
+
+    started = not ray.is_initialized()
+    if started:
+        ray.init(
+            address=address,
+            include_dashboard=False,
+            log_to_driver=False,
+            configure_logging=False,
+            **({} if address else {"num_cpus": workers}),
+        )
+    worker_class = ray.remote(num_cpus=1, max_restarts=ATTEMPTS - 1, max_task_retries=1)(_RayWorker)
+    results: list[EpisodeResult | None] = [None] * len(jobs)
+    pending = deque((index, *job) for index, job in enumerate(jobs))
+    idle = [worker_class.remote(runner) for _ in range(min(workers, len(jobs)))]
+    busy = {}  # future -> (actor, job)
+    try:
+        while pending or busy:
+            while idle and pending:
+                actor, job = idle.pop(), pending.popleft()
+                busy[actor.play.remote(*job)] = (actor, job)
+            [future], _ = ray.wait(list(busy), num_returns=1)
+            actor, job = busy.pop(future)
+            try:
+                _, result = ray.get(future)
+                idle.append(actor)
+            except RayActorError:  # died, was restarted, and died again on the retry
+                result = None
+                idle.append(worker_class.remote(runner))
+            results[job[0]] = result
+            on_result(job[0], result)
+    finally:
+        if started:
+            ray.shutdown()
+    return results

@@ -1,0 +1,119 @@
+"""The results document: per-episode records and aggregates, in a versioned schema.
+
+`docs/results-schema.json` is its JSON Schema. The document holds no
+timestamps, host names or timings: the same policy file on the same seeds with
+the same code gives the same bytes (`dumps`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+import bbbench
+from bbbench.evaluation import stats
+from bbbench.evaluation.episodes import EpisodeResult
+from bbbench.tasks.spec import TaskSpec
+
+SCHEMA = "bbbench-results/1"
+
+
+def task_version(task_id: str) -> int:
+    """0 for 'bbbench/FlatBalance-v0'."""
+    return int(task_id.rsplit("-v", 1)[1])
+
+
+def normalized(value: float, task: TaskSpec) -> float | None:
+    """0 for the random policy's mean return, 1 for the task's maximum return; None for a
+    task without a stored random reference."""
+    if task.random_return is None:
+        return None
+    return (value - task.random_return) / (task.max_return - task.random_return)
+
+
+def aggregate(task: TaskSpec, episodes: Sequence[EpisodeResult]) -> dict[str, Any]:
+    """A task's aggregates over its (played) episodes."""
+    if not episodes:
+        return {"episodes": 0}
+    returns = np.array([e.episode_return for e in episodes])
+    mean_ci = stats.stratified_bootstrap_ci([returns], stats.mean)
+    mean = stats.mean(returns)
+    return {
+        "episodes": len(episodes),
+        "mean": mean,
+        "std": float(returns.std(ddof=1)) if len(returns) > 1 else 0.0,
+        "mean_ci": list(mean_ci),
+        "iqm": stats.iqm(returns),
+        "iqm_ci": list(stats.stratified_bootstrap_ci([returns], stats.iqm)),
+        "success_rate": sum(e.success for e in episodes) / len(episodes),
+        "failures": sum(e.failure is not None for e in episodes),
+        "velocity_error": stats.mean([e.velocity_error for e in episodes]),
+        "normalized_score": normalized(mean, task),
+        "normalized_ci": (
+            None if task.random_return is None else [normalized(b, task) for b in mean_ci]
+        ),
+    }
+
+
+def overall(tasks: Sequence[TaskSpec], episodes: Sequence[Sequence[EpisodeResult]]) -> dict:
+    """Across tasks: the IQM of per-episode normalized scores, stratified by task."""
+    strata = [
+        np.array([normalized(e.episode_return, task) for e in played])
+        for task, played in zip(tasks, episodes, strict=True)
+        if played and task.random_return is not None
+    ]
+    if not strata:
+        return {"tasks": 0}
+    return {
+        "tasks": len(strata),
+        "normalized_iqm": stats.iqm(np.concatenate(strata)),
+        "normalized_iqm_ci": list(stats.stratified_bootstrap_ci(strata, stats.iqm)),
+    }
+
+
+def document(
+    policy: dict[str, Any],
+    tasks: Sequence[TaskSpec],
+    seeds: Sequence[Sequence[int]],
+    results: Sequence[Sequence[EpisodeResult | None]],
+    deterministic: bool,
+) -> dict[str, Any]:
+    """The whole results document; `results[i][j]` is task i's episode on `seeds[i][j]`,
+    None if it is missing (its worker died twice)."""
+    played = [[r for r in task_results if r is not None] for task_results in results]
+    return {
+        "schema": SCHEMA,
+        "bbbench_version": bbbench.__version__,
+        "policy": policy,
+        "deterministic": deterministic,
+        "statistics": {
+            "interval": "percentile, stratified bootstrap (rliable)",
+            "confidence": stats.CONFIDENCE,
+            "reps": stats.BOOTSTRAP_REPS,
+            "seed": stats.BOOTSTRAP_SEED,
+        },
+        "tasks": [
+            {
+                "task": task.id,
+                "version": task_version(task.id),
+                "fingerprint": task.fingerprint,
+                "bots": task.group.n_bots if task.group else 1,
+                "max_return": task.max_return,
+                "random_return": task.random_return,
+                "seeds": list(task_seeds),
+                "missing": [s for s, r in zip(task_seeds, rs, strict=True) if r is None],
+                "aggregate": aggregate(task, ok),
+                "episodes": [r.record() for r in ok],
+            }
+            for task, task_seeds, rs, ok in zip(tasks, seeds, results, played, strict=True)
+        ],
+        "overall": overall(tasks, played),
+    }
+
+
+def dumps(results: dict[str, Any]) -> str:
+    """The document as text: the same document, the same bytes."""
+    return json.dumps(results, indent=2, allow_nan=False) + "\n"

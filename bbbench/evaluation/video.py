@@ -1,0 +1,91 @@
+"""One evaluation episode as a GIF or MP4, through the env's `rgb_array` render."""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+import numpy as np
+
+from bbbench.evaluation.episodes import action_generator
+from bbbench.policies.base import Policy
+from bbbench.policies.mlp import NonFiniteAction
+from bbbench.tasks.suite import make, make_parallel, spec
+
+VIDEO_FORMATS = (".gif", ".mp4")
+FRAME_EVERY = 4  # steps per frame: 25 frames per second of a 100 Hz task
+
+
+def check_video_path(path: str | Path) -> Path:
+    """`ValueError` unless the path ends in .gif or .mp4, in an existing directory, and a
+    writer for it is installed."""
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_FORMATS:
+        raise ValueError(f"--video {path}: expected a file name ending in .gif or .mp4")
+    if not path.parent.is_dir():
+        raise ValueError(f"--video {path}: no directory {path.parent}")
+    try:
+        import imageio.v3  # noqa: F401
+
+        if path.suffix.lower() == ".mp4":
+            import imageio_ffmpeg  # noqa: F401
+    except ImportError:
+        raise ValueError(
+            f"--video {path}: writing video needs imageio; pip install 'bbbench[video]'"
+        ) from None
+    return path
+
+
+def record_episode(
+    policy: Policy, task_id: str, seed: int, path: str | Path, stochastic: bool = False
+) -> int:
+    """Play episode `seed` of `task_id` as the evaluation does, write its frames to `path`
+    (atomically), and return the number of frames."""
+    import imageio.v3 as iio
+
+    path = check_video_path(path)
+    task = spec(task_id)
+    act = policy.actor(task_id, deterministic=not stochastic)
+    rng = action_generator(seed) if stochastic or policy.random_actions else None
+    frames = []
+    with contextlib.suppress(NonFiniteAction):  # the episode ends there, as in the evaluation
+        _play(task, policy, act, rng, seed, frames)
+    fps = round(1.0 / (task.control_dt * FRAME_EVERY))
+    temporary = path.with_name(f".{path.stem}.partial{path.suffix}")
+    try:
+        if path.suffix.lower() == ".gif":
+            iio.imwrite(temporary, np.stack(frames), duration=1000 / fps, loop=0)
+        else:
+            iio.imwrite(temporary, np.stack(frames), fps=fps, codec="libx264", macro_block_size=8)
+        temporary.replace(path)
+    finally:
+        temporary.unlink(missing_ok=True)
+    return len(frames)
+
+
+def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -> None:
+    """Play the episode, keeping every FRAME_EVERY-th frame and the last."""
+    mode = policy.action_mode
+    if task.multi_agent:
+        env = make_parallel(task.id, action_mode=mode, render_mode="rgb_array")
+        observations, _ = env.reset(seed=seed)
+    else:
+        env = make(task.id, action_mode=mode, render_mode="rgb_array")
+        observation, _ = env.reset(seed=seed)
+    steps, done = 0, False
+    try:
+        while not done:
+            if steps % FRAME_EVERY == 0:
+                frames.append(env.render())
+            if task.multi_agent:
+                agents = env.agents
+                actions = act(np.stack([observations[agent] for agent in agents]), rng)
+                observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
+                done = not env.agents
+            else:
+                observation, _, terminated, truncated, _ = env.step(act(observation, rng))
+                done = terminated or truncated
+            steps += 1
+    finally:
+        frames.append(env.render())
+        env.close()

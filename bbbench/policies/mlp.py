@@ -1,0 +1,144 @@
+"""A small MLP policy evaluated in plain numpy: the fast path of `bbbench eval`.
+
+For one observation at a time, numpy runs a 64 x 64 MLP several times faster
+than torch (bench/bench_eval.py measures both; docs/performance.md records it),
+and its actions match torch's to within 1e-6 (tests/test_policies.py).
+`MlpActor` holds only numpy arrays: it pickles into worker processes and Ray
+tasks without torch.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+def _relu(x: np.ndarray) -> np.ndarray:
+    return np.maximum(x, 0.0, out=x)
+
+
+def _leaky_relu(x: np.ndarray) -> np.ndarray:  # torch's default slope, 0.01
+    return np.where(x >= 0.0, x, x * np.float32(0.01))
+
+
+def _elu(x: np.ndarray) -> np.ndarray:  # alpha = 1
+    return np.where(x > 0.0, x, np.expm1(x))
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-x))
+
+
+def _silu(x: np.ndarray) -> np.ndarray:
+    return x * _sigmoid(x)
+
+
+# torch.nn activation class names -> the same function in numpy (float32 in, float32 out).
+ACTIVATIONS = {
+    "Tanh": np.tanh,
+    "ReLU": _relu,
+    "LeakyReLU": _leaky_relu,
+    "ELU": _elu,
+    "Sigmoid": _sigmoid,
+    "SiLU": _silu,
+}
+
+# How the last layer's output becomes an action.
+OUTPUTS = ("argmax", "gaussian", "squashed_gaussian", "tanh")
+# SAC's clamp of its log standard deviation (stable_baselines3.sac.policies).
+_LOG_STD_MIN, _LOG_STD_MAX = -20.0, 2.0
+
+
+class NonFiniteAction(ArithmeticError):
+    """The network produced NaN: the episode fails, with this as its reason."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class MlpActor:
+    """The acting part of a stable-baselines3 MLP policy, as numpy arrays.
+
+    Args:
+        hidden: (weight^T, bias) of each hidden layer, float32; each followed by `activation`.
+        activation: a key of `ACTIVATIONS`.
+        head: (weight^T, bias) of the output layer.
+        output: "argmax" (logits or Q-values: PPO, A2C, DQN), "gaussian" (PPO and
+            A2C on a Box: the mean, clipped to the bounds), "squashed_gaussian" (SAC:
+            tanh of the mean, scaled to the bounds), "tanh" (TD3: tanh, scaled).
+        log_std: PPO/A2C on a Box: the state-independent log standard deviation;
+            SAC: (weight^T, bias) of its log-std layer; else None.
+        epsilon: DQN's exploration rate, used when acting stochastically.
+        low, high: the Box action bounds (None for Discrete).
+
+    Calling it with one observation (shape (n,)) gives one action; with a batch
+    (shape (k, n), several bots sharing the policy) a batch of actions.
+    """
+
+    hidden: tuple[tuple[np.ndarray, np.ndarray], ...]
+    activation: str
+    head: tuple[np.ndarray, np.ndarray]
+    output: str
+    log_std: np.ndarray | tuple[np.ndarray, np.ndarray] | None = None
+    epsilon: float = 0.0
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.activation not in ACTIVATIONS:
+            raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}")
+        if self.output not in OUTPUTS:
+            raise ValueError(f"output must be one of {OUTPUTS}, got {self.output!r}")
+
+    def latent(self, observation: np.ndarray) -> np.ndarray:
+        """The last hidden layer's output."""
+        activate = ACTIVATIONS[self.activation]
+        x = np.asarray(observation, dtype=np.float32)
+        for weight_t, bias in self.hidden:
+            x = activate(x @ weight_t + bias)
+        return x
+
+    def head_output(self, observation: np.ndarray) -> np.ndarray:
+        """Logits, Q-values or (pre-squash) action means: the network's output."""
+        weight_t, bias = self.head
+        return self.latent(observation) @ weight_t + bias
+
+    def __call__(
+        self, observation: np.ndarray, rng: np.random.Generator | None = None
+    ) -> int | np.ndarray:
+        """The action for `observation`: deterministic, or sampled from `rng` when given."""
+        latent = self.latent(observation)
+        weight_t, bias = self.head
+        out = latent @ weight_t + bias
+        if self.output == "argmax":
+            return self._discrete(out, rng)
+        if self.output == "gaussian":
+            if rng is not None:
+                out = out + np.exp(self.log_std) * rng.standard_normal(out.shape, np.float32)
+            action = np.clip(out, self.low, self.high)
+        else:
+            if rng is not None and self.output == "squashed_gaussian":
+                std_weight_t, std_bias = self.log_std
+                log_std = np.clip(latent @ std_weight_t + std_bias, _LOG_STD_MIN, _LOG_STD_MAX)
+                out = out + np.exp(log_std) * rng.standard_normal(out.shape, np.float32)
+            # TD3 acts deterministically even when asked not to, as stable-baselines3 does.
+            action = self.low + np.float32(0.5) * (np.tanh(out) + np.float32(1.0)) * (
+                self.high - self.low
+            )
+        if np.isnan(action).any():
+            raise NonFiniteAction("the policy's action is NaN")
+        return action
+
+    def _discrete(self, out: np.ndarray, rng: np.random.Generator | None) -> int | np.ndarray:
+        if out.ndim == 2:
+            return np.array([self._discrete(row, rng) for row in out])
+        best = int(out.argmax())
+        if out[best] != out[best]:  # argmax stops at the first NaN
+            raise NonFiniteAction("the policy's logits or Q-values are NaN")
+        if rng is None:
+            return best
+        n = out.shape[-1]
+        if self.epsilon:  # DQN: epsilon-greedy
+            return int(rng.integers(n)) if rng.random() < self.epsilon else best
+        probabilities = np.exp(out - out[best])
+        cumulative = np.cumsum(probabilities / probabilities.sum())
+        return min(int(np.searchsorted(cumulative, rng.random(), side="right")), n - 1)
