@@ -333,6 +333,12 @@ def read_sb3_zip(path: str | Path) -> SB3Policy:
 
 def _check_members(path: Path, members: list[zipfile.ZipInfo]) -> None:
     names = [member.filename for member in members]
+    for required in ("data", "policy.pth"):
+        if required not in names:
+            raise PolicyError(
+                f"{path}: no {required!r} member; expected a complete stable-baselines3 "
+                f"model.save() file (is it truncated?)"
+            )
     unexpected = sorted(set(names) - set(MEMBER_LIMITS))
     if unexpected:
         raise RefusedForSafety(
@@ -348,9 +354,6 @@ def _check_members(path: Path, members: list[zipfile.ZipInfo]) -> None:
                 f"{path}: member {member.filename!r} inflates to {member.file_size} bytes, "
                 f"more than the {limit} allowed (a zip bomb?)"
             )
-    for required in ("data", "policy.pth"):
-        if required not in names:
-            raise PolicyError(f"{path}: no {required!r} in the zip; is it a model.save() file?")
 
 
 def _read_member(path: Path, archive: zipfile.ZipFile, name: str) -> bytes:

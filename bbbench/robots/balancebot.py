@@ -133,6 +133,8 @@ def spawn_pose(
 
 # (group, mask) of a dynamic body's links as pybullet loads them: collide with everything.
 _DYNAMIC_COLLISION_FILTER = (1, -1)
+# Where reset() moves a bot, clear of everything, before placing it (y grows with the body id).
+_CLEAR_OF_EVERYTHING = (-1000.0, 10.0, 10.0)
 
 # namedtuple's generated __new__ is a Python call; tuple.__new__ skips it on the hot path.
 _new_state = functools.partial(tuple.__new__, BotState)
@@ -206,11 +208,15 @@ class BalanceBot:
         yaw: float = 0.0,
         xy: tuple[float, float] = (0.0, 0.0),
         ground_height: float = 0.0,
+        drop_contacts: bool = True,
     ) -> None:
         """Put the bot at rest with its wheels on the ground at `xy`, leaning by `pitch` rad.
 
         The torso is tilted about the axle, so the wheels touch the ground
         whatever the lean. Joints, velocities and the wheel command are zeroed.
+        `drop_contacts=False` skips dropping the last episode's contact points,
+        for a caller that has moved every bot clear (`move_clear`) and run
+        collision detection once itself.
         """
         client, body = self._client, self.body
         if self._set_aside:
@@ -218,13 +224,27 @@ class BalanceBot:
                 client.setCollisionFilterGroupMask(body, link, *_DYNAMIC_COLLISION_FILTER)
             self._set_aside = False
         com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model)
-        # Repositioning (not reloading) is cheap, and tests/test_determinism.py checks
-        # that an episode does not depend on the ones the world ran before it.
+        # Bullet keeps the contact points of touching bodies from step to step and
+        # warm-starts its solver from them: points left from the last episode would
+        # change this one's first steps. Collision detection with the bot clear of
+        # everything drops them. Repositioning (not reloading) stays cheap, and
+        # tests/test_determinism.py checks that an episode does not depend on the
+        # ones the world ran before it.
+        if drop_contacts:
+            self.move_clear()
+            client.performCollisionDetection()
         client.resetBasePositionAndOrientation(body, com, orientation)
         client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         for joint in self.wheel_joints:
             client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
         self.command_wheel_speed(0.0)
+
+    def move_clear(self) -> None:
+        """Move the bot clear of everything (its own spot, far from the world)."""
+        x, y, z = _CLEAR_OF_EVERYTHING
+        self._client.resetBasePositionAndOrientation(
+            self.body, (x, y * (1 + self.body), z), (0.0, 0.0, 0.0, 1.0)
+        )
 
     def set_aside(self, place: tuple[float, float, float]) -> None:
         """Take the bot out of the world until its next `reset()`: it collides with

@@ -247,12 +247,17 @@ class MultiBalanceEnv(ParallelEnv):
         )
         self._targets = targets
         self._targets_by_step = targets.T.tolist()  # [step][bot], floats for the hot path
+        # Drop every contact point of the last episode at once (see BalanceBot.reset).
+        for bot in self._bots:
+            bot.move_clear()
+        pybullet.performCollisionDetection(self._client_id)
         for bot, ((x, y), yaw), pitch in zip(self._bots, poses, pitches, strict=True):
             bot.reset(
                 pitch=float(pitch),
                 yaw=yaw,
                 xy=(x, y),
                 ground_height=self._ground.spawn_height(x, y),
+                drop_contacts=False,
             )
         self._steps = 0
         self._live = list(range(group.n_bots))

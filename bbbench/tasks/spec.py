@@ -69,7 +69,7 @@ class TaskSpec:
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
-    # of the normalized score. Measured once (`python -m bbbench.evaluation.reference`).
+    # of the normalized score. Measured once (`python -m bbbench.evaluation.random_reference`).
     random_return: float | None = None
 
     def __post_init__(self) -> None:

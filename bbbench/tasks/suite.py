@@ -27,39 +27,46 @@ SUITE: dict[str, TaskSpec] = {
         TaskSpec(
             id="bbbench/FlatBalance-v0",
             summary="stay upright and in place on flat ground (the tutorial's task)",
+            random_return=4.265516002827753,
         ),
         TaskSpec(
             id="bbbench/VelocityTracking-v0",
             summary="follow a target velocity in [-1, 1] m/s that changes every 2-5 s",
+            random_return=1.2860367754813657,
             command=_VELOCITY_TARGETS,
         ),
         TaskSpec(
             id="bbbench/NoisySensors-v0",
             summary="velocity tracking with a biased, noisy IMU and encoders",
+            random_return=1.2860367754813657,
             command=_VELOCITY_TARGETS,
             sensors=NoisySensors(),
         ),
         TaskSpec(
             id="bbbench/Bumps-v0",
             summary="drive forward at 0.2-0.8 m/s across smooth random hills",
+            random_return=1.781347180609098,
             terrain=HeightfieldTerrain(generator=Bumps(), difficulty=0.3),
             command=_FORWARD_TARGETS,
         ),
         TaskSpec(
             id="bbbench/Obstacles-v0",
             summary="drive forward at 0.2-0.8 m/s over scattered boxes and steps",
+            random_return=1.777879984692359,
             terrain=HeightfieldTerrain(generator=Obstacles(), difficulty=0.3),
             command=_FORWARD_TARGETS,
         ),
         TaskSpec(
             id="bbbench/MultiBalance-v0",
             summary="4 bots (2-16) whose paths cross on flat ground, each at 0.2-0.8 m/s",
+            random_return=1.5245667657055884,
             command=_FORWARD_TARGETS,
             group=Group(),
         ),
         TaskSpec(
             id="bbbench/MultiBumps-v0",
             summary="4 bots (2-16) whose paths cross on smooth random hills",
+            random_return=1.5233704486135895,
             terrain=HeightfieldTerrain(
                 generator=Bumps(),
                 difficulty=0.3,

@@ -1,0 +1,301 @@
+"""`bbbench eval`: fixed seeds, reproducible bytes, statistics, workers, Ray, bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pytest
+
+import bbbench
+from bbbench.cli import main
+from bbbench.evaluation import dumps, evaluate, stats
+from bbbench.evaluation.random_reference import measure
+from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
+from bbbench.policies.base import PDActor, PDPolicy
+
+FLAT = "bbbench/FlatBalance-v0"
+VELOCITY = "bbbench/VelocityTracking-v0"
+MULTI = "bbbench/MultiBalance-v0"
+SCHEMA = json.loads((Path(__file__).parent.parent / "docs" / "results-schema.json").read_text())
+
+
+def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(["eval", *argv])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+# -- statistics on known data ----------------------------------------------------------
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    assert stats.iqm(np.arange(1, 9)) == 4.5  # mean of 3, 4, 5, 6
+    assert stats.iqm([10.0, 0.0, 1.0, 2.0, 3.0, -50.0, 4.0, 5.0]) == 2.5  # outliers cut
+
+
+def test_bootstrap_interval_of_a_mean_of_coin_flips_is_the_binomial_quantiles():
+    # 10 zeros and 10 ones: a resampled mean is Binomial(20, 1/2) / 20, whose 2.5% and
+    # 97.5% quantiles are 6/20 and 14/20.
+    low, high = stats.stratified_bootstrap_ci([np.repeat([0.0, 1.0], 10)], stats.mean)
+    assert (low, high) == (0.3, 0.7)
+
+
+def test_bootstrap_interval_is_fixed_by_its_seed_and_degenerate_on_constant_data():
+    data = np.random.default_rng(1).normal(size=50)
+    first = stats.stratified_bootstrap_ci([data], stats.iqm)
+    assert first == stats.stratified_bootstrap_ci([data], stats.iqm)
+    assert first != stats.stratified_bootstrap_ci([data], stats.iqm, seed=1)
+    assert first[0] < stats.iqm(data) < first[1]
+    assert stats.stratified_bootstrap_ci([np.full(7, 2.5)], stats.mean) == (2.5, 2.5)
+
+
+def test_stratified_bootstrap_resamples_within_each_task():
+    # Each task constant: every resample keeps each task's size, so the pooled IQM never
+    # moves. (An unstratified resample of the pool would.)
+    strata = [np.zeros(4), np.ones(4)]
+    assert stats.stratified_bootstrap_ci(strata, stats.iqm) == (0.5, 0.5)
+
+
+# -- episodes on fixed seeds --------------------------------------------------------------
+
+
+def test_episodes_are_the_eval_seeds_in_order_and_match_a_gymnasium_loop():
+    evaluation = evaluate(load_policy("pd"), [VELOCITY], episodes=3, workers=2)
+    task = evaluation.document["tasks"][0]
+    assert task["seeds"] == list(bbbench.spec(VELOCITY).eval_seeds[:3])
+    env = bbbench.make(VELOCITY)  # gymnasium.make: with TimeLimit
+    controller = bbbench.policies.PDController()
+    for episode in task["episodes"]:
+        observation, _ = env.reset(seed=episode["seed"])
+        total, steps, errors, done = 0.0, 0, 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, info = env.step(controller(observation))
+            total, steps, errors = total + reward, steps + 1, errors + info["velocity_error"]
+            done = terminated or truncated
+        assert episode["return"] == total
+        assert episode["length"] == steps
+        assert episode["velocity_error"] == errors / steps
+        assert episode["success"] == (not terminated)
+
+
+def test_multi_bot_episodes_score_per_bot():
+    evaluation = evaluate(load_policy("pd"), [MULTI], episodes=2, workers=1)
+    task = evaluation.document["tasks"][0]
+    assert task["bots"] == 4
+    env = bbbench.make_parallel(MULTI)
+    controller = bbbench.policies.PDController()
+    for episode in task["episodes"]:
+        observations, _ = env.reset(seed=episode["seed"])
+        returns = dict.fromkeys(env.possible_agents, 0.0)
+        falls = 0
+        while env.agents:
+            actions = {agent: controller(observations[agent]) for agent in env.agents}
+            observations, rewards, terminations, _, _ = env.step(actions)
+            for agent, reward in rewards.items():
+                returns[agent] += reward
+            falls += sum(terminations.values())
+        assert episode["return"] == pytest.approx(sum(returns.values()) / 4, rel=1e-12)
+        assert episode["falls"] == falls
+
+
+def test_results_are_byte_identical_across_runs_worker_counts_and_processes(capsys, tmp_path):
+    outputs = []
+    for workers in ("1", "2", "2"):
+        out = tmp_path / f"results-{len(outputs)}.json"
+        code, _, _ = run_cli(
+            capsys, "pd", "--task", FLAT, MULTI, "--episodes", "3", "--workers", workers,
+            "--json", str(out),
+        )  # fmt: skip
+        assert code == 0
+        outputs.append(out.read_bytes())
+    assert outputs[0] == outputs[1] == outputs[2]
+    document = json.loads(outputs[0])
+    jsonschema.validate(document, SCHEMA)
+    assert not list(tmp_path.glob(".*partial*"))
+
+
+def test_results_document_records_the_policy_and_the_tasks(tmp_path, capsys):
+    out = tmp_path / "results.json"
+    code, stdout, _ = run_cli(capsys, "--episodes", "2", "--json", str(out))  # the reference
+    assert code == 0
+    document = json.loads(out.read_text())
+    jsonschema.validate(document, SCHEMA)
+    policy = document["policy"]
+    reference = Path(bbbench.policies.base.REFERENCE_POLICY)
+    import hashlib
+
+    assert policy["sha256"] == hashlib.sha256(reference.read_bytes()).hexdigest()
+    assert (policy["algorithm"], policy["action_mode"], policy["source"]) == (
+        "PPO",
+        "discrete",
+        "file",
+    )
+    assert [t["task"] for t in document["tasks"]] == bbbench.list_tasks(multi_agent=False)
+    for task in document["tasks"]:
+        spec = bbbench.spec(task["task"])
+        assert task["fingerprint"] == spec.fingerprint
+        assert task["random_return"] == spec.random_return
+        assert len(task["episodes"]) == 2
+    assert document["overall"]["tasks"] == 5
+    assert "IQM of normalized scores over 5 tasks" in stdout
+    assert "FlatBalance-v0" in stdout
+
+
+def test_stochastic_runs_are_reproducible_and_differ_from_deterministic_ones():
+    policy = load_policy("reference")
+    runs = [
+        dumps(evaluate(policy, [VELOCITY], episodes=2, workers=2, stochastic=s).document)
+        for s in (True, True, False)
+    ]
+    assert runs[0] == runs[1]
+    assert runs[0] != runs[2]
+    assert json.loads(runs[0])["deterministic"] is False
+
+
+def test_normalized_scores_put_random_at_0_and_the_maximum_at_1():
+    evaluation = evaluate(load_policy("random"), [FLAT], workers=2)  # all 100 eval seeds
+    aggregate = evaluation.document["tasks"][0]["aggregate"]
+    assert aggregate["normalized_score"] == pytest.approx(0.0, abs=1e-12)
+    spec = bbbench.spec(FLAT)
+    assert (spec.max_return - spec.random_return) > 100
+
+
+def test_stored_random_references_are_what_the_random_policy_scores():
+    measured = measure()
+    for task_id, value in measured.items():
+        assert bbbench.spec(task_id).random_return == pytest.approx(value, rel=1e-9), task_id
+
+
+# -- workers that die --------------------------------------------------------------------
+
+
+class CrashingPD(PDPolicy):
+    """The PD baseline, whose worker process dies on the first step of one episode (the
+    one whose first target velocity is `fatal_target`), `times` times at most."""
+
+    def __init__(self, fatal_target: float, budget: Path) -> None:
+        super().__init__()
+        self.name = "crashing-pd"
+        self.fatal_target, self.budget = fatal_target, budget
+
+    def actor(self, task_id, deterministic=True):
+        return CrashingActor(super().actor(task_id), self.fatal_target, str(self.budget))
+
+
+class CrashingActor(PDActor):
+    def __init__(self, inner, fatal_target, budget):
+        super().__init__(inner.controller)
+        object.__setattr__(self, "fatal", (fatal_target, budget))
+
+    def __call__(self, observation, rng=None):
+        fatal_target, budget = self.fatal
+        if observation[4] == fatal_target and observation[3] == 0.0:
+            left = int(Path(budget).read_text())
+            if left > 0:
+                Path(budget).write_text(str(left - 1))
+                os._exit(1)
+        return super().__call__(observation, rng)
+
+
+def crashing_policy(tmp_path: Path, seed_index: int, times: int) -> CrashingPD:
+    env = bbbench.make(VELOCITY)
+    observation, _ = env.reset(seed=bbbench.spec(VELOCITY).eval_seeds[seed_index])
+    budget = tmp_path / "crashes"
+    budget.write_text(str(times))
+    return CrashingPD(float(observation[4]), budget)
+
+
+def test_a_worker_that_dies_once_has_its_episode_retried_with_the_same_result(tmp_path):
+    clean = evaluate(load_policy("pd"), [VELOCITY], episodes=4, workers=2)
+    crashed = evaluate(crashing_policy(tmp_path, 1, times=1), [VELOCITY], episodes=4, workers=2)
+    assert (tmp_path / "crashes").read_text() == "0"  # it did die
+    assert crashed.missing == []
+    assert crashed.document["tasks"] == clean.document["tasks"]
+
+
+def test_an_episode_whose_worker_dies_twice_is_reported_and_the_rest_is_written(tmp_path, capsys):
+    policy = crashing_policy(tmp_path, 2, times=5)
+    register_policy("crashing-pd", lambda: policy)
+    try:
+        out = tmp_path / "partial.json"
+        code, _, err = run_cli(
+            capsys, "crashing-pd", "--task", VELOCITY, "--episodes", "4", "--workers", "2",
+            "--json", str(out),
+        )  # fmt: skip
+    finally:
+        del BUILTIN_POLICIES["crashing-pd"]
+    assert (tmp_path / "crashes").read_text() == "3"  # tried twice, no more
+    assert code == 1
+    seed = bbbench.spec(VELOCITY).eval_seeds[2]
+    assert "1 episode(s) missing" in err
+    assert f"seed {seed}" in err
+    task = json.loads(out.read_text())["tasks"][0]
+    assert task["missing"] == [seed]
+    assert [e["seed"] for e in task["episodes"]] == [
+        s for s in bbbench.spec(VELOCITY).eval_seeds[:4] if s != seed
+    ]
+
+
+# -- Ray --------------------------------------------------------------------------------
+
+
+def test_the_ray_backend_gives_the_local_backends_bytes():
+    pytest.importorskip("ray", reason="the Ray backend is an extra: pip install 'bbbench[ray]'")
+    policy = load_policy("reference")
+    tasks = [FLAT, "bbbench/Bumps-v0"]
+    local = evaluate(policy, tasks, episodes=3, workers=2)
+    on_ray = evaluate(policy, tasks, episodes=3, workers=2, backend="ray")
+    assert dumps(on_ray.document) == dumps(local.document)
+    pd = load_policy("pd")
+    assert dumps(evaluate(pd, [MULTI], episodes=2, backend="ray").document) == dumps(
+        evaluate(pd, [MULTI], episodes=2).document
+    )
+
+
+# -- video -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("task_id", "suffix", "shape"), [
+    (FLAT, ".gif", (240, 320, 3)),
+    (MULTI, ".mp4", (360, 480, 3)),
+])  # fmt: skip
+def test_video_writes_the_first_episode(tmp_path, capsys, task_id, suffix, shape):
+    import imageio.v3 as iio
+
+    out = tmp_path / f"episode{suffix}"
+    code, stdout, _ = run_cli(
+        capsys, "random", "--task", task_id, "--episodes", "1", "--video", str(out)
+    )
+    assert code == 0
+    frames = iio.imread(out)
+    assert frames.shape[1:] == shape
+    assert f"{frames.shape[0]} frames" in stdout
+    assert f"episode seed {bbbench.spec(task_id).eval_seeds[0]}" in stdout
+
+
+# -- bad input ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["pd", "--task", "bbbench/FlatBalanse-v0"], "Did you mean 'bbbench/FlatBalance-v0'"),
+    (["pd", "--episodes", "0"], "--episodes must be at least 1, got 0"),
+    (["pd", "--episodes", "-3"], "--episodes must be at least 1, got -3"),
+    (["pd", "--episodes", "101"], "--episodes 101: the tasks have 100 eval seeds each"),
+    (["pd", "--workers", "0"], "--workers must be at least 1"),
+    (["pd", "--address", "10.0.0.1:6379"], "use it with --backend ray"),
+    (["pd", "--json", "/no/such/dir/out.json"], "no directory /no/such/dir"),
+    (["pd", "--video", "clip.avi"], "ending in .gif or .mp4"),
+    (["reference", "--task", MULTI], "bbbench/MultiBalance-v0 wants Box(17,)"),
+    (["no-such-policy"], "unknown policy 'no-such-policy'"),
+])  # fmt: skip
+def test_bad_input_is_a_one_line_error_with_exit_code_2(capsys, argv, expected):
+    code, stdout, err = run_cli(capsys, *argv)
+    assert code == 2
+    assert expected in err
+    assert err.startswith("bbbench: error:")
+    assert len(err.strip().splitlines()) == 1
+    assert stdout == ""
