@@ -178,7 +178,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             backend=args.backend,
             address=args.address,
             stochastic=args.stochastic,
-            on_result=lambda index, episode: progress.advance(bar),
+            on_result=lambda count, played: progress.advance(bar, count),
         )
     document = result.document
     Console().print(_results_table(document))

@@ -191,14 +191,15 @@ class CrashingActor(PDActor):
         super().__init__(inner.controller)
         object.__setattr__(self, "fatal", (fatal_target, budget))
 
-    def __call__(self, observation, rng=None):
+    def __call__(self, observations, rngs=None):
         fatal_target, budget = self.fatal
-        if observation[4] == fatal_target and observation[3] == 0.0:
-            left = int(Path(budget).read_text())
-            if left > 0:
-                Path(budget).write_text(str(left - 1))
-                os._exit(1)
-        return super().__call__(observation, rng)
+        for observation in observations:
+            if observation[4] == fatal_target and observation[3] == 0.0:
+                left = int(Path(budget).read_text())
+                if left > 0:
+                    Path(budget).write_text(str(left - 1))
+                    os._exit(1)
+        return super().__call__(observations, rngs)
 
 
 def crashing_policy(tmp_path: Path, seed_index: int, times: int) -> CrashingPD:
@@ -209,35 +210,35 @@ def crashing_policy(tmp_path: Path, seed_index: int, times: int) -> CrashingPD:
     return CrashingPD(float(observation[4]), budget)
 
 
-def test_a_worker_that_dies_once_has_its_episode_retried_with_the_same_result(tmp_path):
-    clean = evaluate(load_policy("pd"), [VELOCITY], episodes=4, workers=2)
-    crashed = evaluate(crashing_policy(tmp_path, 1, times=1), [VELOCITY], episodes=4, workers=2)
+def test_a_worker_that_dies_once_has_its_episodes_retried_with_the_same_results(tmp_path):
+    clean = evaluate(load_policy("pd"), [VELOCITY], episodes=12, workers=2)
+    crashed = evaluate(crashing_policy(tmp_path, 9, times=1), [VELOCITY], episodes=12, workers=2)
     assert (tmp_path / "crashes").read_text() == "0"  # it did die
     assert crashed.missing == []
     assert crashed.document["tasks"] == clean.document["tasks"]
 
 
-def test_an_episode_whose_worker_dies_twice_is_reported_and_the_rest_is_written(tmp_path, capsys):
-    policy = crashing_policy(tmp_path, 2, times=5)
+def test_episodes_whose_worker_dies_twice_are_reported_and_the_rest_is_written(tmp_path, capsys):
+    # 12 episodes are two lockstep groups, seeds 0-7 and 8-11: the second one dies.
+    policy = crashing_policy(tmp_path, 9, times=5)
     register_policy("crashing-pd", lambda: policy)
     try:
         out = tmp_path / "partial.json"
         code, _, err = run_cli(
-            capsys, "crashing-pd", "--task", VELOCITY, "--episodes", "4", "--workers", "2",
+            capsys, "crashing-pd", "--task", VELOCITY, "--episodes", "12", "--workers", "2",
             "--json", str(out),
         )  # fmt: skip
     finally:
         del BUILTIN_POLICIES["crashing-pd"]
     assert (tmp_path / "crashes").read_text() == "3"  # tried twice, no more
     assert code == 1
-    seed = bbbench.spec(VELOCITY).eval_seeds[2]
-    assert "1 episode(s) missing" in err
-    assert f"seed {seed}" in err
+    seeds = list(bbbench.spec(VELOCITY).eval_seeds[:12])
+    assert "4 episode(s) missing" in err
+    assert f"seed {seeds[9]}" in err
     task = json.loads(out.read_text())["tasks"][0]
-    assert task["missing"] == [seed]
-    assert [e["seed"] for e in task["episodes"]] == [
-        s for s in bbbench.spec(VELOCITY).eval_seeds[:4] if s != seed
-    ]
+    assert task["missing"] == seeds[8:]
+    assert [e["seed"] for e in task["episodes"]] == seeds[:8]
+    assert task["aggregate"]["episodes"] == 8
 
 
 # -- Ray --------------------------------------------------------------------------------

@@ -19,6 +19,8 @@ from bbbench.evaluation.results import document, dumps
 from bbbench.policies.base import Policy, PolicyError, describe_space, fitting_tasks
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
+LOCKSTEP = 8  # single-bot episodes a worker plays side by side
+
 __all__ = ["BACKENDS", "EpisodeResult", "Evaluation", "dumps", "evaluate", "select_tasks"]
 
 
@@ -65,11 +67,17 @@ def evaluate(
     backend: str = "local",
     address: str | None = None,
     stochastic: bool = False,
-    on_result: Callable[[int, EpisodeResult | None], None] | None = None,
+    on_result: Callable[[int, list[EpisodeResult] | None], None] | None = None,
 ) -> Evaluation:
     """Play the first `episodes` eval seeds (default: all) of each task, each episode
     seeded with `reset(seed=s)`, on `workers` processes (default: every core) of the
-    local machine or of Ray; aggregate them into the results document."""
+    local machine or of Ray; aggregate them into the results document.
+
+    Single-bot episodes run in groups of `LOCKSTEP` consecutive seeds, side by
+    side, so the policy's network runs once per step for the group.
+    `on_result(n, results)` is called as each group of n episodes ends (results
+    None if its worker died twice).
+    """
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if episodes is not None and episodes < 1:
@@ -79,27 +87,35 @@ def evaluate(
         raise ValueError(f"workers must be at least 1, got {workers}")
     tasks = [spec(task_id) for task_id in task_ids]
     seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
+    # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
     jobs = [
-        (task.id, seed)
+        (task.id, tuple(task_seeds[start : start + LOCKSTEP]))
         for task, task_seeds in zip(tasks, seeds, strict=True)
-        for seed in task_seeds
+        for start in range(0, len(task_seeds), LOCKSTEP)
     ]
     runner = EpisodeRunner(
         actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,
     )
-    report = on_result or (lambda index, result: None)
+
+    def report(index: int, played: list[EpisodeResult] | None) -> None:
+        if on_result is not None:
+            on_result(len(jobs[index][1]), played)
+
     if backend == "ray":
-        flat = run_ray(runner, jobs, workers, report, address=address)
+        done = run_ray(runner, jobs, workers, report, address=address)
     else:
-        flat = run_local(runner, jobs, workers, report)
-    results, start = [], 0
-    for task_seeds in seeds:
-        results.append(flat[start : start + len(task_seeds)])
-        start += len(task_seeds)
-    missing = [job for job, result in zip(jobs, flat, strict=True) if result is None]
-    steps = sum(result.length for result in flat if result is not None)
+        done = run_local(runner, jobs, workers, report)
+    by_seed = {}
+    for (task_id, group), played in zip(jobs, done, strict=True):
+        for i, seed in enumerate(group):
+            by_seed[task_id, seed] = None if played is None else played[i]
+    results = [
+        [by_seed[task.id, seed] for seed in ts] for task, ts in zip(tasks, seeds, strict=True)
+    ]
+    missing = [key for key, result in by_seed.items() if result is None]
+    steps = sum(result.length for result in by_seed.values() if result is not None)
     record = policy.record()
     return Evaluation(
         document(record, tasks, seeds, results, deterministic=not stochastic), missing, steps

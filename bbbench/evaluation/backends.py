@@ -1,10 +1,11 @@
 """Where episodes run: local worker processes, or Ray tasks on a local or remote Ray.
 
-Both take the same jobs, (task ID, episode seed), and hand back one
-`EpisodeResult` per job, or None for a job whose worker died twice: a dead
-worker's episode is retried once on a fresh worker, then reported missing.
-Which worker plays an episode never changes its result (episodes are seeded
-and envs are history-free), so both backends give identical results.
+Both take the same jobs, (task ID, a group of episode seeds), and hand back
+each job's `EpisodeResult`s, or None for a job whose worker died twice: a dead
+worker's job is retried once on a fresh worker, then reported missing. Which
+worker plays a job never changes its results (episodes are seeded, envs are
+history-free, and a group is played the same way anywhere), so both backends
+give identical results.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from multiprocessing.connection import Connection, wait
 
 from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
 
-Job = tuple[str, int]  # (task ID, episode seed)
-OnResult = Callable[[int, EpisodeResult | None], None]
+Job = tuple[str, tuple[int, ...]]  # (task ID, episode seeds played together)
+Results = list[EpisodeResult] | None  # a job's episodes; None if its worker died twice
+OnResult = Callable[[int, Results], None]
 BACKENDS = ("local", "ray")
 ATTEMPTS = 2  # a job whose worker dies is tried once more
 
@@ -39,8 +41,8 @@ def _serve(connection: Connection, runner: EpisodeRunner) -> None:
     """A worker: plays the episodes it is sent, keeping its envs, until told to stop."""
     try:
         while (job := connection.recv()) is not None:
-            index, task_id, seed = job
-            connection.send((index, runner(task_id, seed)))
+            index, task_id, seeds = job
+            connection.send((index, runner.play(task_id, seeds)))
     except (EOFError, KeyboardInterrupt):
         pass
     finally:
@@ -53,9 +55,9 @@ class _Worker:
         self.process = context.Process(target=_serve, args=(child, runner), daemon=True)
         self.process.start()
         child.close()
-        self.job: tuple[int, str, int] | None = None
+        self.job: tuple[int, str, tuple[int, ...]] | None = None
 
-    def send(self, job: tuple[int, str, int]) -> None:
+    def send(self, job: tuple[int, str, tuple[int, ...]]) -> None:
         self.job = job
         self.connection.send(job)
 
@@ -70,13 +72,13 @@ class _Worker:
 
 def run_local(
     runner: EpisodeRunner, jobs: Sequence[Job], workers: int, on_result: OnResult
-) -> list[EpisodeResult | None]:
+) -> list[Results]:
     """Run `jobs` on `workers` processes; each process keeps its envs between episodes."""
     # fork starts a worker in milliseconds with the policy already in memory; the
     # workers never touch torch, which the parent may have used to load the policy.
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
     context = multiprocessing.get_context(method)
-    results: list[EpisodeResult | None] = [None] * len(jobs)
+    results: list[Results] = [None] * len(jobs)
     pending = deque((index, *job) for index, job in enumerate(jobs))
     tries = [0] * len(jobs)
     pool = [_Worker(context, runner) for _ in range(min(workers, len(jobs)))]
@@ -126,8 +128,8 @@ class _RayWorker:
     def __init__(self, runner: EpisodeRunner) -> None:
         self.runner = runner
 
-    def play(self, index: int, task_id: str, seed: int) -> tuple[int, EpisodeResult]:
-        return index, self.runner(task_id, seed)
+    def play(self, index: int, task_id: str, seeds: tuple[int, ...]) -> list[EpisodeResult]:
+        return self.runner.play(task_id, seeds)
 
 
 def run_ray(
@@ -136,7 +138,7 @@ def run_ray(
     workers: int,
     on_result: OnResult,
     address: str | None = None,
-) -> list[EpisodeResult | None]:
+) -> list[Results]:
     """Run `jobs` as tasks of `workers` Ray actors, on a local Ray or the cluster at
     `address`. Ray restarts a dead actor and retries its task once."""
     import ray
@@ -152,7 +154,7 @@ def run_ray(
             **({} if address else {"num_cpus": workers}),
         )
     worker_class = ray.remote(num_cpus=1, max_restarts=ATTEMPTS - 1, max_task_retries=1)(_RayWorker)
-    results: list[EpisodeResult | None] = [None] * len(jobs)
+    results: list[Results] = [None] * len(jobs)
     pending = deque((index, *job) for index, job in enumerate(jobs))
     idle = [worker_class.remote(runner) for _ in range(min(workers, len(jobs)))]
     busy = {}  # future -> (actor, job)
@@ -164,7 +166,7 @@ def run_ray(
             [future], _ = ray.wait(list(busy), num_returns=1)
             actor, job = busy.pop(future)
             try:
-                _, result = ray.get(future)
+                result = ray.get(future)
                 idle.append(actor)
             except RayActorError:  # died, was restarted, and died again on the retry
                 result = None

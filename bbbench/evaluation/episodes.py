@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from bbbench.policies.base import Actor
-from bbbench.policies.mlp import NonFiniteAction
 from bbbench.tasks.suite import make, make_parallel, spec
 
 # Tags the episode's action generator, so it never equals a generator the env draws from.
@@ -53,23 +53,34 @@ def action_generator(seed: int) -> np.random.Generator:
 
 @dataclasses.dataclass
 class EpisodeRunner:
-    """Plays episodes of several tasks with one policy; keeps one env per task.
+    """Plays episodes of several tasks with one policy, keeping its envs between them.
 
-    It pickles without its envs (a worker process or Ray actor builds its own).
+    `play(task_id, seeds)` plays a group of single-bot episodes in lockstep, one
+    env each, so the policy's network runs once per step for the whole group;
+    multi-bot episodes (already a batch of bots) run one after another. The
+    results depend only on the group's seeds. It pickles without its envs (a
+    worker process or Ray actor builds its own).
     """
 
     actors: dict[str, Actor]  # task ID -> the policy's actor for one bot of it
     action_mode: str
     sampled: bool  # act from the episode's generator (stochastic or random policies)
-    _envs: dict[str, Any] = dataclasses.field(default_factory=dict, repr=False)
+    _envs: dict[str, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
 
-    def __call__(self, task_id: str, seed: int) -> EpisodeResult:
-        env = self._envs.get(task_id)
-        if env is None:
-            env = self._envs[task_id] = self._make(task_id)
-        rng = action_generator(seed) if self.sampled else None
-        play = _play_multi if spec(task_id).multi_agent else _play_single
-        return play(env, self.actors[task_id], spec(task_id).max_episode_steps, seed, rng)
+    def play(self, task_id: str, seeds: Sequence[int]) -> list[EpisodeResult]:
+        task = spec(task_id)
+        envs = self._envs.setdefault(task_id, [])
+        lanes = 1 if task.multi_agent else len(seeds)
+        while len(envs) < lanes:
+            envs.append(self._make(task_id))
+        rngs = [action_generator(seed) for seed in seeds] if self.sampled else None
+        actor = self.actors[task_id]
+        if task.multi_agent:
+            return [
+                _play_multi(envs[0], actor, seed, None if rngs is None else rngs[i])
+                for i, seed in enumerate(seeds)
+            ]
+        return _play_lockstep(envs[:lanes], actor, task.max_episode_steps, seeds, rngs)
 
     def _make(self, task_id: str) -> Any:
         if spec(task_id).multi_agent:
@@ -78,57 +89,91 @@ class EpisodeRunner:
         return make(task_id, action_mode=self.action_mode).unwrapped
 
     def close(self) -> None:
-        for env in self._envs.values():
-            env.close()
+        for envs in self._envs.values():
+            for env in envs:
+                env.close()
         self._envs.clear()
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_envs": {}}
 
 
-def _play_single(
-    env: Any, act: Actor, limit: int, seed: int, rng: np.random.Generator | None
-) -> EpisodeResult:
-    observation, _ = env.reset(seed=seed)
-    step = env.step
-    total = error = 0.0
-    steps = 0
-    fell = False
-    failure = None
-    try:
-        while steps < limit and not fell:
-            observation, reward, fell, _, info = step(act(observation, rng))
-            total += reward
-            error += info["velocity_error"]
-            steps += 1
-    except (NonFiniteAction, ValueError) as problem:
-        failure = f"step {steps}: {problem}"
-    return EpisodeResult(seed, total, steps, int(fell), error / steps if steps else 0.0, failure)
+_NAN = "the policy's output is NaN"
 
 
-def _play_multi(
-    env: Any, act: Actor, limit: int, seed: int, rng: np.random.Generator | None
-) -> EpisodeResult:
+def _play_lockstep(
+    envs: list[Any],
+    act: Actor,
+    limit: int,
+    seeds: Sequence[int],
+    rngs: list[np.random.Generator] | None,
+) -> list[EpisodeResult]:
+    """Single-bot episodes side by side: one batched policy call per step."""
+    n = len(seeds)
+    observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
+    steps = [env.step for env in envs]
+    totals, errors, lengths = [0.0] * n, [0.0] * n, [0] * n
+    fell, failures = [False] * n, [None] * n
+    live = list(range(n))
+    while live:
+        batch = np.stack([observations[i] for i in live])
+        actions = act(batch, None if rngs is None else [rngs[i] for i in live])
+        ended = False
+        for i, action in zip(live, actions, strict=True):
+            if action is None:
+                failures[i], ended = f"step {lengths[i]}: {_NAN}", True
+                continue
+            try:
+                observations[i], reward, fell[i], _, info = steps[i](action)
+            except ValueError as problem:  # an action outside the space
+                failures[i], ended = f"step {lengths[i]}: {problem}", True
+                continue
+            totals[i] += reward
+            errors[i] += info["velocity_error"]
+            lengths[i] += 1
+            ended |= fell[i] or lengths[i] >= limit
+        if ended:
+            live = [i for i in live if not (fell[i] or failures[i] or lengths[i] >= limit)]
+    return [
+        EpisodeResult(
+            seed,
+            totals[i],
+            lengths[i],
+            int(fell[i]),
+            errors[i] / lengths[i] if lengths[i] else 0.0,
+            failures[i],
+        )
+        for i, seed in enumerate(seeds)
+    ]
+
+
+def _play_multi(env: Any, act: Actor, seed: int, rng: np.random.Generator | None) -> EpisodeResult:
+    """One multi-bot episode: the policy is shared, one batched call per step for every bot."""
     observations, _ = env.reset(seed=seed)
     returns = dict.fromkeys(env.possible_agents, 0.0)
     error = 0.0
     bot_steps = steps = falls = 0
     failure = None
-    try:
-        while env.agents:
-            agents = env.agents
-            actions = act(np.stack([observations[agent] for agent in agents]), rng)
+    while env.agents:
+        agents = env.agents
+        batch = np.stack([observations[agent] for agent in agents])
+        actions = act(batch, None if rng is None else [rng] * len(agents))
+        if any(action is None for action in actions):
+            failure = f"step {steps}: {_NAN}"
+            break
+        try:
             observations, rewards, terminations, _, infos = env.step(
                 dict(zip(agents, actions, strict=True))
             )
-            steps += 1
-            for agent, reward in rewards.items():
-                returns[agent] += reward
-                error += infos[agent]["velocity_error"]
-            bot_steps += len(rewards)
-            falls += sum(terminations.values())
-    except (NonFiniteAction, ValueError) as problem:
-        failure = f"step {steps}: {problem}"
+        except ValueError as problem:
+            failure = f"step {steps}: {problem}"
+            break
+        steps += 1
+        for agent, reward in rewards.items():
+            returns[agent] += reward
+            error += infos[agent]["velocity_error"]
+        bot_steps += len(rewards)
+        falls += sum(terminations.values())
     return EpisodeResult(
         seed,
         sum(returns.values()) / len(returns),

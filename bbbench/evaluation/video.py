@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 
 import numpy as np
 
 from bbbench.evaluation.episodes import action_generator
-from bbbench.policies.base import Policy
-from bbbench.policies.mlp import NonFiniteAction
+from bbbench.policies.base import Policy, act_once
 from bbbench.tasks.suite import make, make_parallel, spec
 
 VIDEO_FORMATS = (".gif", ".mp4")
@@ -39,8 +37,10 @@ def check_video_path(path: str | Path) -> Path:
 def record_episode(
     policy: Policy, task_id: str, seed: int, path: str | Path, stochastic: bool = False
 ) -> int:
-    """Play episode `seed` of `task_id` as the evaluation does, write its frames to `path`
-    (atomically), and return the number of frames."""
+    """Play episode `seed` of `task_id`, write its frames to `path` (atomically), and
+    return the number of frames. The episode is played alone; the evaluation plays it
+    in a lockstep group, so a network's outputs (and so continuous actions) can differ
+    from the evaluated episode's in their last bits."""
     import imageio.v3 as iio
 
     path = check_video_path(path)
@@ -48,8 +48,7 @@ def record_episode(
     act = policy.actor(task_id, deterministic=not stochastic)
     rng = action_generator(seed) if stochastic or policy.random_actions else None
     frames = []
-    with contextlib.suppress(NonFiniteAction):  # the episode ends there, as in the evaluation
-        _play(task, policy, act, rng, seed, frames)
+    _play(task, policy, act, rng, seed, frames)
     fps = round(1.0 / (task.control_dt * FRAME_EVERY))
     temporary = path.with_name(f".{path.stem}.partial{path.suffix}")
     try:
@@ -79,11 +78,17 @@ def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -
                 frames.append(env.render())
             if task.multi_agent:
                 agents = env.agents
-                actions = act(np.stack([observations[agent] for agent in agents]), rng)
+                batch = np.stack([observations[agent] for agent in agents])
+                actions = act(batch, None if rng is None else [rng] * len(agents))
+                if any(action is None for action in actions):
+                    break  # NaN: the episode ends there, as in the evaluation
                 observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
                 done = not env.agents
             else:
-                observation, _, terminated, truncated, _ = env.step(act(observation, rng))
+                action = act_once(act, observation, rng)
+                if action is None:
+                    break
+                observation, _, terminated, truncated, _ = env.step(action)
                 done = terminated or truncated
             steps += 1
     finally:

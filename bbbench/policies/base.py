@@ -1,17 +1,18 @@
 """What `bbbench eval` needs of a policy, and the registry of built-in policies.
 
 A `Policy` says which tasks it fits and gives, per task, an *actor*: a
-picklable callable from an observation (one bot's, or a batch of bots' sharing
-the policy) and an optional random generator to an action. A generator is given
-when the policy acts stochastically; it is seeded from the episode's seed, so
-every episode is reproducible wherever it runs.
+picklable callable from a batch of observations, shape (k, n) (the bots of a
+multi-bot task, or episodes played in lockstep), and optionally one random
+generator per row, to a list of k actions (None where the policy's output is
+NaN). Generators are given when the policy acts stochastically; each is seeded
+from its episode's seed, so every episode is reproducible wherever it runs.
 """
 
 from __future__ import annotations
 
 import abc
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,7 @@ from gymnasium import spaces
 
 from bbbench.tasks.suite import agent_spaces, list_tasks
 
-Actor = Callable[[np.ndarray, "np.random.Generator | None"], Any]
+Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
 
 
 class PolicyError(ValueError):
@@ -74,30 +75,25 @@ class Policy(abc.ABC):
 
 @dataclasses.dataclass(frozen=True)
 class PDActor:
-    """The PD baseline on one bot or on each row of a batch."""
+    """The PD baseline on each row of a batch."""
 
     controller: Any
 
-    def __call__(self, observation: np.ndarray, rng: np.random.Generator | None = None):
-        if observation.ndim == 2:
-            return [self.controller(row) for row in observation]
-        return self.controller(observation)
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return [self.controller(row) for row in observations]
 
 
 @dataclasses.dataclass(frozen=True)
 class RandomActor:
-    """Uniform actions from the episode's generator."""
+    """Uniform actions, each row's from its episode's generator."""
 
     space: spaces.Space
 
-    def __call__(self, observation: np.ndarray, rng: np.random.Generator):
-        count = observation.shape[0] if observation.ndim == 2 else None
+    def __call__(self, observations: np.ndarray, rngs: Sequence[np.random.Generator]) -> list:
         if isinstance(self.space, spaces.Discrete):
-            if count is None:
-                return int(rng.integers(self.space.n))
-            return [int(a) for a in rng.integers(self.space.n, size=count)]
-        shape = self.space.shape if count is None else (count, *self.space.shape)
-        return rng.uniform(self.space.low, self.space.high, shape).astype(np.float32)
+            return [int(rng.integers(self.space.n)) for rng in rngs]
+        low, high = self.space.low, self.space.high
+        return [rng.uniform(low, high).astype(np.float32) for rng in rngs]
 
 
 class PDPolicy(Policy):
@@ -182,15 +178,21 @@ class SB3ZipPolicy(Policy):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class TorchActor:
-    """stable-baselines3's own policy module acting, through its `predict`."""
+    """stable-baselines3's own policy module acting, through its `predict` (which
+    samples from torch's global generator when asked for stochastic actions)."""
 
     policy: Any
 
-    def __call__(self, observation: np.ndarray, rng: np.random.Generator | None = None):
-        action, _ = self.policy.predict(observation, deterministic=rng is None)
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        actions, _ = self.policy.predict(observations, deterministic=rngs is None)
         if isinstance(self.policy.action_space, spaces.Discrete):
-            return int(action) if np.ndim(action) == 0 else [int(a) for a in action]
-        return action
+            return [int(a) for a in actions]
+        return list(actions)
+
+
+def act_once(actor: Actor, observation: np.ndarray, rng: np.random.Generator | None = None):
+    """One observation's action (None if the policy's output is NaN)."""
+    return actor(observation[None], None if rng is None else [rng])[0]
 
 
 def _reference() -> Policy:

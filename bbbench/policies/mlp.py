@@ -10,6 +10,7 @@ tasks without torch.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -50,10 +51,6 @@ OUTPUTS = ("argmax", "gaussian", "squashed_gaussian", "tanh")
 _LOG_STD_MIN, _LOG_STD_MAX = -20.0, 2.0
 
 
-class NonFiniteAction(ArithmeticError):
-    """The network produced NaN: the episode fails, with this as its reason."""
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class MlpActor:
     """The acting part of a stable-baselines3 MLP policy, as numpy arrays.
@@ -70,8 +67,8 @@ class MlpActor:
         epsilon: DQN's exploration rate, used when acting stochastically.
         low, high: the Box action bounds (None for Discrete).
 
-    Calling it with one observation (shape (n,)) gives one action; with a batch
-    (shape (k, n), several bots sharing the policy) a batch of actions.
+    It acts on batches: the bots of a multi-bot task, or the lockstep episodes a
+    worker plays together.
     """
 
     hidden: tuple[tuple[np.ndarray, np.ndarray], ...]
@@ -103,39 +100,43 @@ class MlpActor:
         return self.latent(observation) @ weight_t + bias
 
     def __call__(
-        self, observation: np.ndarray, rng: np.random.Generator | None = None
-    ) -> int | np.ndarray:
-        """The action for `observation`: deterministic, or sampled from `rng` when given."""
-        latent = self.latent(observation)
+        self, observations: np.ndarray, rngs: Sequence[np.random.Generator] | None = None
+    ) -> list:
+        """Actions for a batch of observations, shape (k, n): a list of k actions, with
+        None where the network's output is NaN. Deterministic, or sampled when `rngs`
+        (one generator per row) is given."""
+        latent = self.latent(observations)
         weight_t, bias = self.head
         out = latent @ weight_t + bias
         if self.output == "argmax":
-            return self._discrete(out, rng)
-        if self.output == "gaussian":
-            if rng is not None:
-                out = out + np.exp(self.log_std) * rng.standard_normal(out.shape, np.float32)
-            action = np.clip(out, self.low, self.high)
+            actions = out.argmax(axis=1).tolist()
+            if rngs is not None:
+                actions = [
+                    self._sample(row, best, rng)
+                    for row, best, rng in zip(out, actions, rngs, strict=True)
+                ]
         else:
-            if rng is not None and self.output == "squashed_gaussian":
-                std_weight_t, std_bias = self.log_std
-                log_std = np.clip(latent @ std_weight_t + std_bias, _LOG_STD_MIN, _LOG_STD_MAX)
-                out = out + np.exp(log_std) * rng.standard_normal(out.shape, np.float32)
-            # TD3 acts deterministically even when asked not to, as stable-baselines3 does.
-            action = self.low + np.float32(0.5) * (np.tanh(out) + np.float32(1.0)) * (
-                self.high - self.low
-            )
-        if np.isnan(action).any():
-            raise NonFiniteAction("the policy's action is NaN")
-        return action
+            if rngs is not None and self.output != "tanh":  # TD3 acts deterministically,
+                noise = np.stack([rng.standard_normal(out.shape[1:], np.float32) for rng in rngs])
+                if self.output == "gaussian":  # as stable-baselines3 does
+                    log_std = self.log_std
+                else:
+                    std_weight_t, std_bias = self.log_std
+                    log_std = np.clip(latent @ std_weight_t + std_bias, _LOG_STD_MIN, _LOG_STD_MAX)
+                out = out + np.exp(log_std) * noise
+            if self.output == "gaussian":
+                action = np.clip(out, self.low, self.high)
+            else:
+                action = self.low + np.float32(0.5) * (np.tanh(out) + np.float32(1.0)) * (
+                    self.high - self.low
+                )
+            actions = list(action)
+        if np.isnan(out).any():
+            broken = np.isnan(out).any(axis=1)
+            actions = [None if nan else action for action, nan in zip(actions, broken, strict=True)]
+        return actions
 
-    def _discrete(self, out: np.ndarray, rng: np.random.Generator | None) -> int | np.ndarray:
-        if out.ndim == 2:
-            return np.array([self._discrete(row, rng) for row in out])
-        best = int(out.argmax())
-        if out[best] != out[best]:  # argmax stops at the first NaN
-            raise NonFiniteAction("the policy's logits or Q-values are NaN")
-        if rng is None:
-            return best
+    def _sample(self, out: np.ndarray, best: int, rng: np.random.Generator) -> int:
         n = out.shape[-1]
         if self.epsilon:  # DQN: epsilon-greedy
             return int(rng.integers(n)) if rng.random() < self.epsilon else best
