@@ -197,7 +197,8 @@ class SB3Policy:
             "SAC": SACPolicy,
             "TD3": TD3Policy,
         }
-        kwargs = dict(self.architecture)
+        # An optimizer is for training; building torch's Adam costs over a second.
+        kwargs = {**self.architecture, "optimizer_class": _NoOptimizer}
         if self.net_arch is not None:
             kwargs["net_arch"] = self.net_arch
         if self.activation is not None:
@@ -255,6 +256,13 @@ class SB3Policy:
             low=action_space.low.copy() if box else None,
             high=action_space.high.copy() if box else None,
         )
+
+
+class _NoOptimizer:
+    """Stands in for the optimizer stable-baselines3 builds with every policy."""
+
+    def __init__(self, parameters, lr: float = 0.0, **kwargs: Any) -> None:
+        pass
 
 
 def _linear(layer) -> tuple[np.ndarray, np.ndarray]:

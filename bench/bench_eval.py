@@ -1,0 +1,161 @@
+"""Evaluation benchmark: `bbbench eval` against the bare env, and 2 workers against 1.
+
+    python bench/bench_eval.py [--episodes 100] [--rounds 3]
+
+1. The network: the reference policy's MLP per call, in numpy (`MlpActor`) and in
+   torch (stable-baselines3's own module and `predict`), for one observation and
+   for batches of 8 and 16.
+2. Throughput, one worker: the whole command, `bbbench eval --episodes N
+   --workers 1` (the reference policy on every single-bot task: with N = 100,
+   750,000 steps), timed from start to exit, in environment steps per second;
+   against the bare env, `bbbench.make(task)`, replaying the very same
+   episodes' actions (recorded beforehand), in steps per second.
+3. Two workers against one: the same command with `--workers 2`.
+
+The three runs alternate, round by round, so they share the machine's slow and
+fast phases; each ratio is computed within a round.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import bbbench
+from bbbench.policies import load_policy
+from bbbench.policies.base import REFERENCE_POLICY, SB3ZipPolicy, act_once
+
+
+def time_per_call(function, argument, calls: int) -> float:
+    """Microseconds per call, best of 3."""
+    best = float("inf")
+    for _ in range(3):
+        began = time.perf_counter()
+        for _ in range(calls):
+            function(argument)
+        best = min(best, time.perf_counter() - began)
+    return best / calls * 1e6
+
+
+def network_costs() -> None:
+    task = "bbbench/FlatBalance-v0"
+    numpy_actor = load_policy("reference").actor(task)
+    torch_policy = SB3ZipPolicy(REFERENCE_POLICY, backend="torch").actor(task).policy
+    import torch
+
+    rng = np.random.default_rng(0)
+    print("reference MLP (5 -> 64 -> 64 -> 9, tanh), microseconds per call:")
+    print(f"{'batch':>6}  {'numpy':>8}  {'torch module':>12}  {'torch predict':>13}")
+    for batch in (1, 8, 16):
+        observations = rng.normal(size=(batch, 5)).astype(np.float32)
+        tensor = torch.from_numpy(observations)
+
+        def module(x, policy=torch_policy):
+            with torch.no_grad():
+                return policy.action_net(policy.mlp_extractor.forward_actor(x))
+
+        numpy_us = time_per_call(numpy_actor, observations, 20_000)
+        module_us = time_per_call(module, tensor, 5_000)
+        predict_us = time_per_call(
+            lambda x: torch_policy.predict(x, deterministic=True), observations, 5_000
+        )
+        print(f"{batch:>6}  {numpy_us:>8.1f}  {module_us:>12.1f}  {predict_us:>13.1f}")
+    one = rng.normal(size=5).astype(np.float32)
+    single = time_per_call(lambda x: act_once(numpy_actor, x), one, 20_000)
+    print(f"one observation through act_once (numpy): {single:.1f} us")
+
+
+def record_actions(episodes: int) -> dict[str, list[tuple[int, list]]]:
+    """The reference policy's actions on each single-bot task's first eval seeds (played
+    alone; the evaluation's lockstep groups play the same episodes, but for near-ties in
+    the network's last bits)."""
+    policy = load_policy("reference")
+    recorded: dict[str, list[tuple[int, list]]] = {}
+    for task_id in bbbench.list_tasks(multi_agent=False):
+        actor, env = policy.actor(task_id), bbbench.make(task_id)
+        recorded[task_id] = []
+        for seed in bbbench.spec(task_id).eval_seeds[:episodes]:
+            observation, _ = env.reset(seed=seed)
+            actions, done = [], False
+            while not done:
+                actions.append(act_once(actor, observation))
+                observation, _, terminated, truncated, _ = env.step(actions[-1])
+                done = terminated or truncated
+            recorded[task_id].append((seed, actions))
+        env.close()
+    return recorded
+
+
+def bare_env_rate(recorded: dict[str, list[tuple[int, list]]]) -> tuple[float, int]:
+    """Steps per second of `bbbench.make(task)` replaying the recorded episodes."""
+    steps, elapsed = 0, 0.0
+    for task_id, episodes in recorded.items():
+        env = bbbench.make(task_id)
+        for seed, actions in episodes:
+            began = time.perf_counter()
+            env.reset(seed=seed)
+            step = env.step
+            for action in actions:
+                step(action)
+            elapsed += time.perf_counter() - began
+            steps += len(actions)
+        env.close()
+    return steps / elapsed, steps
+
+
+def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
+    """Environment steps per second of the whole `bbbench eval` command."""
+    began = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "bbbench", "eval", "--episodes", str(episodes),
+         "--workers", str(workers), "--json", str(out)],
+        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    elapsed = time.perf_counter() - began
+    document = json.loads(out.read_text())
+    steps = sum(e["length"] for task in document["tasks"] for e in task["episodes"])
+    return steps / elapsed, steps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--episodes", type=int, default=100, help="eval seeds per task")
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args()
+    print(f"bbbench {bbbench.__version__}, {os.cpu_count()} cores, Python {sys.version.split()[0]}")
+    network_costs()
+    recorded = record_actions(args.episodes)
+    print(f"\nreference policy on {len(recorded)} single-bot tasks x {args.episodes} eval seeds")
+    one_vs_bare, two_vs_one = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        for round_ in range(1, args.rounds + 1):
+            bare, bare_steps = bare_env_rate(recorded)
+            one, steps = command_rate(args.episodes, 1, Path(folder) / "one.json")
+            two, _ = command_rate(args.episodes, 2, Path(folder) / "two.json")
+            one_json, two_json = Path(folder) / "one.json", Path(folder) / "two.json"
+            if one_json.read_bytes() != two_json.read_bytes():
+                raise SystemExit("1 and 2 workers wrote different results")
+            one_vs_bare.append(one / bare)
+            two_vs_one.append(two / one)
+            print(
+                f"round {round_}: bare env {bare:,.0f} steps/s ({bare_steps:,} steps); "
+                f"eval, 1 worker {one:,.0f} steps/s ({steps:,} steps) = {one / bare:.3f}x bare; "
+                f"2 workers {two:,.0f} steps/s = {two / one:.2f}x 1 worker"
+            )
+    print(
+        f"\nmedian: 1 worker / bare env {statistics.median(one_vs_bare):.3f} (target >= 0.7); "
+        f"2 workers / 1 worker {statistics.median(two_vs_one):.2f} (target >= 1.8)"
+    )
+
+
+if __name__ == "__main__":
+    main()
