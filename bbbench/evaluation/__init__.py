@@ -16,8 +16,8 @@ from typing import Any
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
 from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
 from bbbench.evaluation.results import document, dumps
-from bbbench.policies.base import Policy, PolicyError, describe_space, fitting_tasks
-from bbbench.tasks.suite import agent_spaces, list_tasks, spec
+from bbbench.policies.base import Policy, PolicyError, fitting_tasks
+from bbbench.tasks.suite import list_tasks, spec
 
 LOCKSTEP = 8  # single-bot episodes a worker plays side by side
 
@@ -41,22 +41,17 @@ def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list
         unfit = [(task_id, policy.mismatch(task_id)) for task_id in task_ids]
         unfit = [reason for _, reason in unfit if reason]
         if unfit:
-            raise PolicyError(f"{policy.name} ({_spaces(policy)}) cannot play: {'; '.join(unfit)}")
+            raise PolicyError(
+                f"{policy.name} ({policy.spaces_text()}) cannot play: {'; '.join(unfit)}"
+            )
         return task_ids
     task_ids = fitting_tasks(policy)
     if not task_ids:
         wants = "; ".join(policy.mismatch(task_id) or "" for task_id in list_tasks())
-        raise PolicyError(f"{policy.name} ({_spaces(policy)}) fits no task of the suite: {wants}")
+        raise PolicyError(
+            f"{policy.name} ({policy.spaces_text()}) fits no task of the suite: {wants}"
+        )
     return task_ids
-
-
-def _spaces(policy: Policy) -> str:
-    text = getattr(policy, "spaces_text", None)
-    if text is not None:
-        return text()
-    return (
-        f"any observation -> {describe_space(agent_spaces(list_tasks()[0], policy.action_mode)[1])}"
-    )
 
 
 def evaluate(

@@ -62,6 +62,11 @@ class Policy(abc.ABC):
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         """A picklable actor for one bot of `task_id`."""
 
+    def spaces_text(self) -> str:
+        """The spaces the policy works in, for error messages."""
+        action_space = agent_spaces(list_tasks()[0], self.action_mode)[1]
+        return f"any observation -> {describe_space(action_space)}"
+
     def record(self) -> dict[str, Any]:
         """The policy as the results JSON records it."""
         return {
