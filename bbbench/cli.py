@@ -181,7 +181,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
             on_result=lambda count, played: progress.advance(bar, count),
         )
     document = result.document
-    Console().print(_results_table(document))
+    out = Console()
+    if not out.is_terminal:  # a pipe or a file: wide enough that nothing is cut
+        out = Console(width=120)
+    out.print(_results_table(document))
     if args.json is not None:
         write_atomic(args.json, evaluation.dumps(document).encode())
         print(f"wrote {args.json}")

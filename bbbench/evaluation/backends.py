@@ -39,6 +39,11 @@ def default_workers() -> int:
 
 def _serve(connection: Connection, runner: EpisodeRunner) -> None:
     """A worker: plays the episodes it is sent, keeping its envs, until told to stop."""
+    # pybullet prints a line on stdout for every world it creates; the command's
+    # output is the parent's.
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.close(devnull)
     try:
         while (job := connection.recv()) is not None:
             index, task_id, seeds = job
