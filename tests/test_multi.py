@@ -237,9 +237,8 @@ def test_the_inlined_observation_and_reward_agree_with_the_shared_definitions():
             state = env._bots[i].read() if agent in env.agents else None
             if state is None:
                 continue
-            terms = reward_terms(
-                state.pitch, state.forward_velocity, env._targets[i, t + 1], env.task.reward
-            )
+            error = abs(state.forward_velocity - env._targets[i, t + 1])
+            terms = reward_terms(state.pitch, error, env.task.reward)
             assert (infos[agent]["reward_upright"], infos[agent]["reward_velocity"]) == terms
             assert rewards[agent] == sum(terms)
 

@@ -105,10 +105,9 @@ class PDPolicy(Policy):
     """The PD baseline (`bbbench.policies.PDController`): reads only the shared layout, so
     it fits every task."""
 
-    algorithm = "pd"
+    name = algorithm = "pd"
 
     def __init__(self, action_mode: str = "discrete") -> None:
-        self.name = "pd"
         self.action_mode = action_mode
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
@@ -121,11 +120,10 @@ class RandomPolicy(Policy):
     """Uniformly random actions: the 0 of the normalized score. It always acts
     stochastically, from the episode's seeded generator."""
 
-    algorithm = "random"
+    name = algorithm = "random"
     random_actions = True
 
     def __init__(self, action_mode: str = "discrete") -> None:
-        self.name = "random"
         self.action_mode = action_mode
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:

@@ -94,11 +94,6 @@ class MlpActor:
             x = activate(x @ weight_t + bias)
         return x
 
-    def head_output(self, observation: np.ndarray) -> np.ndarray:
-        """Logits, Q-values or (pre-squash) action means: the network's output."""
-        weight_t, bias = self.head
-        return self.latent(observation) @ weight_t + bias
-
     def __call__(
         self, observations: np.ndarray, rngs: Sequence[np.random.Generator] | None = None
     ) -> list:

@@ -144,7 +144,8 @@ _DEFAULT_ACTIVATION = {"PPO": "Tanh", "A2C": "Tanh", "DQN": "ReLU", "SAC": "ReLU
 
 # policy_kwargs bbbench understands. The first group shapes the network; the
 # second only matters for training (or for options that must be off).
-_ARCHITECTURE_KWARGS = ("net_arch", "activation_fn", "n_critics", "share_features_extractor")
+_PASSED_THROUGH_KWARGS = ("n_critics", "share_features_extractor")  # to the policy class as given
+_ARCHITECTURE_KWARGS = ("net_arch", "activation_fn", *_PASSED_THROUGH_KWARGS)
 _TRAINING_ONLY_KWARGS = (
     "ortho_init",
     "log_std_init",

@@ -251,8 +251,9 @@ class BalanceEnv(Env):
             target = self._targets[steps]
         except IndexError:  # past the time limit (an env used without TimeLimit)
             target = self._targets[-1]
-        reward = base_reward(state.pitch, state.forward_velocity, target, self.task.reward)
-        info = {"velocity_error": abs(state.forward_velocity - target)}
+        velocity_error = abs(state.forward_velocity - target)
+        reward = base_reward(state.pitch, velocity_error, self.task.reward)
+        info = {"velocity_error": velocity_error}
         if self._human:
             self._render_human()
         if self._perfect_sensors:

@@ -29,19 +29,14 @@ class RewardWeights:
 
 
 def reward_terms(
-    pitch: float, forward_velocity: float, target_velocity: float, weights: RewardWeights
+    pitch: float, velocity_error: float, weights: RewardWeights
 ) -> tuple[float, float]:
-    """The base reward's two terms, (upright, velocity); `base_reward` is their sum."""
-    return (
-        weights.upright * (1.0 - abs(pitch)),
-        -weights.velocity * abs(forward_velocity - target_velocity),
-    )
+    """The base reward's two terms, (upright, velocity); `base_reward` is their sum.
+    `velocity_error` is |forward_velocity - target_velocity| in m/s."""
+    return weights.upright * (1.0 - abs(pitch)), -weights.velocity * velocity_error
 
 
-def base_reward(
-    pitch: float, forward_velocity: float, target_velocity: float, weights: RewardWeights
-) -> float:
-    """The base reward of one step; at most `weights.upright`."""
-    return weights.upright * (1.0 - abs(pitch)) - weights.velocity * abs(
-        forward_velocity - target_velocity
-    )
+def base_reward(pitch: float, velocity_error: float, weights: RewardWeights) -> float:
+    """The base reward of one step; at most `weights.upright`. `velocity_error` is
+    |forward_velocity - target_velocity| in m/s (the env reports it in its info too)."""
+    return weights.upright * (1.0 - abs(pitch)) - weights.velocity * velocity_error
