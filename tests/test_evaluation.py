@@ -13,6 +13,7 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
+from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.evaluation.random_reference import measure
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
 from bbbench.policies.base import PDActor, PDPolicy
@@ -80,6 +81,24 @@ def test_episodes_are_the_eval_seeds_in_order_and_match_a_gymnasium_loop():
         assert episode["length"] == steps
         assert episode["velocity_error"] == errors / steps
         assert episode["success"] == (not terminated)
+
+
+def test_a_runner_holds_the_worlds_of_one_task_at_a_time_and_results_do_not_change():
+    policy = load_policy("pd")
+    runner = EpisodeRunner(
+        actors={task: policy.actor(task) for task in (FLAT, VELOCITY)},
+        action_mode="discrete",
+        sampled=False,
+    )
+    flat_seeds = bbbench.spec(FLAT).eval_seeds[:3]
+    try:
+        first = runner.play(FLAT, flat_seeds)
+        assert len(runner._envs[FLAT]) == 3
+        runner.play(VELOCITY, bbbench.spec(VELOCITY).eval_seeds[:2])
+        assert list(runner._envs) == [VELOCITY]  # Flat's worlds were closed
+        assert runner.play(FLAT, flat_seeds) == first
+    finally:
+        runner.close()
 
 
 def test_multi_bot_episodes_score_per_bot():

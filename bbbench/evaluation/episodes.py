@@ -53,7 +53,9 @@ def action_generator(seed: int) -> np.random.Generator:
 
 @dataclasses.dataclass
 class EpisodeRunner:
-    """Plays episodes of several tasks with one policy, keeping its envs between them.
+    """Plays episodes of several tasks with one policy, keeping the envs of the task
+    it plays between episodes (jobs come task by task; each world holds some 30 MB,
+    so the worlds of the task before are closed).
 
     `play(task_id, seeds)` plays a group of single-bot episodes in lockstep, one
     env each, so the policy's network runs once per step for the whole group;
@@ -69,6 +71,8 @@ class EpisodeRunner:
 
     def play(self, task_id: str, seeds: Sequence[int]) -> list[EpisodeResult]:
         task = spec(task_id)
+        if task_id not in self._envs:
+            self.close()
         envs = self._envs.setdefault(task_id, [])
         lanes = 1 if task.multi_agent else len(seeds)
         while len(envs) < lanes:
@@ -108,32 +112,46 @@ def _play_lockstep(
     seeds: Sequence[int],
     rngs: list[np.random.Generator] | None,
 ) -> list[EpisodeResult]:
-    """Single-bot episodes side by side: one batched policy call per step."""
+    """Single-bot episodes side by side: one batched policy call per step.
+
+    Row j of `batch` is the observation of lane `lanes[j]`; a lane that ends
+    leaves, and the rows after it move up.
+    """
     n = len(seeds)
-    observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
+    first = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
+    batch = np.stack(first)
     steps = [env.step for env in envs]
-    totals, errors, lengths = [0.0] * n, [0.0] * n, [0] * n
+    totals, errors, lengths = [0.0] * n, [0.0] * n, [limit] * n
     fell, failures = [False] * n, [None] * n
-    live = list(range(n))
-    while live:
-        batch = np.stack([observations[i] for i in live])
-        actions = act(batch, None if rngs is None else [rngs[i] for i in live])
-        ended = False
-        for i, action in zip(live, actions, strict=True):
+    lanes = list(range(n))
+    lane_rngs = rngs
+    for step in range(limit):
+        actions = act(batch, lane_rngs)
+        ended = []
+        for j, (i, action) in enumerate(zip(lanes, actions, strict=True)):
             if action is None:
-                failures[i], ended = f"step {lengths[i]}: {_NAN}", True
+                failures[i], lengths[i] = f"step {step}: {_NAN}", step
+                ended.append(j)
                 continue
             try:
-                observations[i], reward, fell[i], _, info = steps[i](action)
+                observation, reward, terminated, _, info = steps[i](action)
             except ValueError as problem:  # an action outside the space
-                failures[i], ended = f"step {lengths[i]}: {problem}", True
+                failures[i], lengths[i] = f"step {step}: {problem}", step
+                ended.append(j)
                 continue
+            batch[j] = observation
             totals[i] += reward
             errors[i] += info["velocity_error"]
-            lengths[i] += 1
-            ended |= fell[i] or lengths[i] >= limit
+            if terminated:
+                fell[i], lengths[i] = True, step + 1
+                ended.append(j)
         if ended:
-            live = [i for i in live if not (fell[i] or failures[i] or lengths[i] >= limit)]
+            keep = [j for j in range(len(lanes)) if j not in ended]
+            if not keep:
+                break
+            lanes = [lanes[j] for j in keep]
+            batch = batch[keep]
+            lane_rngs = None if rngs is None else [rngs[i] for i in lanes]
     return [
         EpisodeResult(
             seed,

@@ -126,7 +126,8 @@ class MlpActor:
                     self.high - self.low
                 )
             actions = list(action)
-        if np.isnan(out).any():
+        total = out.sum()  # NaN if any output is (one numpy call on the hot path)
+        if total != total:
             broken = np.isnan(out).any(axis=1)
             actions = [None if nan else action for action, nan in zip(actions, broken, strict=True)]
         return actions
