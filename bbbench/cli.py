@@ -18,7 +18,6 @@ from bbbench.files import write_atomic
 from bbbench.policies import PDController
 from bbbench.tasks.spec import episode_streams
 from bbbench.terrain import HeightfieldTerrain
-from bbbench.terrain.mesh import export
 
 USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
 
@@ -117,6 +116,8 @@ def cmd_terrain(args: argparse.Namespace) -> None:
             f"{spec.id} is on flat ground: there is no terrain to write. Tasks with terrain: "
             f"{', '.join(terrain_tasks)}"
         )
+    from bbbench.terrain.mesh import export  # trimesh: only this command needs it
+
     heightmap = spec.terrain.generate(episode_streams(args.seed).terrain)
     try:
         path = export(heightmap, args.out)

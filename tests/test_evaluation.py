@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import deque
 from pathlib import Path
 
 import jsonschema
@@ -13,6 +14,7 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
+from bbbench.evaluation.backends import _next_job
 from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.evaluation.random_reference import measure
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
@@ -227,6 +229,17 @@ def crashing_policy(tmp_path: Path, seed_index: int, times: int) -> CrashingPD:
     budget = tmp_path / "crashes"
     budget.write_text(str(times))
     return CrashingPD(float(observation[4]), budget)
+
+
+def test_each_worker_plays_its_own_stretch_of_jobs_then_takes_from_the_longest_left():
+    stretches = [deque([0, 1, 2]), deque([3, 4, 5, 6]), deque([7])]
+    taken = [_next_job(stretches, 0) for _ in range(3)]
+    assert taken == [0, 1, 2]
+    assert _next_job(stretches, 0) == 6  # the end of the longest stretch: its last task
+    assert _next_job(stretches, 1) == 3  # the owner goes on from the front
+    assert _next_job(stretches, 2) == 7
+    assert [_next_job(stretches, 2) for _ in range(2)] == [5, 4]
+    assert not any(stretches)
 
 
 def test_a_worker_that_dies_once_has_its_episodes_retried_with_the_same_results(tmp_path):

@@ -11,6 +11,7 @@ give identical results.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing
 import os
 from collections import deque
@@ -34,6 +35,28 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+# glibc's mallopt parameters (malloc.h)
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_MMAP_THRESHOLD_MAX = 32 * 1024 * 1024  # glibc's largest on 64-bit systems
+
+
+def keep_freed_memory() -> None:
+    """Have glibc keep memory a worker frees, for its next allocations.
+
+    A worker closes the worlds of one task and builds those of the next, some
+    30 MB each. By default glibc hands such blocks back to the kernel on free,
+    and the next world faults every page in again (docs/performance.md measures
+    it). The cost: a worker's memory stays at its peak. No-op where the C
+    library has no mallopt.
+    """
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (AttributeError, OSError):
+        return
+    mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD_MAX)
+    mallopt(_M_TRIM_THRESHOLD, 2**30)
+
+
 # -- local worker processes --------------------------------------------------------
 
 
@@ -44,6 +67,7 @@ def _serve(connection: Connection, runner: EpisodeRunner) -> None:
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.close(devnull)
+    keep_freed_memory()
     try:
         while (job := connection.recv()) is not None:
             index, task_id, seeds = job
@@ -78,20 +102,32 @@ class _Worker:
 def run_local(
     runner: EpisodeRunner, jobs: Sequence[Job], workers: int, on_result: OnResult
 ) -> list[Results]:
-    """Run `jobs` on `workers` processes; each process keeps its envs between episodes."""
+    """Run `jobs` on `workers` processes; each process keeps its envs between episodes.
+
+    Each worker starts on its own stretch of consecutive jobs, and when that is
+    done takes jobs from the end of the longest stretch left: a worker plays few
+    tasks, so it builds few worlds.
+    """
     # fork starts a worker in milliseconds with the policy already in memory; the
     # workers never touch torch, which the parent may have used to load the policy.
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
     context = multiprocessing.get_context(method)
     results: list[Results] = [None] * len(jobs)
-    pending = deque((index, *job) for index, job in enumerate(jobs))
+    size = min(workers, len(jobs))
+    stretches = [
+        deque(
+            (index, *jobs[index])
+            for index in range(k * len(jobs) // size, (k + 1) * len(jobs) // size)
+        )
+        for k in range(size)
+    ]
     tries = [0] * len(jobs)
-    pool = [_Worker(context, runner) for _ in range(min(workers, len(jobs)))]
+    pool = [_Worker(context, runner) for _ in range(size)]
     try:
-        while pending or any(worker.job for worker in pool):
-            for worker in pool:
-                if worker.job is None and pending:
-                    job = pending.popleft()
+        while any(stretches) or any(worker.job for worker in pool):
+            for slot, worker in enumerate(pool):
+                if worker.job is None and any(stretches):
+                    job = _next_job(stretches, slot)
                     tries[job[0]] += 1
                     worker.send(job)
             busy = [worker for worker in pool if worker.job is not None]
@@ -115,13 +151,21 @@ def run_local(
                     worker.stop()
                     pool[slot] = _Worker(context, runner)
                     if tries[index] < ATTEMPTS:
-                        pending.appendleft((index, *jobs[index]))
+                        stretches[slot].appendleft((index, *jobs[index]))
                     else:
                         on_result(index, None)
     finally:
         for worker in pool:
             worker.stop()
     return results
+
+
+def _next_job(stretches: list[deque], slot: int) -> tuple[int, str, tuple[int, ...]]:
+    """The next job of worker `slot`: the first of its stretch, else the last of the
+    longest stretch left."""
+    if stretches[slot]:
+        return stretches[slot].popleft()
+    return max(stretches, key=len).pop()
 
 
 # -- Ray -----------------------------------------------------------------------------
@@ -131,6 +175,7 @@ class _RayWorker:
     """A Ray actor: one `EpisodeRunner`, kept between episodes like a local worker."""
 
     def __init__(self, runner: EpisodeRunner) -> None:
+        keep_freed_memory()
         self.runner = runner
 
     def play(self, index: int, task_id: str, seeds: tuple[int, ...]) -> list[EpisodeResult]:
