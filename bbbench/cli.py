@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import statistics
 import sys
 from collections.abc import Callable, Sequence
@@ -309,12 +310,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The `bbbench` command; with `argv` None it reads the process's arguments."""
     args = build_parser().parse_args(argv)
     try:
         return args.run(args) or 0
     except UsageError as error:
         print(f"bbbench: error: {error}", file=sys.stderr)
         return USAGE_ERROR
+    finally:
+        if argv is None:
+            # The process exits next: its last garbage collection need not walk
+            # every object (0.2-0.3 s once `eval` has imported torch).
+            gc.freeze()
 
 
 if __name__ == "__main__":

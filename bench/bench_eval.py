@@ -11,15 +11,22 @@
    against the bare env, `bbbench.make(task)`, replaying the very same
    episodes' actions (recorded beforehand), in steps per second.
 3. Two workers against one: the same command with `--workers 2`.
+4. The same two without the command's start-up: `evaluate(policy, tasks,
+   workers=N)` in this process, the policy already loaded (torch imported), timed
+   from the call to its return (workers' start, episodes, statistics).
+5. The machine's own ceiling for two workers: the bare env replaying every
+   episode in one forked process, against two forked processes side by side
+   replaying half each; wall time from the first fork to the last exit.
 
-The three runs alternate, round by round, so they share the machine's slow and
-fast phases; each ratio is computed within a round.
+The runs alternate, round by round, so they share the machine's slow and fast
+phases; each ratio is computed within a round.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import statistics
 import subprocess
@@ -31,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import bbbench
+from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
 from bbbench.policies.base import REFERENCE_POLICY, SB3ZipPolicy, act_once
 
@@ -112,6 +120,24 @@ def bare_env_rate(recorded: dict[str, list[tuple[int, list]]]) -> tuple[float, i
     return steps / elapsed, steps
 
 
+def bare_env_processes_rate(recorded: dict[str, list[tuple[int, list]]], processes: int) -> float:
+    """Steps per second of `processes` forked processes replaying the recorded episodes
+    (each every `processes`-th episode of each task), from the first fork to the last exit."""
+    context = multiprocessing.get_context("fork")
+    shares = [
+        {task_id: episodes[k::processes] for task_id, episodes in recorded.items()}
+        for k in range(processes)
+    ]
+    began = time.perf_counter()
+    running = [context.Process(target=bare_env_rate, args=(share,)) for share in shares]
+    for process in running:
+        process.start()
+    for process in running:
+        process.join()
+    elapsed = time.perf_counter() - began
+    return sum(len(actions) for eps in recorded.values() for _, actions in eps) / elapsed
+
+
 def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
     """Environment steps per second of the whole `bbbench eval` command."""
     began = time.perf_counter()
@@ -126,6 +152,14 @@ def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
     return steps / elapsed, steps
 
 
+def evaluate_rate(policy, episodes: int, workers: int) -> float:
+    """Environment steps per second of `evaluate()`, the policy already loaded."""
+    tasks = bbbench.list_tasks(multi_agent=False)
+    began = time.perf_counter()
+    evaluation = evaluate(policy, tasks, episodes=episodes, workers=workers)
+    return evaluation.steps / (time.perf_counter() - began)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=100, help="eval seeds per task")
@@ -135,7 +169,8 @@ def main() -> None:
     network_costs()
     recorded = record_actions(args.episodes)
     print(f"\nreference policy on {len(recorded)} single-bot tasks x {args.episodes} eval seeds")
-    one_vs_bare, two_vs_one = [], []
+    policy = load_policy("reference")
+    one_vs_bare, two_vs_one, evaluate_two_vs_one, bare_two_vs_one = [], [], [], []
     with tempfile.TemporaryDirectory() as folder:
         for round_ in range(1, args.rounds + 1):
             bare, bare_steps = bare_env_rate(recorded)
@@ -144,16 +179,24 @@ def main() -> None:
             one_json, two_json = Path(folder) / "one.json", Path(folder) / "two.json"
             if one_json.read_bytes() != two_json.read_bytes():
                 raise SystemExit("1 and 2 workers wrote different results")
+            one_in, two_in = (evaluate_rate(policy, args.episodes, n) for n in (1, 2))
+            bare_one, bare_two = (bare_env_processes_rate(recorded, n) for n in (1, 2))
+            bare_two_vs_one.append(bare_two / bare_one)
             one_vs_bare.append(one / bare)
             two_vs_one.append(two / one)
+            evaluate_two_vs_one.append(two_in / one_in)
             print(
                 f"round {round_}: bare env {bare:,.0f} steps/s ({bare_steps:,} steps); "
                 f"eval, 1 worker {one:,.0f} steps/s ({steps:,} steps) = {one / bare:.3f}x bare; "
-                f"2 workers {two:,.0f} steps/s = {two / one:.2f}x 1 worker"
+                f"2 workers {two:,.0f} steps/s = {two / one:.2f}x 1 worker; "
+                f"evaluate(), 1 worker {one_in:,.0f} steps/s, 2 workers {two_in:,.0f} steps/s "
+                f"= {two_in / one_in:.2f}x; bare env in 2 processes / 1 {bare_two / bare_one:.2f}x"
             )
     print(
         f"\nmedian: 1 worker / bare env {statistics.median(one_vs_bare):.3f} (target >= 0.7); "
-        f"2 workers / 1 worker {statistics.median(two_vs_one):.2f} (target >= 1.8)"
+        f"2 workers / 1 worker {statistics.median(two_vs_one):.2f} (target >= 1.8); "
+        f"without start-up, 2 workers / 1 worker {statistics.median(evaluate_two_vs_one):.2f}; "
+        f"bare env, 2 processes / 1 {statistics.median(bare_two_vs_one):.2f}"
     )
 
 
