@@ -172,16 +172,19 @@ def cmd_eval(args: argparse.Namespace) -> int:
         disable=not console.is_terminal,
     ) as progress:
         bar = progress.add_task(f"{policy.name}: {len(task_ids)} task(s)", total=total)
-        result = evaluation.evaluate(
-            policy,
-            task_ids,
-            episodes=args.episodes,
-            workers=args.workers,
-            backend=args.backend,
-            address=args.address,
-            stochastic=args.stochastic,
-            on_result=lambda count, played: progress.advance(bar, count),
-        )
+        try:
+            result = evaluation.evaluate(
+                policy,
+                task_ids,
+                episodes=args.episodes,
+                workers=args.workers,
+                backend=args.backend,
+                address=args.address,
+                stochastic=args.stochastic,
+                on_result=lambda count, played: progress.advance(bar, count),
+            )
+        except PolicyError as error:  # its network cannot be built for a task's spaces
+            raise UsageError(str(error)) from None
     document = result.document
     out = Console()
     if not out.is_terminal:  # a pipe or a file: wide enough that nothing is cut

@@ -341,6 +341,19 @@ def test_weights_that_do_not_match_the_architecture_are_refused(honest_zips, tmp
         load_policy(path).actor(FLAT)
 
 
+def test_the_command_refuses_weights_that_do_not_fit_with_one_line_and_exit_2(
+    honest_zips, tmp_path, capsys
+):
+    def wider(data):
+        data["policy_kwargs"] = {"net_arch": [128, 128]}
+
+    path = rewrite(honest_zips["PPO-discrete"][0], tmp_path / "wider.zip", wider)
+    code, err = eval_exit(capsys, str(path), "--task", FLAT)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "do not fit" in err
+
+
 def test_refusals_are_policy_errors():
     assert issubclass(RefusedForSafety, PolicyError)
     assert str(RefusedForSafety("x")).startswith("refused for safety")
