@@ -17,6 +17,14 @@
 5. The machine's own ceiling for two workers: the bare env replaying every
    episode in one forked process, against two forked processes side by side
    replaying half each; wall time from the first fork to the last exit.
+6. The command's fixed cost F: `bbbench eval --episodes 1 --task
+   bbbench/FlatBalance-v0 --workers 1` (Python, the imports, torch, the zip, a
+   worker, one world, the statistics, the exit), less its one episode's steps at
+   the one-worker command's rate; and Amdahl's estimate for two workers from it:
+   the one-worker time T1 with everything but F spread at the machine's own
+   two-process ceiling c (5.), T1 / (F + (T1 - F) / c). It is an estimate, not a
+   bound: its parts are measured minutes apart, in different phases of the
+   machine.
 
 The runs alternate, round by round, so they share the machine's slow and fast
 phases; each ratio is computed within a round.
@@ -138,15 +146,23 @@ def bare_env_processes_rate(recorded: dict[str, list[tuple[int, list]]], process
     return sum(len(actions) for eps in recorded.values() for _, actions in eps) / elapsed
 
 
-def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
-    """Environment steps per second of the whole `bbbench eval` command."""
+def command_seconds(*arguments: str) -> float:
+    """Wall time of `python -m bbbench eval ARGUMENTS`, from start to exit."""
     began = time.perf_counter()
     subprocess.run(
-        [sys.executable, "-m", "bbbench", "eval", "--episodes", str(episodes),
-         "--workers", str(workers), "--json", str(out)],
-        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    elapsed = time.perf_counter() - began
+        [sys.executable, "-m", "bbbench", "eval", *arguments],
+        check=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    return time.perf_counter() - began
+
+
+def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
+    """Environment steps per second of the whole `bbbench eval` command."""
+    elapsed = command_seconds(
+        "--episodes", str(episodes), "--workers", str(workers), "--json", str(out)
+    )
     document = json.loads(out.read_text())
     steps = sum(e["length"] for task in document["tasks"] for e in task["episodes"])
     return steps / elapsed, steps
@@ -170,7 +186,7 @@ def main() -> None:
     recorded = record_actions(args.episodes)
     print(f"\nreference policy on {len(recorded)} single-bot tasks x {args.episodes} eval seeds")
     policy = load_policy("reference")
-    one_vs_bare, two_vs_one, evaluate_two_vs_one, bare_two_vs_one = [], [], [], []
+    one_vs_bare, two_vs_one, evaluate_two_vs_one, bare_two_vs_one, estimates = [], [], [], [], []
     with tempfile.TemporaryDirectory() as folder:
         for round_ in range(1, args.rounds + 1):
             bare, bare_steps = bare_env_rate(recorded)
@@ -182,6 +198,15 @@ def main() -> None:
             one_in, two_in = (evaluate_rate(policy, args.episodes, n) for n in (1, 2))
             bare_one, bare_two = (bare_env_processes_rate(recorded, n) for n in (1, 2))
             bare_two_vs_one.append(bare_two / bare_one)
+            fixed_json = Path(folder) / "fixed.json"
+            fixed = command_seconds(
+                "--episodes", "1", "--task", "bbbench/FlatBalance-v0", "--workers", "1",
+                "--json", str(fixed_json),
+            )  # fmt: skip
+            # less its one episode's steps, at the one-worker command's own rate
+            fixed -= json.loads(fixed_json.read_text())["tasks"][0]["episodes"][0]["length"] / one
+            one_seconds, ceiling = steps / one, bare_two / bare_one
+            estimates.append(one_seconds / (fixed + (one_seconds - fixed) / ceiling))
             one_vs_bare.append(one / bare)
             two_vs_one.append(two / one)
             evaluate_two_vs_one.append(two_in / one_in)
@@ -190,13 +215,16 @@ def main() -> None:
                 f"eval, 1 worker {one:,.0f} steps/s ({steps:,} steps) = {one / bare:.3f}x bare; "
                 f"2 workers {two:,.0f} steps/s = {two / one:.2f}x 1 worker; "
                 f"evaluate(), 1 worker {one_in:,.0f} steps/s, 2 workers {two_in:,.0f} steps/s "
-                f"= {two_in / one_in:.2f}x; bare env in 2 processes / 1 {bare_two / bare_one:.2f}x"
+                f"= {two_in / one_in:.2f}x; bare env in 2 processes / 1 {ceiling:.2f}x; "
+                f"the command's fixed cost {fixed:.2f} s of the 1-worker {one_seconds:.2f} s: "
+                f"Amdahl's estimate for 2 workers {estimates[-1]:.2f}x"
             )
     print(
         f"\nmedian: 1 worker / bare env {statistics.median(one_vs_bare):.3f} (target >= 0.7); "
         f"2 workers / 1 worker {statistics.median(two_vs_one):.2f} (target >= 1.8); "
         f"without start-up, 2 workers / 1 worker {statistics.median(evaluate_two_vs_one):.2f}; "
-        f"bare env, 2 processes / 1 {statistics.median(bare_two_vs_one):.2f}"
+        f"bare env, 2 processes / 1 {statistics.median(bare_two_vs_one):.2f}; "
+        f"Amdahl's estimate from the fixed cost and that ceiling {statistics.median(estimates):.2f}"
     )
 
 

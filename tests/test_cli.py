@@ -64,10 +64,23 @@ def test_bad_arguments_are_exit_2(argv, capsys):
 
 
 def test_python_dash_m_is_the_same_command():
+    # The process exits without the interpreter's teardown: its output must be flushed.
     done = subprocess.run(
         [sys.executable, "-m", "bbbench", "list"], capture_output=True, text=True, check=True
     )
     assert FLAT in done.stdout
+
+
+def test_the_process_exits_with_the_commands_code():
+    done = subprocess.run(
+        [sys.executable, "-m", "bbbench", "eval", "pd", "--episodes", "0"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == (
+        "bbbench: error: --episodes must be at least 1, got 0"
+    )
 
 
 def test_terrain_writes_the_episodes_mesh(tmp_path, capsys):
