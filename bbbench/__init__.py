@@ -11,6 +11,7 @@
 Importing bbbench registers every task of the suite with gymnasium.
 """
 
+import bbbench.sim  # noqa: F401  (first: it imports pybullet without its banner)
 from bbbench.tasks import TaskSpec, list_tasks, make, make_parallel, register_suite, spec
 
 __version__ = "0.1.0"

@@ -4,20 +4,18 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import statistics
 import sys
-from collections.abc import Callable, Sequence
-from pathlib import Path
+from collections.abc import Sequence
 from typing import NoReturn
 
-import numpy as np
 from rich.console import Console
 from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 
 import bbbench
-from bbbench.files import write_atomic
-from bbbench.policies import PDController
+from bbbench.files import check_output_path, write_atomic
 from bbbench.tasks.spec import episode_streams
 from bbbench.terrain import HeightfieldTerrain
 
@@ -26,17 +24,6 @@ USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
 
 class UsageError(Exception):
     """A mistake in what the user asked for: reported in one line, exit code 2."""
-
-
-def _policy(name: str, env) -> Callable[[np.ndarray], object]:
-    if name == "pd":
-        return PDController(action_mode=env.unwrapped.action_mode)
-    if name == "zero":
-        zero = 4 if env.unwrapped.action_mode == "discrete" else np.zeros(1, np.float32)
-        return lambda observation: zero
-    if name == "random":
-        return lambda observation: env.action_space.sample()
-    raise UsageError(f"unknown policy {name!r}; expected one of pd, zero, random")
 
 
 def cmd_list(args: argparse.Namespace) -> None:
@@ -64,38 +51,64 @@ def cmd_list(args: argparse.Namespace) -> None:
         )
 
 
+def _seed(value: int, flag: str = "--seed") -> int:
+    if value < 0:
+        raise UsageError(f"{flag} {value}: an episode seed is a whole number >= 0")
+    return value
+
+
 def cmd_rollout(args: argparse.Namespace) -> None:
+    from bbbench.evaluation.episodes import action_generator
+    from bbbench.policies import PolicyError, load_policy
+    from bbbench.policies.base import act_once
+
     try:
         spec = bbbench.spec(args.task)
     except ValueError as error:
         raise UsageError(str(error)) from None
     if args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    _seed(args.seed)
     if spec.multi_agent:
         raise UsageError(
             f"{spec.id} is a multi-bot task and rollout plays single-bot tasks: "
             f"choose one of {', '.join(bbbench.list_tasks(multi_agent=False))}, or play it "
             f"from Python with bbbench.make_parallel({spec.id!r})"
         )
-    env = bbbench.make(spec.id, action_mode=args.action_mode)
-    policy = _policy(args.policy, env)
-    env.action_space.seed(args.seed)
+    try:
+        policy = load_policy(
+            args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
+        )
+        if policy.mismatch(spec.id):
+            raise PolicyError(f"{policy.name} ({policy.spaces_text()}) cannot play {spec.id}")
+        actor = policy.actor(spec.id)
+    except PolicyError as error:
+        raise UsageError(str(error)) from None
+    _say_normalization(policy)
+    env = bbbench.make(spec.id, action_mode=policy.action_mode)
+    acting = "random actions" if policy.random_actions else "deterministic"
     print(
-        f"{spec.id}: {args.episodes} episode(s) of the {args.policy!r} policy, "
+        f"{spec.id}: {args.episodes} episode(s) of the {policy.name!r} policy ({acting}), "
         f"seeds {args.seed}..{args.seed + args.episodes - 1}"
     )
     print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  ended by")
     returns, lengths = [], []
     for seed in range(args.seed, args.seed + args.episodes):
         observation, _ = env.reset(seed=seed)
-        total, steps, terminated, truncated = 0.0, 0, False, False
-        while not (terminated or truncated):
-            observation, reward, terminated, truncated, _ = env.step(policy(observation))
+        rng = action_generator(seed) if policy.random_actions else None
+        total, steps, ended = 0.0, 0, None
+        while ended is None:
+            action = act_once(actor, observation, rng)
+            if action is None:
+                ended = "NaN action"
+                break
+            observation, reward, terminated, truncated, _ = env.step(action)
             total += reward
             steps += 1
+            ended = "fall" if terminated else "time limit" if truncated else None
         returns.append(total)
         lengths.append(steps)
-        print(f"{seed:>8}  {steps:>5}  {total:>8.2f}  {'fall' if terminated else 'time limit'}")
+        print(f"{seed:>8}  {steps:>5}  {total:>8.2f}  {ended}")
     env.close()
     print(
         f"mean return {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
@@ -103,6 +116,12 @@ def cmd_rollout(args: argparse.Namespace) -> None:
         f"{sum(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
         f"episodes reached the time limit"
     )
+
+
+def _say_normalization(policy) -> None:
+    source = getattr(policy, "normalization_source", None)
+    if source:
+        print(f"bbbench: {source}", file=sys.stderr)
 
 
 def cmd_terrain(args: argparse.Namespace) -> None:
@@ -120,7 +139,7 @@ def cmd_terrain(args: argparse.Namespace) -> None:
         )
     from bbbench.terrain.mesh import export  # trimesh: only this command needs it
 
-    heightmap = spec.terrain.generate(episode_streams(args.seed).terrain)
+    heightmap = spec.terrain.generate(episode_streams(_seed(args.seed)).terrain)
     try:
         path = export(heightmap, args.out)
     except (ValueError, OSError) as error:
@@ -135,6 +154,7 @@ def cmd_terrain(args: argparse.Namespace) -> None:
 def cmd_eval(args: argparse.Namespace) -> int:
     # Imported here: `bbbench list` should not pay for torch.
     from bbbench import evaluation
+    from bbbench.evaluation.backends import check_ray_address, default_workers
     from bbbench.evaluation.video import check_video_path, record_episode
     from bbbench.policies import PolicyError, load_policy
 
@@ -144,20 +164,26 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.backend != "ray":
         raise UsageError("--address names a Ray cluster: use it with --backend ray")
-    if args.backend == "ray":
-        try:
-            import ray  # noqa: F401
-        except ImportError:
-            raise UsageError("--backend ray needs Ray: pip install 'bbbench[ray]'") from None
-    if args.json is not None and not Path(args.json).parent.is_dir():
-        raise UsageError(f"--json {args.json}: no directory {Path(args.json).parent}")
-    try:
+    cores = default_workers()
+    if args.workers is not None and args.workers > cores and not args.address:
+        print(
+            f"bbbench: --workers {args.workers} is more than the {cores} core(s) here: "
+            f"using {cores}",
+            file=sys.stderr,
+        )
+        args.workers = cores
+    try:  # everything the run will need, before any episode is played
+        if args.json is not None:
+            check_output_path(args.json, "--json")
         if args.video is not None:
             check_video_path(args.video)
-        policy = load_policy(args.policy)
+        if args.backend == "ray":
+            check_ray_address(args.address)
+        policy = load_policy(args.policy, vecnormalize=args.vecnormalize)
         task_ids = evaluation.select_tasks(policy, args.task)
     except (PolicyError, ValueError) as error:
         raise UsageError(str(error)) from None
+    _say_normalization(policy)
     most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
     if args.episodes is not None and args.episodes > most:
         raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
@@ -186,6 +212,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
             )
         except PolicyError as error:  # its network cannot be built for a task's spaces
             raise UsageError(str(error)) from None
+        except ConnectionError as error:  # Ray answered on the port, then failed
+            raise UsageError(f"--address {args.address}: {error}") from None
     document = result.document
     out = Console()
     if not out.is_terminal:  # a pipe or a file: wide enough that nothing is cut
@@ -193,11 +221,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
     out.print(_results_table(document))
     if args.json is not None:
         write_atomic(args.json, evaluation.dumps(document).encode())
+        args.written.append(args.json)
         print(f"wrote {args.json}")
     if args.video is not None:
         task_id = task_ids[0]
         seed = bbbench.spec(task_id).eval_seeds[0]
         frames = record_episode(policy, task_id, seed, args.video, stochastic=args.stochastic)
+        args.written.append(args.video)
         print(f"wrote {args.video}: {task_id}, episode seed {seed}, {frames} frames")
     if result.missing:
         missing = ", ".join(f"{task_id} seed {seed}" for task_id, seed in result.missing)
@@ -214,7 +244,7 @@ def _results_table(document: dict) -> Table:
     policy = document["policy"]
     title = (
         f"{policy['name']} ({policy['algorithm']}, {policy['action_mode']} actions, "
-        f"{'deterministic' if document['deterministic'] else 'stochastic'})"
+        f"{'deterministic' if document['deterministic'] else 'sampled'})"
     )
     table = Table(title=title, title_justify="left")
     table.add_column("task", no_wrap=True)
@@ -245,6 +275,12 @@ def _results_table(document: dict) -> Table:
     return table
 
 
+def _builtin_policies() -> list[str]:
+    from bbbench.policies.base import BUILTIN_POLICIES
+
+    return sorted(BUILTIN_POLICIES)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bbbench", description="A benchmark suite for two-wheeled balancing robots."
@@ -256,22 +292,25 @@ def build_parser() -> argparse.ArgumentParser:
     listing.set_defaults(run=cmd_list)
 
     rollout = commands.add_parser(
-        "rollout", help="run a built-in policy on a task and print a summary"
+        "rollout", help="run a policy on a task's episodes and print a summary"
     )
     rollout.add_argument("--task", default="bbbench/FlatBalance-v0", help="task ID")
     rollout.add_argument(
         "--policy",
         default="pd",
-        choices=("pd", "zero", "random"),
-        help="pd: the PD baseline; zero: never change the wheel command; random: uniform actions",
+        metavar="POLICY",
+        help=f"a built-in ({', '.join(_builtin_policies())}) or a stable-baselines3 .zip "
+        f"(default pd)",
     )
     rollout.add_argument("--episodes", type=int, default=5, help="episodes to run (default 5)")
     rollout.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     rollout.add_argument(
         "--action-mode",
-        default="discrete",
         choices=("discrete", "continuous"),
-        help="the env's action mode",
+        help="the built-ins' action mode (default discrete; a zip's is its own)",
+    )
+    rollout.add_argument(
+        "--vecnormalize", metavar="PKL", help="VecNormalize statistics the zip was trained with"
     )
     rollout.set_defaults(run=cmd_rollout)
 
@@ -290,7 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Score a policy on the suite's fixed evaluation seeds: every task it fits, "
         "or those given with --task. POLICY is a stable-baselines3 .zip (read without "
         "unpickling anything) or a built-in: reference (the default, a PPO policy shipped "
-        "with bbbench), pd, random.",
+        f"with bbbench), {', '.join(p for p in _builtin_policies() if p != 'reference')}.",
     )
     evaluate.add_argument("policy", nargs="?", default="reference", metavar="POLICY")
     evaluate.add_argument(
@@ -304,6 +343,12 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
     evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
     evaluate.add_argument(
+        "--vecnormalize",
+        metavar="PKL",
+        help="the VecNormalize statistics (VecNormalize.save) the policy was trained with, "
+        "read without unpickling; found on its own where rl-zoo3 saves them",
+    )
+    evaluate.add_argument(
         "--video", metavar="OUT", help="write the first task's first episode (.gif or .mp4)"
     )
     evaluate.add_argument(
@@ -313,14 +358,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the process is, so that cleanup runs as for Ctrl-C."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """The `bbbench` command; with `argv` None it reads the process's arguments."""
     args = build_parser().parse_args(argv)
+    args.written = []  # files the command has written, for the message if interrupted
     try:
         return args.run(args) or 0
     except UsageError as error:
         print(f"bbbench: error: {error}", file=sys.stderr)
         return USAGE_ERROR
+    except (KeyboardInterrupt, Terminated) as interruption:
+        what = "interrupted" if isinstance(interruption, KeyboardInterrupt) else "terminated"
+        kept = f"wrote {', '.join(args.written)} only" if args.written else "nothing written"
+        print(f"bbbench: {what}; {kept}", file=sys.stderr)
+        return 130 if isinstance(interruption, KeyboardInterrupt) else 143
+
+
+def _terminate(signum, frame) -> NoReturn:
+    raise Terminated
 
 
 def run() -> NoReturn:
@@ -330,8 +389,9 @@ def run() -> NoReturn:
     By then every file the command writes is closed (written atomically) and its
     workers or Ray are stopped; skipping the interpreter's teardown saves some
     0.2 s once `eval` has imported torch. An exception, or argparse's own exit,
-    leaves the usual way.
+    leaves the usual way. SIGTERM stops the command as Ctrl-C does (exit 143).
     """
+    signal.signal(signal.SIGTERM, _terminate)
     code = main()
     sys.stdout.flush()
     sys.stderr.flush()

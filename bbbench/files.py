@@ -1,22 +1,75 @@
-"""Writing files so that a reader never sees half of one."""
+"""Writing files so that a reader never sees half of one, and checking where they go first."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+
+
+def check_output_path(path: str | Path, flag: str) -> Path:
+    """`ValueError` (saying what to do) unless a file can be written at `path`: a name
+    that is not an existing directory, in an existing, writable directory. Checked before
+    the work whose results it will hold, so a typo never costs them."""
+    text = str(path)
+    if not text.strip():
+        raise ValueError(f"{flag} is empty: give a file name")
+    path = Path(text)
+    if text.endswith(os.sep) or path.is_dir():
+        raise ValueError(f"{flag} {text}: is a directory; give a file name inside it")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{flag} {text}: exists and is not a regular file")
+    folder = path.parent
+    if not folder.is_dir():
+        raise ValueError(f"{flag} {text}: no directory {folder}")
+    try:  # the surest test of writability: create (exclusively) and remove a file there
+        descriptor, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+    except OSError as error:
+        raise ValueError(
+            f"{flag} {text}: cannot write in {folder} ({error.strerror or error})"
+        ) from None
+    os.close(descriptor)
+    os.unlink(probe)
+    return path
+
+
+@contextlib.contextmanager
+def replacing(path: str | Path, suffix: str = "") -> Iterator[Path]:
+    """A fresh temporary file beside `path` to write; on success it replaces `path` at
+    once (`os.replace`), on failure it is removed and `path` is untouched.
+
+    The name is unique and created exclusively (never an existing file, nor a link
+    planted at a predictable name), so concurrent writers of one path never collide.
+    `suffix` keeps an extension a writer needs (".gif").
+    """
+    path = Path(path)
+    descriptor, temporary = tempfile.mkstemp(
+        prefix=f".{path.name}.", suffix=f".partial{suffix}", dir=path.parent
+    )
+    os.close(descriptor)
+    try:
+        yield Path(temporary)
+        os.chmod(temporary, 0o666 & ~_umask())  # as open() would have made it
+        os.replace(temporary, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def write_atomic(path: str | Path, data: bytes) -> Path:
     """Write `data` to `path` through a temporary file beside it and an atomic rename:
     `path` holds either its old content or all of the new, never part of it."""
     path = Path(path)
-    temporary = path.with_name(f".{path.name}.partial")
-    try:
-        with open(temporary, "wb") as file:
-            file.write(data)
-            file.flush()
-            os.fsync(file.fileno())
-        temporary.replace(path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    with replacing(path) as temporary, open(temporary, "wb") as file:
+        file.write(data)
+        file.flush()
+        os.fsync(file.fileno())
     return path

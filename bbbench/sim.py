@@ -10,10 +10,16 @@ the next time it is used, so two copies never share bodies.
 from __future__ import annotations
 
 import contextlib
+import os
+import sys
 
 import numpy as np
-import pybullet
-from pybullet_utils.bullet_client import BulletClient
+
+from bbbench.quiet import c_output_silenced
+
+with c_output_silenced():  # pybullet prints its build time when imported
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
 
 GRAVITY = 9.81  # m/s^2
 SOLVER_ITERATIONS = 10
@@ -37,6 +43,17 @@ def physics_parameters() -> dict[str, int]:
         # +15% driving across terrain.
         "enableConeFriction": 0,
     }
+
+
+def check_display() -> None:
+    """`RuntimeError` unless pybullet's GUI can open a window here. Without a display,
+    pybullet's GUI connection ends the whole Python process (it calls `exit()`)."""
+    if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+        raise RuntimeError(
+            'render_mode="human" opens pybullet\'s GUI window, which needs a display, and '
+            "DISPLAY is not set: run under a desktop or `xvfb-run`, or use "
+            'render_mode="rgb_array" (headless frames)'
+        )
 
 
 class World:
@@ -79,8 +96,10 @@ class World:
 
     def _connect(self) -> BulletClient:
         if not self.gui:
-            client = BulletClient(connection_mode=pybullet.DIRECT)
+            with c_output_silenced():  # and "argv[0]=" when it connects
+                client = BulletClient(connection_mode=pybullet.DIRECT)
         else:
+            check_display()
             # pybullet allows one GUI per process; ask before it fails half-way.
             if World._gui_world_open:
                 raise RuntimeError(

@@ -6,10 +6,8 @@ own `predict`; hostile zips run no code and are refused with exit code 2.
 
 from __future__ import annotations
 
-import base64
 import contextlib
 import io
-import json
 import pickle
 import zipfile
 from pathlib import Path
@@ -20,11 +18,11 @@ import torch
 from stable_baselines3 import A2C, DQN, PPO, SAC, TD3
 
 import bbbench
-from bbbench.cli import main
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, RefusedForSafety, load_policy
 from bbbench.policies.base import act_once
 from bbbench.policies.sb3 import MEMBER_LIMITS
+from conftest import Payload, eval_exit, pickled, rewrite
 
 FLAT = "bbbench/FlatBalance-v0"
 VELOCITY = "bbbench/VelocityTracking-v0"
@@ -65,50 +63,6 @@ def honest_zips(tmp_path_factory) -> dict[str, tuple[Path, object]]:
         model.save(path)
         zips[name] = (path, model)
     return zips
-
-
-@pytest.fixture
-def marker(tmp_path) -> Path:
-    """A file a pickle payload would create: its absence shows no code ran."""
-    return tmp_path / "payload-ran"
-
-
-class Payload:
-    """Unpickling this creates `path` (a stand-in for any code an attacker runs)."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = str(path)
-
-    def __reduce__(self):
-        return (open, (self.path, "w"))
-
-
-def rewrite(source: Path, target: Path, change_data=None, members: dict | None = None) -> Path:
-    """A copy of a zip with its `data` JSON changed and members added or replaced."""
-    members = dict(members or {})
-    with zipfile.ZipFile(source) as archive:
-        for info in archive.infolist():
-            members.setdefault(info.filename, archive.read(info.filename))
-    if change_data is not None:
-        data = json.loads(members["data"])
-        change_data(data)
-        members["data"] = json.dumps(data).encode()
-    with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
-        for name, content in members.items():
-            archive.writestr(name, content)
-    return target
-
-
-def pickled(marker: Path) -> dict:
-    return {
-        ":type:": "<class 'abc.ABCMeta'>",
-        ":serialized:": base64.b64encode(pickle.dumps(Payload(marker))).decode(),
-    }
-
-
-def eval_exit(capsys, *argv: str) -> tuple[int, str]:
-    code = main(["eval", *argv, "--episodes", "1", "--workers", "1"])
-    return code, capsys.readouterr().err
 
 
 # -- honest zips ----------------------------------------------------------------------

@@ -18,7 +18,16 @@ def test_every_registered_task_is_pinned_and_every_pinned_task_stays_registered(
     assert set(bbbench.list_tasks()) <= set(STORED), "run: python -m bbbench.tasks.golden --add"
     for task_id in STORED:  # an old version stays registered when a new one is added
         assert task_id in bbbench.tasks.SUITE
-        assert (task_id in gym.registry) != bbbench.spec(task_id).multi_agent
+        assert task_id in gym.registry  # a multi-bot ID too: gym.make says what to use
+
+
+@pytest.mark.parametrize("task_id", ["bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0"])
+def test_gymnasium_make_of_a_multi_bot_task_points_to_make_parallel(task_id):
+    with pytest.raises(ValueError, match=r"bbbench\.make_parallel") as raised:
+        gym.make(task_id)
+    with pytest.raises(ValueError, match="multi-bot") as from_bbbench:
+        bbbench.make(task_id)
+    assert str(raised.value) == str(from_bbbench.value)
 
 
 @pytest.mark.parametrize("task_id", sorted(STORED))

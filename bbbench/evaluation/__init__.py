@@ -16,7 +16,8 @@ from typing import Any
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
 from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
 from bbbench.evaluation.results import document, dumps
-from bbbench.policies.base import Policy, PolicyError, fitting_tasks
+from bbbench.policies.base import Policy, fitting_tasks
+from bbbench.policies.errors import PolicyError
 from bbbench.tasks.suite import list_tasks, spec
 
 LOCKSTEP = 8  # single-bot episodes a worker plays side by side
@@ -80,6 +81,8 @@ def evaluate(
     workers = default_workers() if workers is None else workers
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
+    if address is None:  # this machine: more processes than cores only cost memory
+        workers = min(workers, default_workers())
     tasks = [spec(task_id) for task_id in task_ids]
     seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
@@ -112,6 +115,5 @@ def evaluate(
     missing = [key for key, result in by_seed.items() if result is None]
     steps = sum(result.length for result in by_seed.values() if result is not None)
     record = policy.record()
-    return Evaluation(
-        document(record, tasks, seeds, results, deterministic=not stochastic), missing, steps
-    )
+    deterministic = not (stochastic or policy.random_actions)
+    return Evaluation(document(record, tasks, seeds, results, deterministic), missing, steps)

@@ -14,6 +14,8 @@ import contextlib
 import ctypes
 import multiprocessing
 import os
+import signal
+import socket
 from collections import deque
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
@@ -60,8 +62,36 @@ def keep_freed_memory() -> None:
 # -- local worker processes --------------------------------------------------------
 
 
-def _serve(connection: Connection, runner: EpisodeRunner) -> None:
-    """A worker: plays the episodes it is sent, keeping its envs, until told to stop."""
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _die_with_parent(parent: int) -> None:
+    """Have the kernel kill this worker when its parent dies (Linux), however it dies:
+    a worker must never outlive the command that started it."""
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (AttributeError, OSError):  # not Linux: the pipe's EOF is the signal there
+        return
+    prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent:  # the parent died before the line above
+        os._exit(0)
+
+
+def _serve(
+    connection: Connection,
+    runner: EpisodeRunner,
+    parent: int,
+    inherited: Sequence[Connection] = (),
+) -> None:
+    """A worker: plays the episodes it is sent, keeping its envs, until told to stop.
+
+    `inherited`: the parent's ends of the other workers' pipes, which a forked
+    worker holds copies of: closed, so that each pipe has exactly its two ends.
+    """
+    _die_with_parent(parent)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the command's own handler
+    for other in inherited:
+        other.close()
     # pybullet prints a line on stdout for every world it creates; the command's
     # output is the parent's.
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -79,9 +109,12 @@ def _serve(connection: Connection, runner: EpisodeRunner) -> None:
 
 
 class _Worker:
-    def __init__(self, context, runner: EpisodeRunner) -> None:
+    def __init__(self, context, runner: EpisodeRunner, siblings: Sequence[_Worker] = ()) -> None:
         self.connection, child = context.Pipe()
-        self.process = context.Process(target=_serve, args=(child, runner), daemon=True)
+        inherited = [w.connection for w in siblings] if context.get_start_method() == "fork" else []
+        self.process = context.Process(
+            target=_serve, args=(child, runner, os.getpid(), inherited), daemon=True
+        )
         self.process.start()
         child.close()
         self.job: tuple[int, str, tuple[int, ...]] | None = None
@@ -90,12 +123,15 @@ class _Worker:
         self.job = job
         self.connection.send(job)
 
-    def stop(self) -> None:
-        with contextlib.suppress(OSError):
-            self.connection.send(None)
-        self.process.join(timeout=5)
+    def stop(self, wait: bool = True) -> None:
+        """Ask the worker to finish and wait for it (up to 5 s), or kill it at once."""
+        if wait:
+            with contextlib.suppress(OSError):
+                self.connection.send(None)
+            self.process.join(timeout=5)
         if self.process.is_alive():
             self.process.kill()
+            self.process.join()
         self.connection.close()
 
 
@@ -122,7 +158,10 @@ def run_local(
         for k in range(size)
     ]
     tries = [0] * len(jobs)
-    pool = [_Worker(context, runner) for _ in range(size)]
+    pool: list[_Worker] = []
+    for _ in range(size):
+        pool.append(_Worker(context, runner, pool))
+    finished = False
     try:
         while any(stretches) or any(worker.job for worker in pool):
             for slot, worker in enumerate(pool):
@@ -149,14 +188,15 @@ def run_local(
                     index = worker.job[0]
                     worker.job = None
                     worker.stop()
-                    pool[slot] = _Worker(context, runner)
+                    pool[slot] = _Worker(context, runner, pool[:slot] + pool[slot + 1 :])
                     if tries[index] < ATTEMPTS:
                         stretches[slot].appendleft((index, *jobs[index]))
                     else:
                         on_result(index, None)
-    finally:
+        finished = True
+    finally:  # interrupted (Ctrl-C, SIGTERM, an error): no worker is left behind
         for worker in pool:
-            worker.stop()
+            worker.stop(wait=finished)
     return results
 
 
@@ -169,6 +209,29 @@ def _next_job(stretches: list[deque], slot: int) -> tuple[int, str, tuple[int, .
 
 
 # -- Ray -----------------------------------------------------------------------------
+
+RAY_CONNECT_TIMEOUT = 10.0  # s
+
+
+def check_ray_address(address: str | None) -> None:
+    """`ValueError` naming `address` unless it is a Ray address that answers: None or
+    "auto" (a local Ray), or HOST:PORT / ray://HOST:PORT with something listening there.
+    Ray itself retries an unreachable address for minutes."""
+    if address is None or address in ("auto", "local"):
+        return
+    expected = "expected HOST:PORT or ray://HOST:PORT (e.g. 10.0.0.5:6379), or auto"
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isdecimal() or not 0 < int(port) < 65536:
+        raise ValueError(f"--address {address!r} is not a Ray address: {expected}")
+    try:
+        socket.create_connection((host, int(port)), timeout=RAY_CONNECT_TIMEOUT).close()
+    except OSError as error:
+        reason = error.strerror or type(error).__name__
+        raise ValueError(
+            f"--address {address}: no Ray cluster answers there ({reason}); start one with "
+            f"`ray start --head` or check the address"
+        ) from None
 
 
 class _RayWorker:
@@ -196,13 +259,16 @@ def run_ray(
 
     started = not ray.is_initialized()
     if started:
-        ray.init(
-            address=address,
-            include_dashboard=False,
-            log_to_driver=False,
-            configure_logging=False,
-            **({} if address else {"num_cpus": workers}),
-        )
+        try:
+            ray.init(
+                address=address,
+                include_dashboard=False,
+                log_to_driver=False,
+                configure_logging=False,
+                **({} if address else {"num_cpus": workers}),
+            )
+        except (ConnectionError, ValueError, RuntimeError) as error:
+            raise ConnectionError(f"cannot start or join Ray: {str(error)[:300]}") from None
     worker_class = ray.remote(num_cpus=1, max_restarts=ATTEMPTS - 1, max_task_retries=1)(_RayWorker)
     results: list[Results] = [None] * len(jobs)
     pending = deque((index, *job) for index, job in enumerate(jobs))

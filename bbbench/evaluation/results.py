@@ -16,14 +16,14 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import EpisodeResult
-from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.spec import TaskSpec, parse_task_id
 
 SCHEMA = "bbbench-results/1"
 
 
 def task_version(task_id: str) -> int:
     """0 for 'bbbench/FlatBalance-v0'."""
-    return int(task_id.rsplit("-v", 1)[1])
+    return parse_task_id(task_id)[2]
 
 
 def normalized(value: float, task: TaskSpec) -> float | None:

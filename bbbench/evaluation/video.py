@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from bbbench.evaluation.episodes import action_generator
+from bbbench.files import check_output_path, replacing
 from bbbench.policies.base import Policy, act_once
 from bbbench.tasks.suite import make, make_parallel, spec
 
@@ -15,13 +16,11 @@ FRAME_EVERY = 4  # steps per frame: 25 frames per second of a 100 Hz task
 
 
 def check_video_path(path: str | Path) -> Path:
-    """`ValueError` unless the path ends in .gif or .mp4, in an existing directory, and a
-    writer for it is installed."""
-    path = Path(path)
+    """`ValueError` unless the path ends in .gif or .mp4, can be written (an existing,
+    writable directory; not a directory itself), and a writer for it is installed."""
+    path = check_output_path(path, "--video")
     if path.suffix.lower() not in VIDEO_FORMATS:
         raise ValueError(f"--video {path}: expected a file name ending in .gif or .mp4")
-    if not path.parent.is_dir():
-        raise ValueError(f"--video {path}: no directory {path.parent}")
     try:
         import imageio.v3  # noqa: F401
 
@@ -50,15 +49,11 @@ def record_episode(
     frames = []
     _play(task, policy, act, rng, seed, frames)
     fps = round(1.0 / (task.control_dt * FRAME_EVERY))
-    temporary = path.with_name(f".{path.stem}.partial{path.suffix}")
-    try:
+    with replacing(path, suffix=path.suffix) as temporary:
         if path.suffix.lower() == ".gif":
             iio.imwrite(temporary, np.stack(frames), duration=1000 / fps, loop=0)
         else:
             iio.imwrite(temporary, np.stack(frames), fps=fps, codec="libx264", macro_block_size=8)
-        temporary.replace(path)
-    finally:
-        temporary.unlink(missing_ok=True)
     return len(frames)
 
 

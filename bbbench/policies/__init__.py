@@ -7,12 +7,11 @@ policy = load_policy("pd")              # or "random", "reference", or "policy.z
 from bbbench.policies.base import (
     BUILTIN_POLICIES,
     Policy,
-    PolicyError,
-    RefusedForSafety,
     fitting_tasks,
     load_policy,
     register_policy,
 )
+from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.pd import PDController
 
 __all__ = [

@@ -19,21 +19,11 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from bbbench.policies.errors import PolicyError
+from bbbench.policies.vecnormalize import ObservationNormalization
 from bbbench.tasks.suite import agent_spaces, list_tasks
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
-
-
-class PolicyError(ValueError):
-    """A policy that cannot be evaluated: a missing, unreadable or unsupported file, or a
-    policy that fits no task. The CLI reports it in one line with exit code 2."""
-
-
-class RefusedForSafety(PolicyError):
-    """A submitted file refused unread, because reading it could run its code."""
-
-    def __init__(self, message: str) -> None:
-        super().__init__(f"refused for safety: {message}")
 
 
 def describe_space(space: spaces.Space) -> str:
@@ -130,14 +120,47 @@ class RandomPolicy(Policy):
         return RandomActor(agent_spaces(task_id, self.action_mode)[1])
 
 
+@dataclasses.dataclass(frozen=True)
+class ConstantActor:
+    """The same action on every row."""
+
+    action: Any
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return [self.action] * len(observations)
+
+
+class ZeroPolicy(Policy):
+    """Never change the wheel command: the bot is left to fall (a lower bound)."""
+
+    name = algorithm = "zero"
+
+    def __init__(self, action_mode: str = "discrete") -> None:
+        self.action_mode = action_mode
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
+
+        if self.action_mode == "discrete":
+            return ConstantActor(WHEEL_SPEED_CHANGES.index(0.0))
+        return ConstantActor(np.zeros(1, dtype=np.float32))
+
+
 class SB3ZipPolicy(Policy):
     """A stable-baselines3 `.zip`, read without unpickling (`bbbench.policies.sb3`).
 
     Its actor runs the network in numpy (`backend="numpy"`, the default: faster
     for small MLPs) or as stable-baselines3's own torch module (`"torch"`).
+    `normalization`: the `VecNormalize` statistics the policy was trained with
+    (`bbbench.policies.vecnormalize`), applied to every observation first.
     """
 
-    def __init__(self, path: str | Path, backend: str = "numpy") -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        backend: str = "numpy",
+        normalization: ObservationNormalization | None = None,
+    ) -> None:
         from bbbench.policies.sb3 import read_sb3_zip
 
         if backend not in ("numpy", "torch"):
@@ -148,6 +171,8 @@ class SB3ZipPolicy(Policy):
         self.algorithm = loaded.algorithm
         self.action_mode = loaded.action_mode
         self.backend = backend
+        self.normalization = normalization
+        self.normalization_source: str | None = None  # how load_policy found the statistics
         self._actors: dict[tuple, Actor] = {}
 
     def mismatch(self, task_id: str) -> str | None:
@@ -167,16 +192,40 @@ class SB3ZipPolicy(Policy):
         return f"Box{self.loaded.observation_shape} -> {describe_space(self.loaded.action_space)}"
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        if not deterministic and self.loaded.use_sde:
+            raise PolicyError(
+                f"{self.name}: trained with gSDE (use_sde=True), whose exploration noise is "
+                f"not saved in the zip: bbbench evaluates it deterministically only (drop "
+                f"--stochastic)"
+            )
         observation_space, action_space = agent_spaces(task_id, self.action_mode)
         key = (observation_space.shape, describe_space(action_space), self.backend)
         if key not in self._actors:
             if self.backend == "numpy":
-                self._actors[key] = self.loaded.actor(observation_space, action_space)
+                actor = self.loaded.actor(observation_space, action_space)
             else:
-                self._actors[key] = TorchActor(
-                    self.loaded.torch_policy(observation_space, action_space)
-                )
+                actor = TorchActor(self.loaded.torch_policy(observation_space, action_space))
+            if self.normalization is not None:
+                actor = NormalizedActor(actor, self.normalization)
+            self._actors[key] = actor
         return self._actors[key]
+
+    def record(self) -> dict[str, Any]:
+        record = super().record()
+        if self.normalization is not None:
+            record["observation_normalization"] = self.normalization.record()
+        return record
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class NormalizedActor:
+    """An actor that sees observations as VecNormalize showed them in training."""
+
+    actor: Actor
+    normalization: ObservationNormalization
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return self.actor(self.normalization(observations), rngs)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -206,10 +255,11 @@ REFERENCE_POLICY = Path(__file__).with_name("reference.zip")
 
 # Built-in policies by name. A new classical baseline registers here (or through
 # `register_policy`) and `bbbench eval NAME` scores it.
-BUILTIN_POLICIES: dict[str, Callable[[], Policy]] = {
+BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "pd": PDPolicy,
     "random": RandomPolicy,
     "reference": _reference,
+    "zero": ZeroPolicy,
 }
 
 
@@ -220,18 +270,69 @@ def register_policy(name: str, factory: Callable[[], Policy]) -> None:
     BUILTIN_POLICIES[name] = factory
 
 
-def load_policy(name_or_path: str | Path, backend: str = "numpy") -> Policy:
-    """A built-in policy by name, or a stable-baselines3 `.zip` by path."""
+def load_policy(
+    name_or_path: str | Path,
+    backend: str = "numpy",
+    vecnormalize: str | Path | None = None,
+    action_mode: str | None = None,
+) -> Policy:
+    """A built-in policy by name, or a stable-baselines3 `.zip` by path.
+
+    `vecnormalize`: the `VecNormalize.save` statistics a zip was trained with. A
+    zip trained inside VecNormalize needs them: given here, or found where
+    rl-zoo3 saves them beside the zip (`policy.normalization_source` says so);
+    else `PolicyError`. `action_mode`: the built-ins pd, zero and random act in
+    either mode (default discrete); a zip's is its own.
+    """
     text = str(name_or_path)
     if text in BUILTIN_POLICIES:
-        return BUILTIN_POLICIES[text]()
+        if vecnormalize is not None:
+            raise PolicyError(f"--vecnormalize is for a policy file, not the built-in {text!r}")
+        policy = BUILTIN_POLICIES[text]()
+        if action_mode is not None and action_mode != policy.action_mode:
+            try:
+                policy = BUILTIN_POLICIES[text](action_mode=action_mode)
+            except TypeError:
+                raise PolicyError(
+                    f"the built-in policy {text!r} acts in {policy.action_mode} mode only"
+                ) from None
+        return policy
     path = Path(text)
     if path.suffix.lower() == ".zip" or path.exists():
-        return SB3ZipPolicy(path, backend=backend)
+        policy = SB3ZipPolicy(path, backend=backend)
+        if action_mode is not None and action_mode != policy.action_mode:
+            raise PolicyError(
+                f"{path}: its action space {describe_space(policy.loaded.action_space)} is "
+                f"{policy.action_mode}, not {action_mode}"
+            )
+        _attach_normalization(policy, path, vecnormalize)
+        return policy
     raise PolicyError(
         f"unknown policy {text!r}: give a stable-baselines3 .zip file or a built-in policy, "
         f"one of {', '.join(sorted(BUILTIN_POLICIES))}"
     )
+
+
+def _attach_normalization(policy: SB3ZipPolicy, path: Path, statistics: str | Path | None):
+    from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
+
+    trained_in_vecnormalize = policy.loaded.vecnormalize  # True, False or None: cannot tell
+    if statistics is None and trained_in_vecnormalize is not False:
+        statistics = find_rl_zoo_statistics(path)
+        if statistics is None and trained_in_vecnormalize:
+            raise PolicyError(
+                f"{path}: trained inside VecNormalize (observation normalization), and scored "
+                f"on raw observations it would score wrong: pass its statistics with "
+                f"--vecnormalize PATH (the file VecNormalize.save wrote; rl-zoo3 writes "
+                f"<run folder>/<env>/vecnormalize.pkl)"
+            )
+        if statistics is not None:
+            policy.normalization_source = (
+                f"observations normalized with {statistics} (found beside the policy, where "
+                f"rl-zoo3 saves them)"
+            )
+    if statistics is not None:
+        policy.normalization = read_statistics(statistics, policy.loaded.observation_shape)
 
 
 def fitting_tasks(policy: Policy) -> list[str]:

@@ -46,7 +46,7 @@ ACTIVATIONS = {
 }
 
 # How the last layer's output becomes an action.
-OUTPUTS = ("argmax", "gaussian", "squashed_gaussian", "tanh")
+OUTPUTS = ("argmax", "gaussian", "squashed_gaussian", "tanh", "clip")
 # SAC's clamp of its log standard deviation (stable_baselines3.sac.policies).
 _LOG_STD_MIN, _LOG_STD_MAX = -20.0, 2.0
 
@@ -61,11 +61,19 @@ class MlpActor:
         head: (weight^T, bias) of the output layer.
         output: "argmax" (logits or Q-values: PPO, A2C, DQN), "gaussian" (PPO and
             A2C on a Box: the mean, clipped to the bounds), "squashed_gaussian" (SAC:
-            tanh of the mean, scaled to the bounds), "tanh" (TD3: tanh, scaled).
+            tanh of the mean, scaled to the bounds), "tanh" (TD3, and ARS or PPO with
+            squash_output: tanh, scaled), "clip" (ARS: the output clipped to the bounds).
+            Only "argmax", "gaussian" and "squashed_gaussian" sample when acting
+            stochastically; the others act deterministically, as their `predict` does.
         log_std: PPO/A2C on a Box: the state-independent log standard deviation;
             SAC: (weight^T, bias) of its log-std layer; else None.
-        epsilon: DQN's exploration rate, used when acting stochastically.
+        epsilon: DQN's and QR-DQN's exploration rate: acting stochastically, they act
+            epsilon-greedily (as their `predict` does) rather than sampling the logits.
         low, high: the Box action bounds (None for Discrete).
+        quantiles: QR-DQN: the head gives `quantiles` values per action, and the action
+            is the argmax of their mean.
+        mean_clip: SAC and TQC with gSDE: the head's output is clipped to
+            [-mean_clip, mean_clip] (their Hardtanh) before tanh.
 
     It acts on batches: the bots of a multi-bot task, or the lockstep episodes a
     worker plays together.
@@ -76,9 +84,11 @@ class MlpActor:
     head: tuple[np.ndarray, np.ndarray]
     output: str
     log_std: np.ndarray | tuple[np.ndarray, np.ndarray] | None = None
-    epsilon: float = 0.0
+    epsilon: float | None = None
     low: np.ndarray | None = None
     high: np.ndarray | None = None
+    quantiles: int = 1
+    mean_clip: float | None = None
 
     def __post_init__(self) -> None:
         if self.activation not in ACTIVATIONS:
@@ -103,6 +113,10 @@ class MlpActor:
         latent = self.latent(observations)
         weight_t, bias = self.head
         out = latent @ weight_t + bias
+        if self.quantiles > 1:  # (k, quantiles x actions) -> the mean over quantiles
+            out = out.reshape(len(out), self.quantiles, -1).mean(axis=1)
+        if self.mean_clip is not None:
+            out = np.clip(out, -self.mean_clip, self.mean_clip)
         if self.output == "argmax":
             actions = out.argmax(axis=1).tolist()
             if rngs is not None:
@@ -111,7 +125,7 @@ class MlpActor:
                     for row, best, rng in zip(out, actions, rngs, strict=True)
                 ]
         else:
-            if rngs is not None and self.output != "tanh":  # TD3 acts deterministically,
+            if rngs is not None and self.output in ("gaussian", "squashed_gaussian"):
                 noise = np.stack([rng.standard_normal(out.shape[1:], np.float32) for rng in rngs])
                 if self.output == "gaussian":  # as stable-baselines3 does
                     log_std = self.log_std
@@ -119,7 +133,7 @@ class MlpActor:
                     std_weight_t, std_bias = self.log_std
                     log_std = np.clip(latent @ std_weight_t + std_bias, _LOG_STD_MIN, _LOG_STD_MAX)
                 out = out + np.exp(log_std) * noise
-            if self.output == "gaussian":
+            if self.output in ("gaussian", "clip"):
                 action = np.clip(out, self.low, self.high)
             else:
                 action = self.low + np.float32(0.5) * (np.tanh(out) + np.float32(1.0)) * (
@@ -134,7 +148,7 @@ class MlpActor:
 
     def _sample(self, out: np.ndarray, best: int, rng: np.random.Generator) -> int:
         n = out.shape[-1]
-        if self.epsilon:  # DQN: epsilon-greedy
+        if self.epsilon is not None:  # DQN, QR-DQN: epsilon-greedy
             return int(rng.integers(n)) if rng.random() < self.epsilon else best
         probabilities = np.exp(out - out[best])
         cumulative = np.cumsum(probabilities / probabilities.sum())

@@ -170,7 +170,8 @@ class BalanceEnv(Env):
             + (", difficulty=<a number in [0, 1]>" if task.difficulty is not None else "")
         )
         if unknown or (difficulty is not None and task.difficulty is None):
-            given = sorted(unknown) + (["difficulty"] if difficulty is not None else [])
+            flat = difficulty is not None and task.difficulty is None
+            given = sorted(unknown) + (["difficulty"] if flat else [])
             raise TypeError(
                 f"unknown keyword argument(s) {given} for {task.id}: accepted keyword "
                 f"arguments are {accepted}"

@@ -21,7 +21,7 @@ from bbbench.tasks.actions import (
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others, spawn_poses
 from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, sensed
 from bbbench.tasks.sensors import PerfectSensors
-from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams, parse_task_id
 from bbbench.terrain import load_ground
 
 # m: where fallen bots are set aside, far beyond anything an episode reaches.
@@ -156,7 +156,8 @@ class MultiBalanceEnv(ParallelEnv):
                 f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
             )
         if unknown or (difficulty is not None and task.difficulty is None):
-            given = sorted(unknown) + (["difficulty"] if difficulty is not None else [])
+            flat = difficulty is not None and task.difficulty is None
+            given = sorted(unknown) + (["difficulty"] if flat else [])
             accepted = "n_bots, action_mode, render_mode, max_episode_steps" + (
                 ", difficulty" if task.difficulty is not None else ""
             )
@@ -183,7 +184,11 @@ class MultiBalanceEnv(ParallelEnv):
         self.group = group = task.group
         self.action_mode = action_mode
         self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
+        self.metadata = {
+            **self.metadata,
+            "name": f"bbbench_{parse_task_id(task.id)[1].lower()}",  # bbbench_multibumps, ...
+            "render_fps": round(1.0 / task.control_dt),
+        }
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
@@ -271,6 +276,11 @@ class MultiBalanceEnv(ParallelEnv):
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         agents = self.agents
+        if not isinstance(actions, dict):
+            raise TypeError(
+                f"step() takes a dict of actions, one for each agent in env.agents, got "
+                f"{type(actions).__name__} {actions!r:.60}"
+            )
         if len(actions) != len(agents) or not all(agent in actions for agent in agents):
             self._refuse(actions)
         if not agents:

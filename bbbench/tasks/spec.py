@@ -6,6 +6,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import re
 from dataclasses import field
 from typing import NamedTuple
 
@@ -44,6 +45,18 @@ def episode_streams(episode_seed: int) -> EpisodeStreams:
 # Fields that document or score a task without changing its behaviour: editing
 # them must not change the fingerprint.
 _NOT_BEHAVIOUR_FIELDS = ("summary", "version_history", "random_return")
+
+
+_TASK_ID = re.compile(r"(?:(?P<namespace>[\w.-]+)/)?(?P<name>[\w.-]+?)-v(?P<version>\d+)")
+
+
+def parse_task_id(task_id: str) -> tuple[str | None, str, int]:
+    """('bbbench', 'Bumps', 0) for 'bbbench/Bumps-v0': namespace, name, version (one regex,
+    as gymnasium parses its IDs)."""
+    match = _TASK_ID.fullmatch(task_id)
+    if match is None:
+        raise ValueError(f"{task_id!r} is not a task ID of the form namespace/Name-vN")
+    return match["namespace"], match["name"], int(match["version"])
 
 
 @parameters
@@ -100,6 +113,7 @@ class TaskSpec:
         """The same task on terrain of another difficulty (a different fingerprint)."""
         if not isinstance(self.terrain, HeightfieldTerrain):
             raise TypeError(f"{self.id} is on flat ground: it takes no difficulty")
+        self.terrain.generator.height_bounds(difficulty)  # a clear error for a wrong value
         terrain = dataclasses.replace(self.terrain, difficulty=difficulty)
         return dataclasses.replace(self, terrain=terrain)
 

@@ -14,7 +14,7 @@ from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
 from bbbench.tasks.observation import observation_space
 from bbbench.tasks.sensors import NoisySensors
-from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.spec import TaskSpec, parse_task_id
 from bbbench.terrain import Bumps, HeightfieldTerrain, Obstacles
 
 _VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0))
@@ -84,7 +84,7 @@ SUITE: dict[str, TaskSpec] = {
 
 def task_name(task_id: str) -> str:
     """'Bumps' for 'bbbench/Bumps-v0': the task without namespace or version."""
-    return task_id.split("/", 1)[-1].rsplit("-v", 1)[0]
+    return parse_task_id(task_id)[1]
 
 
 def entry_point(task_id: str) -> str:
@@ -96,13 +96,19 @@ def entry_point(task_id: str) -> str:
 
 
 def register_suite() -> None:
-    """Register every single-bot task of the suite with gymnasium (idempotent).
+    """Register every task of the suite with gymnasium (idempotent).
 
-    Multi-bot tasks are PettingZoo environments, which gymnasium's registry
-    cannot make: `make_parallel` makes them from the same table.
+    Multi-bot tasks are PettingZoo environments, which `gymnasium.make` cannot
+    build: their IDs are registered so that `gymnasium.make` says to use
+    `bbbench.make_parallel` (or `bbbench.make_vec`) instead of "no such env".
     """
     for task in SUITE.values():
-        if task.multi_agent or task.id in gymnasium.registry:
+        if task.id in gymnasium.registry:
+            continue
+        if task.multi_agent:
+            gymnasium.register(
+                id=task.id, entry_point=not_a_gymnasium_env, kwargs={"task": task.id}
+            )
             continue
         kwargs = {"task": task.id}
         if task.difficulty is not None:  # recorded in env.spec, default or not
@@ -113,6 +119,18 @@ def register_suite() -> None:
             kwargs=kwargs,
             max_episode_steps=task.max_episode_steps,
         )
+
+
+def not_a_gymnasium_env(task: str, **kwargs: Any) -> gymnasium.Env:
+    """What `gymnasium.make` of a multi-bot task calls: an error that says what to use."""
+    raise ValueError(_multi_bot_hint(task))
+
+
+def _multi_bot_hint(task_id: str) -> str:
+    return (
+        f"{task_id} is a multi-bot (PettingZoo) task: make it with "
+        f"bbbench.make_parallel({task_id!r}), or bbbench.make_vec for stable-baselines3"
+    )
 
 
 def list_tasks(multi_agent: bool | None = None) -> list[str]:
@@ -155,10 +173,7 @@ def agent_spaces(task_id: str, action_mode: str) -> tuple[spaces.Box, spaces.Spa
 def make(task_id: str, **kwargs: Any) -> gymnasium.Env:
     """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID."""
     if spec(task_id).multi_agent:
-        raise ValueError(
-            f"{task_id} is a multi-bot (PettingZoo) task: make it with "
-            f"bbbench.make_parallel({task_id!r}), or bbbench.make_vec for stable-baselines3"
-        )
+        raise ValueError(_multi_bot_hint(task_id))
     return gymnasium.make(task_id, **kwargs)
 
 

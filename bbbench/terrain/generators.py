@@ -14,7 +14,11 @@ from bbbench.parameters import parameters
 
 
 def _check_difficulty(difficulty: float) -> float:
-    if not 0.0 <= difficulty <= 1.0:
+    if (
+        isinstance(difficulty, bool)
+        or not isinstance(difficulty, int | float | np.integer | np.floating)
+        or not 0.0 <= difficulty <= 1.0
+    ):
         raise ValueError(f"difficulty must be a number in [0, 1], got {difficulty!r}")
     return float(difficulty)
 
