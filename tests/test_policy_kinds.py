@@ -15,6 +15,7 @@ import pickle
 import shutil
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 import torch
@@ -116,7 +117,10 @@ def test_statistics_beside_the_zip_as_rl_zoo3_saves_them_are_found_said_and_reco
     assert code == 0, err
     assert "found beside the policy" in err
     assert str(statistics) in err
-    record = json.loads(out.read_text())["policy"]["observation_normalization"]
+    document = json.loads(out.read_text())
+    schema = json.loads((Path(__file__).parent.parent / "docs/results-schema.json").read_text())
+    jsonschema.validate(document, schema)
+    record = document["policy"]["observation_normalization"]
     assert record["sha256"] == hashlib.sha256(statistics.read_bytes()).hexdigest()
     assert record["file"] == "vecnormalize.pkl"
 
