@@ -119,9 +119,8 @@ def cmd_rollout(args: argparse.Namespace) -> None:
 
 
 def _say_normalization(policy) -> None:
-    source = getattr(policy, "normalization_source", None)
-    if source:
-        print(f"bbbench: {source}", file=sys.stderr)
+    if policy.normalization_source:
+        print(f"bbbench: {policy.normalization_source}", file=sys.stderr)
 
 
 def cmd_terrain(args: argparse.Namespace) -> None:
@@ -166,12 +165,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise UsageError("--address names a Ray cluster: use it with --backend ray")
     cores = default_workers()
     if args.workers is not None and args.workers > cores and not args.address:
+        # evaluate() caps them; the command says so
         print(
             f"bbbench: --workers {args.workers} is more than the {cores} core(s) here: "
             f"using {cores}",
             file=sys.stderr,
         )
-        args.workers = cores
     try:  # everything the run will need, before any episode is played
         if args.json is not None:
             check_output_path(args.json, "--json")

@@ -14,6 +14,8 @@ import pytest
 
 import bbbench
 from bbbench.cli import main
+from bbbench.policies import load_policy
+from bbbench.policies.base import act_once
 
 FLAT = "bbbench/FlatBalance-v0"
 
@@ -96,3 +98,25 @@ def pickled(marker: Path) -> dict:
 def eval_exit(capsys, *argv: str) -> tuple[int, str]:
     code = main(["eval", *argv, "--episodes", "1", "--workers", "1"])
     return code, capsys.readouterr().err
+
+
+def assert_acts_as_predict(path: Path, model, steps: int = 200, **load) -> None:
+    """bbbench's numpy actor and its torch actor give `model.predict`'s deterministic actions
+    on VelocityTracking-v0, whose target changes (so every observation input matters)."""
+    task = "bbbench/VelocityTracking-v0"
+    policy = load_policy(path, **load)
+    numpy_actor = policy.actor(task)
+    torch_actor = load_policy(path, backend="torch", **load).actor(task)
+    env = bbbench.make(task, action_mode=policy.action_mode)
+    observation, _ = env.reset(seed=3)
+    for _ in range(steps):
+        expected, _ = model.predict(observation, deterministic=True)
+        ours, theirs = act_once(numpy_actor, observation), act_once(torch_actor, observation)
+        if policy.action_mode == "discrete":
+            assert ours == theirs == int(expected)
+        else:
+            np.testing.assert_array_equal(theirs, expected)
+            np.testing.assert_allclose(ours, expected, rtol=0, atol=1e-6)
+        observation, _, terminated, truncated, _ = env.step(expected)
+        if terminated or truncated:
+            observation, _ = env.reset()

@@ -20,9 +20,8 @@ from stable_baselines3 import A2C, DQN, PPO, SAC, TD3
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, RefusedForSafety, load_policy
-from bbbench.policies.base import act_once
 from bbbench.policies.sb3 import MEMBER_LIMITS
-from conftest import Payload, eval_exit, pickled, rewrite
+from conftest import Payload, assert_acts_as_predict, eval_exit, pickled, rewrite
 
 FLAT = "bbbench/FlatBalance-v0"
 VELOCITY = "bbbench/VelocityTracking-v0"
@@ -74,21 +73,7 @@ def test_honest_zip_acts_as_stable_baselines3_predict(honest_zips, name):
     policy = load_policy(path)
     assert policy.algorithm == name.split("-")[0]
     assert policy.action_mode == HONEST[name][1]
-    numpy_actor = policy.actor(VELOCITY)
-    torch_actor = load_policy(path, backend="torch").actor(VELOCITY)
-    env = bbbench.make(VELOCITY, action_mode=policy.action_mode)
-    observation, _ = env.reset(seed=3)
-    for _ in range(300):
-        expected, _ = model.predict(observation, deterministic=True)
-        ours, theirs = act_once(numpy_actor, observation), act_once(torch_actor, observation)
-        if policy.action_mode == "discrete":
-            assert ours == theirs == int(expected)
-        else:
-            np.testing.assert_array_equal(theirs, expected)
-            np.testing.assert_allclose(ours, expected, rtol=0, atol=1e-6)
-        observation, _, terminated, truncated, _ = env.step(expected)
-        if terminated or truncated:
-            observation, _ = env.reset()
+    assert_acts_as_predict(path, model, steps=300)
 
 
 @pytest.mark.parametrize("name", list(HONEST))

@@ -28,9 +28,8 @@ import bbbench
 from bbbench.cli import main
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, load_policy
-from bbbench.policies.base import act_once
 from bbbench.policies.vecnormalize import read_statistics
-from conftest import FLAT, Payload, eval_exit, rewrite
+from conftest import FLAT, Payload, assert_acts_as_predict, eval_exit, rewrite
 
 VELOCITY = "bbbench/VelocityTracking-v0"
 
@@ -40,26 +39,6 @@ def trained(algorithm, action_mode: str, path: Path, policy="MlpPolicy", steps=1
     model = algorithm(policy, env, seed=0, device="cpu", **kwargs).learn(steps)
     model.save(path)
     return model
-
-
-def assert_acts_as_predict(path: Path, model, steps: int = 200, **load) -> None:
-    """bbbench's numpy actor and its torch actor give `model.predict`'s deterministic actions."""
-    policy = load_policy(path, **load)
-    numpy_actor = policy.actor(VELOCITY)
-    torch_actor = load_policy(path, backend="torch", **load).actor(VELOCITY)
-    env = bbbench.make(VELOCITY, action_mode=policy.action_mode)
-    observation, _ = env.reset(seed=3)
-    for _ in range(steps):
-        expected, _ = model.predict(observation, deterministic=True)
-        ours, theirs = act_once(numpy_actor, observation), act_once(torch_actor, observation)
-        if policy.action_mode == "discrete":
-            assert ours == theirs == int(expected)
-        else:
-            np.testing.assert_array_equal(theirs, expected)
-            np.testing.assert_allclose(ours, expected, rtol=0, atol=1e-6)
-        observation, _, terminated, truncated, _ = env.step(expected)
-        if terminated or truncated:
-            observation, _ = env.reset()
 
 
 # -- VecNormalize ---------------------------------------------------------------------

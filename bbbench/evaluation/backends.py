@@ -92,11 +92,6 @@ def _serve(
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the command's own handler
     for other in inherited:
         other.close()
-    # pybullet prints a line on stdout for every world it creates; the command's
-    # output is the parent's.
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.close(devnull)
     keep_freed_memory()
     try:
         while (job := connection.recv()) is not None:

@@ -43,6 +43,7 @@ class Policy(abc.ABC):
     action_mode: str  # the env action mode it plays: "discrete" or "continuous"
     sha256: str | None = None  # of the policy file; None for a built-in without one
     random_actions = False  # True: acts from the episode's generator even when deterministic
+    normalization_source: str | None = None  # where load_policy found statistics on its own
 
     def mismatch(self, task_id: str) -> str | None:
         """Why the policy cannot play `task_id` (its spaces), or None if it can."""
@@ -172,7 +173,6 @@ class SB3ZipPolicy(Policy):
         self.action_mode = loaded.action_mode
         self.backend = backend
         self.normalization = normalization
-        self.normalization_source: str | None = None  # how load_policy found the statistics
         self._actors: dict[tuple, Actor] = {}
 
     def mismatch(self, task_id: str) -> str | None:

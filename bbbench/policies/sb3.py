@@ -410,9 +410,10 @@ def _linears(sequential) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def _hardtanh_bound(module) -> float | None:
+    """SAC's and TQC's clip of their mean under gSDE (a Hardtanh after `mu`), if any."""
     import torch
 
-    for layer in getattr(module, "children", lambda: [])():
+    for layer in module.modules():
         if isinstance(layer, torch.nn.Hardtanh):
             return float(layer.max_val)
     return None
@@ -721,12 +722,8 @@ def _policy_kwargs(path: Path, entry: Any) -> dict[str, Any]:
         kwargs["n_critics"] = _integer(path, plain, "n_critics", 2, _MAX_CRITICS)
     if "n_quantiles" in plain:
         kwargs["n_quantiles"] = _integer(path, plain, "n_quantiles", 25, _MAX_QUANTILES)
-    for key in ("share_features_extractor", "use_sde", "squash_output", "with_bias"):
-        if key in plain:
-            if not isinstance(plain[key], bool):
-                raise PolicyError(f"{path}: policy_kwargs {key} must be true or false")
-            kwargs[key] = plain[key]
-    for key in ("full_std", "use_expln"):
+    flags = ("share_features_extractor", "use_sde", "squash_output", "with_bias", "full_std")
+    for key in (*flags, "use_expln"):
         if key in plain:
             if not isinstance(plain[key], bool):
                 raise PolicyError(f"{path}: policy_kwargs {key} must be true or false")
