@@ -85,7 +85,7 @@ def cmd_rollout(args: argparse.Namespace) -> None:
     except PolicyError as error:
         raise UsageError(str(error)) from None
     _say_normalization(policy)
-    env = bbbench.make(spec.id, action_mode=policy.action_mode)
+    env = bbbench.make(spec.id, action_mode=policy.action_mode, **policy.env_options())
     acting = "random actions" if policy.random_actions else "deterministic"
     print(
         f"{spec.id}: {args.episodes} episode(s) of the {policy.name!r} policy ({acting}), "

@@ -1,12 +1,15 @@
 """Suite benchmark: every single-bot task's step rate against FlatBalance-v0's.
 
-    python bench/bench_suite.py [--steps 30000] [--chunk 250]
+    python bench/bench_suite.py [--steps 30000] [--chunk 250] [--tasks ID ...] [--height-scan]
 
 Each task is driven by the same policy (the PD baseline) on its evaluation
 seeds, resetting when an episode ends. Only the env's own time is counted
 (`step` and `reset`, policy excluded; also `step` alone), and the tasks run alternately in
 chunks so they share the machine's slow and fast phases. Also reports the
 mean time of a reset, which on terrain tasks draws and loads a new terrain.
+With `--height-scan`, each task is also timed with `height_scan=True` (a row
+"ID +scan") in the same alternation, and the scan's cost per step is printed:
+its step time over the same task's without it, less 1.
 """
 
 from __future__ import annotations
@@ -24,8 +27,8 @@ REFERENCE = "bbbench/FlatBalance-v0"
 class TaskLoop:
     """One task under the PD baseline, timing only the env's calls."""
 
-    def __init__(self, task_id: str) -> None:
-        self.env = bbbench.make(task_id)
+    def __init__(self, task_id: str, height_scan: bool = False) -> None:
+        self.env = bbbench.make(task_id, height_scan=height_scan)
         self.policy = PDController()
         self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
         self.elapsed = 0.0  # step and reset
@@ -65,9 +68,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=30_000, help="steps per task")
     parser.add_argument("--chunk", type=int, default=250, help="steps per alternation")
+    parser.add_argument(
+        "--tasks", nargs="+", help="task IDs to time (default: every single-bot task)"
+    )
+    parser.add_argument(
+        "--height-scan", action="store_true", help="also time each task with height_scan=True"
+    )
     args = parser.parse_args()
 
-    loops = {task_id: TaskLoop(task_id) for task_id in bbbench.list_tasks(multi_agent=False)}
+    task_ids = list(dict.fromkeys([REFERENCE, *(args.tasks or bbbench.list_tasks(False))]))
+    loops = {task_id: TaskLoop(task_id) for task_id in task_ids}
+    if args.height_scan:
+        loops.update({f"{task_id} +scan": TaskLoop(task_id, True) for task_id in task_ids})
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
             loop.run(args.chunk)
@@ -79,7 +91,7 @@ def main() -> None:
         f"alternating every {args.chunk} steps; env time only (step + reset)"
     )
     print(
-        f"  {'task':28s} {'steps/s':>8s} {'x Flat':>7s} {'step only':>10s} {'x Flat':>7s} "
+        f"  {'task':34s} {'steps/s':>8s} {'x Flat':>7s} {'step only':>10s} {'x Flat':>7s} "
         f"{'reset ms':>9s} {'falls':>6s}"
     )
     for task_id, loop in loops.items():
@@ -87,13 +99,19 @@ def main() -> None:
         step_rate = loop.steps / loop.stepping
         reset_ms = 1e3 * statistics.fmean(loop.reset_times[1:] or loop.reset_times)
         print(
-            f"  {task_id:28s} {rate:8.0f} {rate / reference:7.3f} {step_rate:10.0f} "
+            f"  {task_id:34s} {rate:8.0f} {rate / reference:7.3f} {step_rate:10.0f} "
             f"{step_rate / step_reference:7.3f} {reset_ms:9.2f} "
             f"{loop.falls:>3d}/{loop.episodes - 1}"
         )
+    if args.height_scan:
+        print("  height scan, cost per step (step only):")
+        for task_id in task_ids:
+            blind, scanned = loops[task_id], loops[f"{task_id} +scan"]
+            cost = (scanned.stepping / scanned.steps) / (blind.stepping / blind.steps) - 1.0
+            print(f"    {task_id:28s} {cost:+7.1%}")
     print(
-        "  targets: Bumps-v0 and Obstacles-v0 >= 0.7 x FlatBalance-v0; "
-        "a reset that builds a new terrain <= 20 ms"
+        "  targets: terrain tasks >= 0.7 x FlatBalance-v0; "
+        "a reset that builds a new terrain <= 20 ms; the height scan <= 5% of a step"
     )
 
 

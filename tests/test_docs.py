@@ -11,7 +11,7 @@ import bbbench
 from bbbench.robots import FALL_TILT
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.balance import BalanceEnv
-from bbbench.tasks.observation import OBSERVATION_LAYOUT
+from bbbench.tasks.observation import HEIGHT_SCAN_LAYOUT, OBSERVATION_LAYOUT, SCAN_OFFSETS
 from bbbench.tasks.reward import RewardWeights
 
 DOC = BalanceEnv.__doc__
@@ -36,6 +36,16 @@ def test_observation_table_matches_the_layout():
         assert row[4] == field.unit
 
 
+def test_height_scan_table_matches_the_layout():
+    rows = table_rows("Height Scan")
+    assert [row[1] for row in rows] == [field.name for field in HEIGHT_SCAN_LAYOUT]
+    for row, field, offset in zip(rows, HEIGHT_SCAN_LAYOUT, SCAN_OFFSETS, strict=True):
+        assert float(row[2]) == pytest.approx(field.low)
+        assert float(row[3]) == pytest.approx(field.high)
+        assert row[4] == field.unit
+        assert float(row[5].split()[0]) == pytest.approx(offset)
+
+
 def test_action_table_matches_the_wheel_speed_changes():
     rows = table_rows("Action Space")
     assert [float(row[1]) for row in rows] == list(WHEEL_SPEED_CHANGES)
@@ -58,10 +68,13 @@ def test_every_task_has_its_own_class_and_docstring_with_version_history(task_id
     assert issubclass(cls, BalanceEnv)
     assert cls is not BalanceEnv
     doc = cls.__doc__
-    assert doc.lstrip().startswith(f"`{task_id}`")
+    assert task_id in doc
     history = doc.split("## Version History")[1]
     version = task_id.rsplit("-", 1)[1]
     assert re.search(rf"^\s*- {version}: \S", history, re.MULTILINE)
     assert all(entry in history for entry in bbbench.spec(task_id).version_history)
-    # The class plays its task when made directly, too.
-    assert cls().task.id == task_id
+    # Made directly, the class plays its task's newest version (-v1 of Bumps, Obstacles).
+    name = task_id.split("/")[1].rsplit("-", 1)[0]
+    newest = max(t for t in bbbench.list_tasks() if t.split("/")[1].rsplit("-", 1)[0] == name)
+    assert cls().task.id == newest
+    assert doc.lstrip().startswith(f"`{newest}`")

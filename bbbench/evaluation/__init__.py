@@ -83,7 +83,11 @@ def evaluate(
         raise ValueError(f"workers must be at least 1, got {workers}")
     if address is None:  # this machine: more processes than cores only cost memory
         workers = min(workers, default_workers())
-    tasks = [spec(task_id) for task_id in task_ids]
+    # A policy that observes the ground ahead plays every task with the height scan on.
+    tasks = [
+        spec(task_id).with_height_scan() if policy.height_scan else spec(task_id)
+        for task_id in task_ids
+    ]
     seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
     jobs = [
@@ -95,6 +99,7 @@ def evaluate(
         actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,
+        height_scan=policy.height_scan,
     )
 
     def report(index: int, played: list[EpisodeResult] | None) -> None:

@@ -67,6 +67,7 @@ class EpisodeRunner:
     actors: dict[str, Actor]  # task ID -> the policy's actor for one bot of it
     action_mode: str
     sampled: bool  # act from the episode's generator (stochastic or random policies)
+    height_scan: bool = False  # single-bot envs observe the ground ahead (height_scan=True)
     _envs: dict[str, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
 
     def play(self, task_id: str, seeds: Sequence[int]) -> list[EpisodeResult]:
@@ -90,7 +91,8 @@ class EpisodeRunner:
         if spec(task_id).multi_agent:
             return make_parallel(task_id, action_mode=self.action_mode)
         # The env itself: the loop below keeps the time limit, as TimeLimit would.
-        return make(task_id, action_mode=self.action_mode).unwrapped
+        scan = {"height_scan": True} if self.height_scan else {}
+        return make(task_id, action_mode=self.action_mode, **scan).unwrapped
 
     def close(self) -> None:
         for envs in self._envs.values():

@@ -107,6 +107,8 @@ def document(
                 "missing": [s for s, r in zip(task_seeds, rs, strict=True) if r is None],
                 "aggregate": aggregate(task, ok),
                 "episodes": [r.record() for r in ok],
+                # Only when on: documents of blind policies keep their bytes.
+                **({"height_scan": True} if task.height_scan else {}),
             }
             for task, task_seeds, rs, ok in zip(tasks, seeds, results, played, strict=True)
         ],

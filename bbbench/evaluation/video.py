@@ -64,7 +64,7 @@ def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -
         env = make_parallel(task.id, action_mode=mode, render_mode="rgb_array")
         observations, _ = env.reset(seed=seed)
     else:
-        env = make(task.id, action_mode=mode, render_mode="rgb_array")
+        env = make(task.id, action_mode=mode, render_mode="rgb_array", **policy.env_options())
         observation, _ = env.reset(seed=seed)
     steps, done = 0, False
     try:

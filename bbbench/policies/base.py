@@ -21,6 +21,7 @@ from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.tasks.observation import observation_space as single_bot_observation_space
 from bbbench.tasks.suite import agent_spaces, list_tasks
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
@@ -44,6 +45,7 @@ class Policy(abc.ABC):
     sha256: str | None = None  # of the policy file; None for a built-in without one
     random_actions = False  # True: acts from the episode's generator even when deterministic
     normalization_source: str | None = None  # where load_policy found statistics on its own
+    height_scan = False  # True: observes the ground ahead too (tasks played with height_scan)
 
     def mismatch(self, task_id: str) -> str | None:
         """Why the policy cannot play `task_id` (its spaces), or None if it can."""
@@ -52,6 +54,10 @@ class Policy(abc.ABC):
     @abc.abstractmethod
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         """A picklable actor for one bot of `task_id`."""
+
+    def env_options(self) -> dict[str, Any]:
+        """Keywords for a single-bot env to observe what the policy expects."""
+        return {"height_scan": True} if self.height_scan else {}
 
     def spaces_text(self) -> str:
         """The spaces the policy works in, for error messages."""
@@ -173,17 +179,28 @@ class SB3ZipPolicy(Policy):
         self.action_mode = loaded.action_mode
         self.backend = backend
         self.normalization = normalization
+        # The single-bot layout followed by the height scan: the tasks are played with it.
+        self.height_scan = (
+            loaded.observation_shape == single_bot_observation_space(height_scan=True).shape
+        )
         self._actors: dict[tuple, Actor] = {}
 
     def mismatch(self, task_id: str) -> str | None:
-        observation_space, action_space = agent_spaces(task_id, self.action_mode)
+        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
         policy_action = self.loaded.action_space
         if observation_space.shape == self.loaded.observation_shape and (
             describe_space(action_space) == describe_space(policy_action)
         ):
             return None
+        scanned = agent_spaces(task_id, self.action_mode, height_scan=True)[0]
+        with_scan = (
+            f" (or {describe_space(scanned)} with height_scan=True)"
+            if scanned.shape != agent_spaces(task_id, self.action_mode)[0].shape
+            else ""
+        )
         return (
-            f"{task_id} wants {describe_space(observation_space)} -> "
+            f"{task_id} wants {describe_space(agent_spaces(task_id, self.action_mode)[0])}"
+            f"{with_scan} -> "
             f"{describe_space(agent_spaces(task_id, 'discrete')[1])} or "
             f"{describe_space(agent_spaces(task_id, 'continuous')[1])}"
         )
@@ -198,7 +215,7 @@ class SB3ZipPolicy(Policy):
                 f"not saved in the zip: bbbench evaluates it deterministically only (drop "
                 f"--stochastic)"
             )
-        observation_space, action_space = agent_spaces(task_id, self.action_mode)
+        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
         key = (observation_space.shape, describe_space(action_space), self.backend)
         if key not in self._actors:
             if self.backend == "numpy":

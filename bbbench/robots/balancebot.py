@@ -107,6 +107,7 @@ class BotState(NamedTuple):
     forward_velocity: float
     velocity: tuple[float, float]  # the axle's horizontal velocity, world frame (m/s)
     heading: tuple[float, float]  # the bot's forward direction, horizontal unit vector
+    axle: tuple[float, float, float]  # the axle's midpoint, world frame (m)
 
 
 def tilt_from_quaternion(orientation: tuple[float, float, float, float]) -> float:
@@ -284,6 +285,7 @@ class BalanceBot:
         length = math.hypot(r01, r11)  # horizontal length of the forward axis
         # Pointing straight up or down there is no heading: say +y.
         heading = (r01 / length, r11 / length) if length > 1e-9 else (0.0, 1.0)
+        px, py, pz = position
         return _new_state(
             (
                 position,
@@ -296,6 +298,7 @@ class BalanceBot:
                 vx * heading[0] + vy * heading[1],  # forward velocity
                 (vx, vy),
                 heading,
+                (px - d * r02, py - d * r12, pz - d * r22),  # axle
             )
         )
 

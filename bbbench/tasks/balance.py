@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, ClassVar
 
@@ -17,16 +18,23 @@ from bbbench.tasks.actions import (
     continuous_change,
     discrete_change,
 )
-from bbbench.tasks.observation import observation_space, observe
+from bbbench.tasks.observation import (
+    SCAN_OFFSETS,
+    observation_space,
+    observe,
+    observe_scanned,
+)
 from bbbench.tasks.reward import base_reward
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
 RENDER_WIDTH, RENDER_HEIGHT = 320, 240  # pixels of an "rgb_array" frame
-_CAMERA_DISTANCE = 1.6  # m from the bot
-_CAMERA_YAW = 90.0  # deg: looking along the axle, so the bot's lean is seen side-on
-_CAMERA_PITCH = -15.0  # deg
+_CAMERA_DISTANCE = 2.2  # m from the bot
+# deg from the bot's side, towards its back: the lean is seen from the side and the
+# ground ahead of it in depth.
+_CAMERA_YAW_FROM_SIDE = 50.0
+_CAMERA_PITCH = -25.0  # deg
 
 
 class BalanceEnv(Env):
@@ -54,6 +62,13 @@ class BalanceEnv(Env):
     | NoisySensors-v0     | flat                       | U(-1, 1), held 2-5 s    | biased, noisy  |
     | Bumps-v0            | smooth hills, difficulty   | U(0.2, 0.8), held 2-5 s | perfect        |
     | Obstacles-v0        | boxes and steps, difficulty| U(0.2, 0.8), held 2-5 s | perfect        |
+    | Bumps-v1            | steep short hills          | U(1, 2), held 2-5 s     | perfect        |
+    | Obstacles-v1        | obstacle course, 0.05 m cells | U(1, 2), held 2-5 s  | perfect        |
+    | Slopes-v1           | ramps up and down          | U(1, 2), held 2-5 s     | perfect        |
+
+    The -v1 terrain tasks are hard for a hand-written controller (the PD
+    baseline falls in about half their episodes); -v0 is kept for
+    comparability. Their classes (`BumpsEnv`, ...) document the design.
 
     NoisySensors: per episode, a pitch bias ~ N(0, 0.1) rad; per step, Gaussian
     noise of 0.05 rad on pitch, 0.01 rad/s on pitch rate, 0.05 rad/s on wheel
@@ -99,6 +114,31 @@ class BalanceEnv(Env):
     (1) saturates at 2000 deg/s, a common MEMS gyro's full scale. (2) what the
     encoders measure; saturates at 50 rad/s, about twice the motors' top speed.
 
+    ### Height Scan
+
+    `height_scan=True` (default False) appends 11 ground heights ahead of the
+    bot: `Box(16,)`. Each is the ground's height at a point on the bot's
+    heading, so many metres ahead of the axle, minus the axle's height (flat
+    ground reads -0.1, the wheel radius), clipped to +-3 m; read from the
+    episode's heightmap, bilinear between its nodes (no ray casts). The first
+    five values are the blind observation above, unchanged; the blind layout
+    stays the default, so one policy plays every task. A height-scan task is
+    a different spec (`spec.with_height_scan()`) with its own fingerprint.
+
+    | Num | Observation     | Min | Max | Unit | Ahead (m)        |
+    |-----|-----------------|-----|-----|------|------------------|
+    | 5   | height_scan_0  | -3  | 3   | m    | 0.0 (under the axle) |
+    | 6   | height_scan_1  | -3  | 3   | m    | 0.1              |
+    | 7   | height_scan_2  | -3  | 3   | m    | 0.2              |
+    | 8   | height_scan_3  | -3  | 3   | m    | 0.3              |
+    | 9   | height_scan_4  | -3  | 3   | m    | 0.4              |
+    | 10  | height_scan_5  | -3  | 3   | m    | 0.5              |
+    | 11  | height_scan_6  | -3  | 3   | m    | 0.6              |
+    | 12  | height_scan_7  | -3  | 3   | m    | 0.7              |
+    | 13  | height_scan_8  | -3  | 3   | m    | 0.8              |
+    | 14  | height_scan_9  | -3  | 3   | m    | 0.9              |
+    | 15  | height_scan_10 | -3  | 3   | m    | 1.0              |
+
     ## Rewards
 
     One function for every task (`bbbench.tasks.reward.base_reward`):
@@ -132,6 +172,7 @@ class BalanceEnv(Env):
     import bbbench
 
     env = gym.make("bbbench/FlatBalance-v0", action_mode="discrete", render_mode=None)
+    env = gym.make("bbbench/Slopes-v1", difficulty=0.5, height_scan=True)
     ```
 
     - `action_mode`: `"discrete"` (default) or `"continuous"`.
@@ -139,7 +180,10 @@ class BalanceEnv(Env):
       TinyRenderer, headless, a camera that follows the bot) or `"human"`
       (pybullet's GUI window, real time).
     - `difficulty` (terrain tasks only): a number in [0, 1]; higher hills and
-      obstacles. The default is the task's (0.3), and `env.spec` records it.
+      obstacles. The default is the task's (0.3 for -v0; 0.9, 0.5 and 0.9 for
+      Bumps-, Obstacles- and Slopes-v1), and `env.spec` records it.
+    - `height_scan`: False (default) or True, the ground heights ahead of the
+      bot appended to the observation (see Height Scan above).
 
     The pybullet world is created on the first `reset()`; a pickled copy of the
     env carries no world and builds its own on its next `reset()`.
@@ -147,7 +191,7 @@ class BalanceEnv(Env):
     ## Version History
 
     Each task's own class documents it: `bbbench.tasks.envs.FlatBalanceEnv`,
-    `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`.
+    `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`, `SlopesEnv`.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
@@ -158,6 +202,7 @@ class BalanceEnv(Env):
         action_mode: str = "discrete",
         render_mode: str | None = None,
         difficulty: float | None = None,
+        height_scan: bool | None = None,
         **unknown: Any,
     ) -> None:
         if not isinstance(task, TaskSpec):
@@ -166,7 +211,7 @@ class BalanceEnv(Env):
             task = spec(task)
         accepted = (
             f"action_mode={ACTION_MODES}, render_mode="
-            f"{(None, *self.metadata['render_modes'])}"
+            f"{(None, *self.metadata['render_modes'])}, height_scan=(False, True)"
             + (", difficulty=<a number in [0, 1]>" if task.difficulty is not None else "")
         )
         if unknown or (difficulty is not None and task.difficulty is None):
@@ -178,6 +223,8 @@ class BalanceEnv(Env):
             )
         if difficulty is not None:
             task = task.with_difficulty(difficulty)
+        if height_scan is not None:
+            task = task.with_height_scan(height_scan)
         if action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -190,7 +237,8 @@ class BalanceEnv(Env):
         self.render_mode = render_mode
         self._human = render_mode == "human"
         self.action_space = action_space(action_mode)
-        self.observation_space = observation_space()
+        self.observation_space = observation_space(task.height_scan)
+        self._height_scan = task.height_scan
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
         self._wheel_speed_change = (
             discrete_change if action_mode == "discrete" else continuous_change
@@ -233,7 +281,10 @@ class BalanceEnv(Env):
         self._steps = 0
         state = self._bot.read()
         self._last_reading = (state.pitch, state.pitch_rate, state.wheel_speed)
-        observation = self._sensed(state, self._bot.wheel_command, self._targets[0], 0)
+        if self._height_scan:
+            observation = self._scanned(state, self._bot.wheel_command, self._targets[0], 0)
+        else:
+            observation = self._sensed(state, self._bot.wheel_command, self._targets[0], 0)
         if self._human:
             self._render_human()
         return observation, {"episode_seed": episode_seed}
@@ -247,6 +298,8 @@ class BalanceEnv(Env):
         command = bot.command_wheel_speed(bot.wheel_command + self._wheel_speed_change(action))
         pybullet.stepSimulation(self._client_id)
         state = bot.read()
+        if self._follow is not None:
+            self._follow(state.axle[0])
         self._steps = steps = self._steps + 1
         try:
             target = self._targets[steps]
@@ -257,21 +310,35 @@ class BalanceEnv(Env):
         info = {"velocity_error": velocity_error}
         if self._human:
             self._render_human()
-        if self._perfect_sensors:
+        if self._height_scan:
+            observation = self._scanned(state, command, target, steps)
+        elif self._perfect_sensors:
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
             observation = self._sensed(state, command, target, steps)
         return observation, reward, state.tilt > FALL_TILT, False, info
 
+    def _scanned(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
+        """The observation followed by the ground heights ahead, relative to the axle."""
+        x, y, axle_height = state.axle
+        scan = self._ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
+        return observe_scanned(*self._reading(state, step), command, target, scan)
+
     def _sensed(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
         """The observation through the task's sensor model: delayed, biased, noisy."""
+        return observe(*self._reading(state, step), command, target)
+
+    def _reading(self, state: BotState, step: int) -> tuple[float, float, float]:
+        """Pitch, pitch rate and wheel speed as the task's sensors read them."""
         reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        if self._perfect_sensors:
+            return reading
         if self._delay:
             reading, self._last_reading = self._last_reading, reading
         if self._errors is not None:
             errors = self._errors[min(step, len(self._errors) - 1)]
             reading = (reading[0] + errors[0], reading[1] + errors[1], reading[2] + errors[2])
-        return observe(*reading, command, target)
+        return reading
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -298,24 +365,27 @@ class BalanceEnv(Env):
         self._client_id = self._world.client_id
         self._ground = load_ground(client, self.task.terrain)
         self._bot = BalanceBot(client)
+        # Terrain with no side edge moves with the bot (`HeightfieldGround.follow`).
+        self._follow = self._ground.follow if getattr(self._ground, "period", None) else None
 
-    def _camera_target(self) -> tuple[float, float, float]:
-        x, y, _ = self._bot.read().position
-        return (x, y, 0.25)  # the bot's middle height, steady while it leans
+    def _camera(self) -> tuple[tuple[float, float, float], float]:
+        """Where the camera looks (the axle, raised to the bot's middle height: steady
+        while it leans) and its yaw (deg): it follows the bot, up the slopes too."""
+        state = self._bot.read()
+        x, y, axle_height = state.axle
+        heading = math.degrees(math.atan2(state.heading[1], state.heading[0]))
+        return (x, y, axle_height + 0.15), heading - 90.0 + _CAMERA_YAW_FROM_SIDE
 
     def _render_rgb(self) -> np.ndarray:
+        self._ground.paint()
+        target, yaw = self._camera()
         return self._world.camera_image(
-            self._camera_target(),
-            _CAMERA_DISTANCE,
-            _CAMERA_YAW,
-            _CAMERA_PITCH,
-            (RENDER_WIDTH, RENDER_HEIGHT),
+            target, _CAMERA_DISTANCE, yaw, _CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
         )
 
     def _render_human(self) -> None:
-        self._world.client.resetDebugVisualizerCamera(
-            _CAMERA_DISTANCE, _CAMERA_YAW, _CAMERA_PITCH, self._camera_target()
-        )
+        target, yaw = self._camera()
+        self._world.client.resetDebugVisualizerCamera(_CAMERA_DISTANCE, yaw, _CAMERA_PITCH, target)
         # Real time: a frame per control step, no faster than the simulated clock.
         delay = self.task.control_dt - (time.perf_counter() - self._last_frame_time)
         if delay > 0:
@@ -328,4 +398,5 @@ class BalanceEnv(Env):
         state["_bot"] = None
         state.pop("_ground", None)
         state.pop("_client_id", None)
+        state.pop("_follow", None)
         return state

@@ -410,6 +410,7 @@ class MultiBalanceEnv(ParallelEnv):
             return None
         if self._bots is None:
             raise RuntimeError(f"{self.task.id}: call reset() before render()")
+        self._ground.paint()
         target, distance = self._camera()
         return self._world.camera_image(
             target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)

@@ -4,11 +4,16 @@ One policy can be evaluated on every task of the suite because every task
 returns the same vector, in the same order, with the same bounds. Readings a
 real robot's sensors would saturate are clipped to the sensor's range, so the
 bounds are honest: no observation ever leaves them.
+
+With `height_scan=True` the vector goes on with `SCAN_POINTS` ground heights
+ahead of the bot (`HEIGHT_SCAN_LAYOUT`): an option, off by default, so that the
+blind layout stays the one every policy can play.
 """
 
 from __future__ import annotations
 
 import math
+from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
@@ -61,12 +66,38 @@ INDEX = {field.name: i for i, field in enumerate(OBSERVATION_LAYOUT)}
 _OBSERVATION_SIZE = len(OBSERVATION_LAYOUT)
 _PI = math.pi
 
+# The height scan: ground heights at SCAN_POINTS points along the bot's heading,
+# SCAN_SPACING m apart from below the axle (0 m) to 1 m ahead, relative to the axle's
+# height (flat ground reads minus the wheel radius). 1 m is half a second at the
+# fastest target, 2 m/s; 0.1 m is two cells of the finest terrain.
+SCAN_POINTS = 11
+SCAN_SPACING = 0.1  # m
+SCAN_OFFSETS = tuple(SCAN_SPACING * k for k in range(SCAN_POINTS))  # m ahead of the axle
+SCAN_RANGE = 3.0  # m: readings are clipped to +-SCAN_RANGE (terrain spans at most 2 m)
 
-def observation_space() -> spaces.Box:
-    """The Box every single-bot task observes in."""
+HEIGHT_SCAN_LAYOUT = tuple(
+    ObservationField(
+        f"height_scan_{k}",
+        "m",
+        -SCAN_RANGE,
+        SCAN_RANGE,
+        f"ground height {offset:.1f} m ahead, relative to the axle",
+    )
+    for k, offset in enumerate(SCAN_OFFSETS)
+)
+
+
+def layout(height_scan: bool = False) -> tuple[ObservationField, ...]:
+    """The fields of the observation, in order: the shared layout, then the scan if asked."""
+    return OBSERVATION_LAYOUT + HEIGHT_SCAN_LAYOUT if height_scan else OBSERVATION_LAYOUT
+
+
+def observation_space(height_scan: bool = False) -> spaces.Box:
+    """The Box every single-bot task observes in (with the height scan: a longer one)."""
+    fields = layout(height_scan)
     return spaces.Box(
-        low=np.array([field.low for field in OBSERVATION_LAYOUT], dtype=OBSERVATION_DTYPE),
-        high=np.array([field.high for field in OBSERVATION_LAYOUT], dtype=OBSERVATION_DTYPE),
+        low=np.array([field.low for field in fields], dtype=OBSERVATION_DTYPE),
+        high=np.array([field.high for field in fields], dtype=OBSERVATION_DTYPE),
         dtype=OBSERVATION_DTYPE,
     )
 
@@ -108,4 +139,23 @@ def sensed(pitch: float, pitch_rate: float, wheel_speed: float) -> tuple[float, 
         ENCODER_SPEED_RANGE
         if wheel_speed > ENCODER_SPEED_RANGE
         else max(wheel_speed, -ENCODER_SPEED_RANGE),
+    )
+
+
+def observe_scanned(
+    pitch: float,
+    pitch_rate: float,
+    wheel_speed: float,
+    wheel_command: float,
+    target: float,
+    scan: list[float],
+) -> np.ndarray:
+    """`observe`'s vector followed by the height scan (m), clipped to +-SCAN_RANGE: one array,
+    built in one call (it runs every step of a height-scan task; bench/bench_suite.py)."""
+    if not -SCAN_RANGE <= min(scan) <= max(scan) <= SCAN_RANGE:  # rare: a deep drop ahead
+        scan = [SCAN_RANGE if h > SCAN_RANGE else max(h, -SCAN_RANGE) for h in scan]
+    return np.fromiter(
+        chain(sensed(pitch, pitch_rate, wheel_speed), (wheel_command, target), scan),
+        OBSERVATION_DTYPE,
+        _OBSERVATION_SIZE + len(scan),
     )

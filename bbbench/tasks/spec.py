@@ -45,6 +45,23 @@ def episode_streams(episode_seed: int) -> EpisodeStreams:
 # Fields that document or score a task without changing its behaviour: editing
 # them must not change the fingerprint.
 _NOT_BEHAVIOUR_FIELDS = ("summary", "version_history", "random_return")
+# Options added after tasks were published (fields of the spec or of its components), with
+# the value that means "as before": hashed only when set otherwise, so that adding an
+# option moves no published fingerprint.
+_OPTIONS_ADDED_LATER = {"height_scan": False, "lateral_period": None}
+
+
+def _published_options(value):
+    """`value` (from `dataclasses.asdict`) without the later options at their defaults."""
+    if isinstance(value, dict):
+        return {
+            key: _published_options(item)
+            for key, item in value.items()
+            if not (key in _OPTIONS_ADDED_LATER and item == _OPTIONS_ADDED_LATER[key])
+        }
+    if isinstance(value, list | tuple):
+        return [_published_options(item) for item in value]
+    return value
 
 
 _TASK_ID = re.compile(r"(?:(?P<namespace>[\w.-]+)/)?(?P<name>[\w.-]+?)-v(?P<version>\d+)")
@@ -80,6 +97,8 @@ class TaskSpec:
     max_episode_steps: int = 1500  # time limit (truncation)
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
+    # The observation ends with ground heights ahead of the bot (`tasks/observation.py`).
+    height_scan: bool = False
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
     # of the normalized score. Measured once (`python -m bbbench.evaluation.random_reference`).
@@ -103,6 +122,10 @@ class TaskSpec:
             raise ValueError(f"{self.id}: eval_seeds must not repeat")
         if any(seed in TRAINING_SEEDS for seed in self.eval_seeds):
             raise ValueError(f"{self.id}: eval_seeds must lie outside the training seeds")
+        if self.height_scan is not False and self.height_scan is not True:
+            raise ValueError(f"height_scan must be True or False, got {self.height_scan!r}")
+        if self.height_scan and self.group is not None:
+            raise ValueError(f"{self.id}: the height scan is a single-bot option")
 
     @property
     def difficulty(self) -> float | None:
@@ -128,6 +151,11 @@ class TaskSpec:
             raise TypeError(f"{self.id} has one bot: it takes no n_bots")
         return dataclasses.replace(self, group=dataclasses.replace(self.group, n_bots=n_bots))
 
+    def with_height_scan(self, height_scan: bool = True) -> TaskSpec:
+        """The same task observed with (or without) the ground heights ahead of the bot:
+        another observation space, and so a different fingerprint."""
+        return dataclasses.replace(self, height_scan=height_scan)
+
     def with_time_limit(self, max_episode_steps: int) -> TaskSpec:
         """The same task with another time limit (a different fingerprint)."""
         return dataclasses.replace(self, max_episode_steps=max_episode_steps)
@@ -142,7 +170,7 @@ class TaskSpec:
         """A hash of everything that decides the task's behaviour, robot model included."""
         behaviour = {
             key: value
-            for key, value in dataclasses.asdict(self).items()
+            for key, value in _published_options(dataclasses.asdict(self)).items()
             if key not in _NOT_BEHAVIOUR_FIELDS
         }
         # Class names tell apart components whose fields happen to match.

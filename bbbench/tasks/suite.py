@@ -15,11 +15,27 @@ from bbbench.tasks.group import Group
 from bbbench.tasks.observation import observation_space
 from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec, parse_task_id
-from bbbench.terrain import Bumps, HeightfieldTerrain, Obstacles
+from bbbench.terrain import Bumps, HeightfieldTerrain, ObstacleCourse, Obstacles, Slopes
 
 _VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0))
 # On terrain the bot must make progress across it: forward targets only.
 _FORWARD_TARGETS = PiecewiseConstantVelocity(low=0.2, high=0.8, hold=(2.0, 5.0))
+# The -v1 terrain is crossed at speed, 40-80% of the bot's 2.46 m/s top speed: at walking
+# pace the PD baseline stalls against a bump or a step and rocks back, never falling
+# (measured: no fall on hills of 45 degrees at 0.2-0.8 m/s); at speed the bot's momentum
+# carries the torso over an obstacle that stops the wheels. On flat ground PD holds these
+# speeds on every seed tested.
+_SPEED_TARGETS = PiecewiseConstantVelocity(low=1.0, high=2.0, hold=(2.0, 5.0))
+# m: 30 m of driving at the fastest target, 2 m/s for 15 s, fit on the strip, which starts
+# 1 m behind the bot. Each node costs about 0.3 us when a new terrain replaces the old
+# (a reset <= 20 ms), and the bot cannot steer: kicked by a bump it turns, and drifted 2 m
+# sideways in half the PD episodes (14 m in one in ten). So the terrain repeats across
+# with a 1.6 m period and the field follows the bot by whole periods: narrow and cheap,
+# yet without a side edge to leave by.
+_V1_STRIP = dict(size=(3.2, 32.0), start_margin=1.0, lateral_period=1.6)
+# m: a heightfield joins nodes by ramps one cell long: at 0.2 m cells a 6 cm step is a
+# 17 degree ramp that no wheel hits. At 0.05 m it is a face of 50 degrees.
+_V1_FINE_CELLS = 0.05
 
 SUITE: dict[str, TaskSpec] = {
     spec.id: spec
@@ -55,6 +71,69 @@ SUITE: dict[str, TaskSpec] = {
             random_return=1.777879984692359,
             terrain=HeightfieldTerrain(generator=Obstacles(), difficulty=0.3),
             command=_FORWARD_TARGETS,
+        ),
+        TaskSpec(
+            id="bbbench/Bumps-v1",
+            summary="cross short, steep random hills (up to ~21 deg) at 1-2 m/s",
+            random_return=-6.018770496211457,
+            terrain=HeightfieldTerrain(
+                generator=Bumps(min_height=0.01, extra_height=0.10, feature_size=0.1),
+                difficulty=0.9,
+                **_V1_STRIP,
+                cell_size=_V1_FINE_CELLS,
+            ),
+            command=_SPEED_TARGETS,
+            version_history=(
+                "v0: initial release.",
+                "v1: terrain with headroom (on v0's hills, up to 0.08 m at 0.2-0.8 m/s, "
+                "PD never fell): short hills (0.1 m features) up to 0.11 m and ~23 deg "
+                "at difficulty 1, on 0.05 m cells, crossed at 1-2 m/s on a 32 m strip "
+                "that repeats across (no side edge); default difficulty 0.9, where PD "
+                "finishes 41% of the evaluation episodes.",
+            ),
+        ),
+        TaskSpec(
+            id="bbbench/Obstacles-v1",
+            summary="cross boxes and steps (up to 6 cm) with shrinking gaps at 1-2 m/s",
+            random_return=-5.940141954097434,
+            terrain=HeightfieldTerrain(
+                generator=ObstacleCourse(),
+                difficulty=0.5,
+                **_V1_STRIP,
+                cell_size=_V1_FINE_CELLS,
+            ),
+            command=_SPEED_TARGETS,
+            version_history=(
+                "v0: initial release.",
+                "v1: terrain with headroom (v0's boxes and steps, up to 0.05 m on 0.2 m "
+                "cells, were one-cell ramps at 0.2-0.8 m/s, and PD never fell): an "
+                "obstacle course of boxes and full-width steps up to 0.06 m (0.6x the "
+                "wheel radius) on 0.05 m cells, gaps shrinking to 0.3 m at difficulty 1, "
+                "crossed at 1-2 m/s on a strip that repeats across (no side edge); "
+                "default difficulty 0.5, where PD finishes 46% of the evaluation episodes.",
+            ),
+        ),
+        TaskSpec(
+            id="bbbench/Slopes-v1",
+            summary="climb and descend ramps (up to ~26 deg) at 1-2 m/s",
+            random_return=-5.9305729273501235,
+            terrain=HeightfieldTerrain(
+                generator=Slopes(
+                    min_incline=0.0, extra_incline=0.5, max_height=2.0, ramp_length=(0.3, 1.5)
+                ),
+                difficulty=0.9,
+                size=(3.2, 32.0),
+                start_margin=1.0,
+                lateral_period=1.6,
+                cell_size=0.1,
+            ),
+            command=_SPEED_TARGETS,
+            version_history=(
+                "v1: initial release, with the -v1 terrain tasks (there is no v0): ramps "
+                "0.3-1.5 m long up to 0.5 rad (29 deg) at difficulty 1, within 0-2 m of "
+                "height, on 0.1 m cells, climbed and descended at 1-2 m/s; default "
+                "difficulty 0.9 (26 deg), where PD finishes 55% of the evaluation episodes.",
+            ),
         ),
         TaskSpec(
             id="bbbench/MultiBalance-v0",
@@ -159,12 +238,14 @@ def spec(task_id: str) -> TaskSpec:
     )
 
 
-def agent_spaces(task_id: str, action_mode: str) -> tuple[spaces.Box, spaces.Space]:
+def agent_spaces(
+    task_id: str, action_mode: str, height_scan: bool = False
+) -> tuple[spaces.Box, spaces.Space]:
     """The observation and action space of one bot of a task (every bot's, on a multi-bot
-    task), without building the task."""
+    task, which has no height scan), without building the task."""
     task = spec(task_id)
     if task.group is None:
-        return observation_space(), action_space(action_mode)
+        return observation_space(height_scan), action_space(action_mode)
     from bbbench.tasks.multi import agent_observation_space
 
     return agent_observation_space(task.group), action_space(action_mode)

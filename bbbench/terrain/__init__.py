@@ -10,7 +10,7 @@ Nothing here knows about robots.
 
 from bbbench.terrain.bullet import add_ground_plane, load_ground
 from bbbench.terrain.flat import GROUND_FRICTION, FlatGround
-from bbbench.terrain.generators import GENERATORS, Bumps, Flat, Obstacles, Slopes
+from bbbench.terrain.generators import GENERATORS, Bumps, Flat, ObstacleCourse, Obstacles, Slopes
 from bbbench.terrain.heightmap import HeightfieldTerrain, Heightmap
 
 __all__ = [
@@ -21,6 +21,7 @@ __all__ = [
     "FlatGround",
     "HeightfieldTerrain",
     "Heightmap",
+    "ObstacleCourse",
     "Obstacles",
     "Slopes",
     "add_ground_plane",

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bbbench.parameters import parameters
-from bbbench.terrain.generators import Bumps, Flat, Obstacles, Slopes
+from bbbench.terrain.generators import Bumps, Flat, ObstacleCourse, Obstacles, Slopes
 
-TerrainGenerator = Flat | Bumps | Obstacles | Slopes
+TerrainGenerator = Flat | Bumps | Obstacles | ObstacleCourse | Slopes
 
 
 @dataclass(frozen=True, eq=False)
@@ -19,11 +19,14 @@ class Heightmap:
 
     `heights[i, j]` (m) is the ground at x = x0 + i * cell_size and
     y = y0 + j * cell_size, where (x0, y0) = `origin`, the grid's first corner.
+    With a `period` (m), the ground repeats along x with that period, beyond
+    the grid too (`HeightfieldTerrain.lateral_period`).
     """
 
     heights: np.ndarray
     cell_size: float
     origin: tuple[float, float]
+    period: float | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -45,6 +48,49 @@ class Heightmap:
     def node_coordinates(self) -> tuple[np.ndarray, np.ndarray]:
         """World x of every row and y of every column of `heights`."""
         return _node_coordinates(self.origin, self.cell_size, self.shape)
+
+    def heights_along(
+        self,
+        x: float,
+        y: float,
+        direction: tuple[float, float],
+        offsets: tuple[float, ...],
+        relative_to: float = 0.0,
+    ) -> list[float]:
+        """Ground heights (m) at (x, y) + offset * direction for each offset (m), less
+        `relative_to` (m): bilinear between the four nodes around each point, 0 off the
+        map (the flat ground around); a periodic map goes on along x.
+
+        Plain Python over a nested list: it runs every step of a height-scan task, where
+        numpy's per-call cost on a few points would dominate (bench/bench_core.py).
+        """
+        rows = self._rows
+        last_i, last_j = len(rows) - 1, len(rows[0]) - 1
+        scale = 1.0 / self.cell_size
+        u0, v0 = (x - self.origin[0]) * scale, (y - self.origin[1]) * scale
+        du, dv = direction[0] * scale, direction[1] * scale
+        period = round(self.period * scale) if self.period else 0  # in cells
+        heights = []
+        for offset in offsets:
+            u, v = u0 + offset * du, v0 + offset * dv
+            if period:
+                u %= period
+            i, j = int(u), int(v)
+            if u < 0.0 or v < 0.0 or i >= last_i or j >= last_j:
+                heights.append(-relative_to)
+                continue
+            fu, fv = u - i, v - j
+            near, far = rows[i], rows[i + 1]
+            heights.append(
+                (near[j] + fu * (far[j] - near[j])) * (1.0 - fv)
+                + (near[j + 1] + fu * (far[j + 1] - near[j + 1])) * fv
+                - relative_to
+            )
+        return heights
+
+    @functools.cached_property
+    def _rows(self) -> list[list[float]]:
+        return self.heights.tolist()
 
     def max_height_near(self, x: float, y: float, radius: float) -> float:
         """The highest node within `radius` m of (x, y) (0 off the map): where to spawn."""
@@ -77,6 +123,12 @@ class HeightfieldTerrain:
     With `start_ring` > 0 the level pad is a ring instead: every point within
     `start_pad` m of the circle of that radius around the origin, where a
     group of bots starts (the multi-bot tasks).
+
+    With a `lateral_period` P the terrain has no side edge: the generator draws
+    one period, the strip is two copies side by side (`size[0]` = 2 P), the
+    pad is a band across the strip, and in the world the field is re-centred
+    under the bot by whole periods (`terrain.bullet.HeightfieldGround.follow`),
+    which leaves the ground under the bot as it was.
     """
 
     generator: TerrainGenerator = field(default_factory=Flat)
@@ -92,6 +144,10 @@ class HeightfieldTerrain:
     start_pad: float = 0.5
     border: float = 0.5
     start_ring: float = 0.0  # m: 0 for a disc at the origin, else a ring of this radius
+    # m: with a period, the ground repeats along x (the strip is two periods wide), the
+    # start pad is a level band across it, and the field is moved by whole periods to stay
+    # under a bot that drifts sideways: a bot that cannot steer never leaves the terrain.
+    lateral_period: float | None = None
 
     def __post_init__(self) -> None:
         self.generator.height_bounds(self.difficulty)  # validates difficulty
@@ -102,6 +158,24 @@ class HeightfieldTerrain:
             )
         if not self.start_ring >= 0:
             raise ValueError(f"start_ring must be a radius >= 0 m, got {self.start_ring!r}")
+        if self.lateral_period is not None:
+            period = self.lateral_period
+            if not self.generator.periodic_x:
+                raise ValueError(
+                    f"{type(self.generator).__name__} terrain cannot repeat along x: "
+                    f"lateral_period needs a periodic generator"
+                )
+            cells = period / self.cell_size
+            if not (period > 0 and abs(cells - round(cells)) < 1e-9 and self.start_ring == 0):
+                raise ValueError(
+                    f"lateral_period must be a whole number of cells (> 0) and needs "
+                    f"start_ring=0, got {period!r} with cell_size {self.cell_size!r}"
+                )
+            if abs(self.size[0] - 2 * period) > 1e-9:
+                raise ValueError(
+                    f"a periodic strip is two periods wide: size[0] must be "
+                    f"{2 * period!r} m, got {self.size[0]!r}"
+                )
         if not 0 < self.border <= min(self.size) / 2:
             raise ValueError(
                 f"border must be in (0, {min(self.size) / 2}] m for a strip of {self.size!r} m, "
@@ -133,24 +207,34 @@ class HeightfieldTerrain:
 
     def generate(self, rng: np.random.Generator) -> Heightmap:
         """One episode's ground, drawn from `rng`."""
-        heights = self.generator(rng, self.difficulty, self.grid_shape, self.cell_size)
+        if self.lateral_period is None:
+            heights = self.generator(rng, self.difficulty, self.grid_shape, self.cell_size)
+        else:  # one period, then two copies side by side and the first row again
+            period = self.grid_shape[0] // 2
+            one = self.generator(
+                rng, self.difficulty, (period, self.grid_shape[1]), self.cell_size, periodic=True
+            )
+            heights = np.concatenate([one, one, one[:1]])
         pad, keep, fade = self._shaping
         # Level the start pad, blending into the terrain over one more pad radius,
         # and fade to the flat ground around the strip.
         pad_height = float(heights[pad].mean())
         shaped = (pad_height + (heights - pad_height) * keep) * fade
-        return Heightmap(shaped, self.cell_size, self.origin)
+        return Heightmap(shaped, self.cell_size, self.origin, self.lateral_period)
 
     @functools.cached_property
     def _shaping(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The same every episode: the start pad's nodes, how much of the drawn terrain
         each node keeps around the pad, and each node's fade to the flat surround."""
         xs, ys = _node_coordinates(self.origin, self.cell_size, self.grid_shape)
-        distance = np.abs(np.hypot(xs[:, None], ys[None, :]) - self.start_ring)
-        keep = np.clip((distance - self.start_pad) / self.start_pad, 0.0, 1.0)
         x_min, x_max, y_min, y_max = self.bounds
-        to_edge = np.minimum(
-            np.minimum(xs - x_min, x_max - xs)[:, None], np.minimum(ys - y_min, y_max - ys)[None, :]
-        )
+        if self.lateral_period is None:
+            distance = np.abs(np.hypot(xs[:, None], ys[None, :]) - self.start_ring)
+            to_x_edge = np.minimum(xs - x_min, x_max - xs)
+        else:  # a band across the strip, and no side edge to fade to
+            distance = np.broadcast_to(np.abs(ys)[None, :], self.grid_shape)
+            to_x_edge = np.full(xs.shape, np.inf)
+        keep = np.clip((distance - self.start_pad) / self.start_pad, 0.0, 1.0)
+        to_edge = np.minimum(to_x_edge[:, None], np.minimum(ys - y_min, y_max - ys)[None, :])
         fade = np.clip(to_edge / self.border, 0.0, 1.0)
         return distance <= self.start_pad, keep, fade
