@@ -203,14 +203,25 @@ def test_heights_along_match_the_heightmap_at_its_nodes_and_between_them():
     # At nodes: exactly the stored heights.
     at_nodes = heightmap.heights_along(xs[12], ys[18], (0.0, 1.0), (0.0, 0.2, 0.4, 0.6))
     np.testing.assert_allclose(at_nodes, heightmap.heights[12, 18:22], atol=1e-12)
-    # Between nodes on the plane (away from the box): the plane itself.
+    # Between nodes on the plane (away from the box): the plane, to the grid's resolution
+    # (the nearest node is at most half a cell away in x and in y).
     direction = (math.cos(0.4), math.sin(0.4))
     between = heightmap.heights_along(-1.33, 2.07, direction, SCAN_OFFSETS)
     expected = [
         0.3 + 0.1 * (-1.33 + d * direction[0]) + 0.05 * (2.07 + d * direction[1])
         for d in SCAN_OFFSETS
     ]
-    np.testing.assert_allclose(between, expected, atol=1e-12)
+    np.testing.assert_allclose(between, expected, atol=0.1 * 0.1 + 0.05 * 0.1)
+    # And exactly the nearest node's height.
+    xs, ys = heightmap.node_coordinates()
+    nearest = [
+        heightmap.heights[
+            np.abs(xs - (-1.33 + d * direction[0])).argmin(),
+            np.abs(ys - (2.07 + d * direction[1])).argmin(),
+        ]
+        for d in SCAN_OFFSETS
+    ]
+    np.testing.assert_allclose(between, nearest, atol=1e-12)
     # Off the map: the flat ground around it.
     assert heightmap.heights_along(50.0, 50.0, (1.0, 0.0), (0.0, 1.0)) == [0.0, 0.0]
 
@@ -230,7 +241,12 @@ def test_the_scan_reads_the_ground_bullet_simulates():
             continue
         state = env._bot.read()
         x, y, axle_height = state.axle
+        # The terrain repeats across: a point past the field's side is read from its copy
+        # on the field (where the field will be when the bot gets there).
+        period = env.task.terrain.lateral_period
+        middle = env._world.client.getBasePositionAndOrientation(env._ground.body)[0][0]
         points = [(x + d * state.heading[0], y + d * state.heading[1]) for d in SCAN_OFFSETS]
+        points = [(px - round((px - middle) / period) * period, py) for px, py in points]
         hits = [ground_under(env, px, py) for px, py in points]
         assert {body for body, _ in hits} == {env._ground.body}
         ground = [height for _, height in hits]

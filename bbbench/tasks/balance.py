@@ -120,7 +120,8 @@ class BalanceEnv(Env):
     bot: `Box(16,)`. Each is the ground's height at a point on the bot's
     heading, so many metres ahead of the axle, minus the axle's height (flat
     ground reads -0.1, the wheel radius), clipped to +-3 m; read from the
-    episode's heightmap, bilinear between its nodes (no ray casts). The first
+    episode's heightmap at the node nearest each point (so to within its
+    resolution, 0.05 m cells on Bumps- and Obstacles-v1; no ray casts). The first
     five values are the blind observation above, unchanged; the blind layout
     stays the default, so one policy plays every task. A height-scan task is
     a different spec (`spec.with_height_scan()`) with its own fingerprint.

@@ -106,13 +106,15 @@ _TERRAIN_V1 = """
     the PD baseline finishes 20-60% of the evaluation episodes (the table is
     in docs/tasks.md, from `python bench/bench_calibration.py`).
 
-    The strip is 32 m long, from 1 m behind the start (2 m/s for 15 s fits),
-    with flat ground beyond its ends. The bot cannot steer, and terrain turns
-    it: on a wide strip PD drifted 2 m sideways in half the episodes and 7-14 m
-    in one in ten. So the -v1 terrain has no side edge: it repeats across the
-    strip with a period of 1.6 m, the strip is two periods wide, and the field
-    is moved by whole periods to stay under the bot (the ground under the bot
-    does not change). The start pad is a level band across the strip.
+    The strip starts 1 m behind the bot and reaches 23 m ahead on Bumps and
+    Obstacles (PD got at most 16.5 m in 60 episodes), 31 m on Slopes (2 m/s
+    for 15 s fits), with flat ground beyond its ends. The bot cannot steer,
+    and terrain turns it: on a wide strip PD drifted 2 m sideways in half the
+    episodes and 7-14 m in one in ten. So the -v1 terrain has no side edge: it
+    repeats across the strip with a period of 1.2 m (Bumps, Obstacles) or
+    1.6 m (Slopes), the strip is two periods wide, and the field is moved by
+    whole periods to stay under the bot (the ground under the bot does not
+    change). The start pad is a level band across the strip.
 """
 
 

@@ -58,39 +58,46 @@ class Heightmap:
         relative_to: float = 0.0,
     ) -> list[float]:
         """Ground heights (m) at (x, y) + offset * direction for each offset (m), less
-        `relative_to` (m): bilinear between the four nodes around each point, 0 off the
-        map (the flat ground around); a periodic map goes on along x.
+        `relative_to` (m): the height of the node nearest each point (so to within the
+        grid's resolution), 0 off the map (the flat ground around); a periodic map goes
+        on along x.
 
-        Plain Python over a nested list: it runs every step of a height-scan task, where
-        numpy's per-call cost on a few points would dominate (bench/bench_core.py).
+        Plain Python over a flat list: it runs every step of a height-scan task, where
+        numpy's per-call cost on a few points would dominate, and the nearest node costs
+        half of a bilinear blend of four (bench/bench_suite.py --height-scan).
         """
-        rows = self._rows
-        last_i, last_j = len(rows) - 1, len(rows[0]) - 1
-        scale = 1.0 / self.cell_size
-        u0, v0 = (x - self.origin[0]) * scale, (y - self.origin[1]) * scale
+        flat, columns, last_row, last_column, scale, x0, y0, period = self._lookup
+        # +0.5: int() of the shifted grid coordinate is the nearest node, for u, v >= 0.
+        u, v = (x - x0) * scale + 0.5, (y - y0) * scale + 0.5
         du, dv = direction[0] * scale, direction[1] * scale
-        period = round(self.period * scale) if self.period else 0  # in cells
         heights = []
         for offset in offsets:
-            u, v = u0 + offset * du, v0 + offset * dv
+            row, column = u + offset * du, v + offset * dv
             if period:
-                u %= period
-            i, j = int(u), int(v)
-            if u < 0.0 or v < 0.0 or i >= last_i or j >= last_j:
+                row %= period
+            if row < 0.0 or column < 0.0 or row >= last_row or column >= last_column:
                 heights.append(-relative_to)
-                continue
-            fu, fv = u - i, v - j
-            near, far = rows[i], rows[i + 1]
-            heights.append(
-                (near[j] + fu * (far[j] - near[j])) * (1.0 - fv)
-                + (near[j + 1] + fu * (far[j + 1] - near[j + 1])) * fv
-                - relative_to
-            )
+            else:
+                heights.append(flat[int(row) * columns + int(column)] - relative_to)
         return heights
 
     @functools.cached_property
-    def _rows(self) -> list[list[float]]:
-        return self.heights.tolist()
+    def _lookup(self) -> tuple:
+        """What `heights_along` reads, gathered once: the heights as a flat list (row-major),
+        the grid's size, 1 / cell_size, the origin and the period in cells (0: none)."""
+        rows, columns = self.shape
+        scale = 1.0 / self.cell_size
+        period = round(self.period * scale) if self.period else 0
+        return (
+            self.heights.ravel().tolist(),
+            columns,
+            rows - 0.5,  # a shifted coordinate at or past this is off the map
+            columns - 0.5,
+            scale,
+            self.origin[0],
+            self.origin[1],
+            period,
+        )
 
     def max_height_near(self, x: float, y: float, radius: float) -> float:
         """The highest node within `radius` m of (x, y) (0 off the map): where to spawn."""
