@@ -57,6 +57,24 @@ def test_pd_finishes_only_some_episodes_at_the_default_difficulty(task_id):
 
 
 @pytest.mark.parametrize("task_id", V1_TERRAIN)
+def test_the_shipped_ppo_policy_finishes_more_episodes_than_pd(task_id):
+    """Learning pays: the PPO policy trained on the task (docs/tasks.md) finishes at least
+    15 points more of the first 16 eval seeds than PD does. Terrain made impossible, or
+    easy enough for PD to finish everything, fails this."""
+    from bbbench.evaluation import evaluate
+    from bbbench.policies import load_policy
+
+    trained = f"ppo-{task_id.split('/')[1].split('-')[0].lower()}-v1"
+    success = {
+        name: evaluate(load_policy(name), [task_id], episodes=16, workers=1).document["tasks"][0][
+            "aggregate"
+        ]["success_rate"]
+        for name in (trained, "pd")
+    }
+    assert success[trained] >= success["pd"] + 0.15, success
+
+
+@pytest.mark.parametrize("task_id", V1_TERRAIN)
 def test_the_same_terrain_at_difficulty_0_is_easy_for_pd(task_id):
     """The difficulty knob is what makes it hard: at 0, PD finishes nearly every episode."""
     easy = bbbench.spec(task_id).with_difficulty(0.0)

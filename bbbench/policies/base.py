@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -269,6 +270,12 @@ def _reference() -> Policy:
 
 
 REFERENCE_POLICY = Path(__file__).with_name("reference.zip")
+# PPO policies trained on the -v1 terrain tasks, 1M steps each (docs/tasks.md): the
+# evidence that learning pays there, shipped so that it is re-scored byte for byte.
+TERRAIN_POLICIES = {
+    f"ppo-{name}-v1": Path(__file__).with_name(f"ppo-{name}-v1.zip")
+    for name in ("bumps", "obstacles", "slopes")
+}
 
 # Built-in policies by name. A new classical baseline registers here (or through
 # `register_policy`) and `bbbench eval NAME` scores it.
@@ -277,6 +284,7 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,
+    **{name: functools.partial(SB3ZipPolicy, path) for name, path in TERRAIN_POLICIES.items()},
 }
 
 
