@@ -84,10 +84,7 @@ def evaluate(
     if address is None:  # this machine: more processes than cores only cost memory
         workers = min(workers, default_workers())
     # A policy that observes the ground ahead plays every task with the height scan on.
-    tasks = [
-        spec(task_id).with_height_scan() if policy.height_scan else spec(task_id)
-        for task_id in task_ids
-    ]
+    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in task_ids]
     seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
     jobs = [

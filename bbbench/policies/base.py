@@ -193,15 +193,15 @@ class SB3ZipPolicy(Policy):
             describe_space(action_space) == describe_space(policy_action)
         ):
             return None
-        scanned = agent_spaces(task_id, self.action_mode, height_scan=True)[0]
+        blind = agent_spaces(task_id, "discrete")[0]
+        scanned = agent_spaces(task_id, "discrete", height_scan=True)[0]
         with_scan = (
             f" (or {describe_space(scanned)} with height_scan=True)"
-            if scanned.shape != agent_spaces(task_id, self.action_mode)[0].shape
+            if scanned.shape != blind.shape
             else ""
         )
         return (
-            f"{task_id} wants {describe_space(agent_spaces(task_id, self.action_mode)[0])}"
-            f"{with_scan} -> "
+            f"{task_id} wants {describe_space(blind)}{with_scan} -> "
             f"{describe_space(agent_spaces(task_id, 'discrete')[1])} or "
             f"{describe_space(agent_spaces(task_id, 'continuous')[1])}"
         )

@@ -367,7 +367,7 @@ class BalanceEnv(Env):
         self._ground = load_ground(client, self.task.terrain)
         self._bot = BalanceBot(client)
         # Terrain with no side edge moves with the bot (`HeightfieldGround.follow`).
-        self._follow = self._ground.follow if getattr(self._ground, "period", None) else None
+        self._follow = self._ground.follow if self._ground.period else None
 
     def _camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks (the axle, raised to the bot's middle height: steady

@@ -75,8 +75,9 @@ class HeightfieldBody:
             **extra,
         )
 
-    def show(self, heightmap: Heightmap) -> None:
-        """Replace the heights with `heightmap`'s and move the field to its place."""
+    def show(self, heightmap: Heightmap) -> tuple[float, float, float]:
+        """Replace the heights with `heightmap`'s, move the field to its place, and return
+        that place (the field's centre, m)."""
         if heightmap.shape != self.grid_shape:
             raise ValueError(f"heightmap of shape {heightmap.shape}, expected {self.grid_shape}")
         low, high = self.height_bounds
@@ -85,9 +86,9 @@ class HeightfieldBody:
         # Bullet reads element i + j * rows as (x-index i, y-index j): column-major.
         self._heightfield(heightmap.heights.ravel(order="F").tolist(), replace=self.shape)
         center_x, center_y = heightmap.center
-        self._client.resetBasePositionAndOrientation(
-            self.body, (center_x, center_y, (low + high) / 2.0), (0.0, 0.0, 0.0, 1.0)
-        )
+        place = (center_x, center_y, (low + high) / 2.0)
+        self._client.resetBasePositionAndOrientation(self.body, place, (0.0, 0.0, 0.0, 1.0))
+        return place
 
 
 # Colours of the ground by height, low to high (RGB, 0-255): the shape shows in a frame.
@@ -141,6 +142,8 @@ _SPAWN_RADIUS = 0.15  # m
 
 class PlaneGround:
     """Flat ground in a world; the same every episode."""
+
+    period = None  # nothing to follow the bot: the plane has no edge
 
     def __init__(self, client: BulletClient, terrain: FlatGround) -> None:
         self.body = add_ground_plane(client, terrain.friction)
@@ -239,8 +242,7 @@ class HeightfieldGround:
     def reset(self, rng) -> float:
         """Draw this episode's terrain from `rng`, show it, and return the spawn height (m)."""
         self.heightmap = self.terrain.generate(rng)
-        self.field.show(self.heightmap)
-        self._center_x, *self._placed = self._client.getBasePositionAndOrientation(self.body)[0]
+        self._center_x, *self._placed = self.field.show(self.heightmap)
         return self.spawn_height(0.0, 0.0)
 
     def follow(self, x: float) -> None:

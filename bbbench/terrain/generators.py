@@ -200,7 +200,7 @@ class Slopes:
 
 
 @parameters
-class ObstacleCourse:
+class ObstacleCourse(_HeightGrowsWithDifficulty):
     """Boxes and full-width steps one after another along the driving direction (y).
 
     The obstacles' spacing shrinks with difficulty: each lies a gap drawn from
@@ -223,12 +223,6 @@ class ObstacleCourse:
     box_spread: float = 1.0  # m: box centres lie within this of the grid's middle row
 
     periodic_x = True
-
-    def max_height(self, difficulty: float) -> float:
-        return self.min_height + self.extra_height * _check_difficulty(difficulty)
-
-    def height_bounds(self, difficulty: float) -> tuple[float, float]:
-        return (0.0, self.max_height(difficulty))
 
     def max_gap(self, difficulty: float) -> float:
         """The gap's upper end (m) at `difficulty`."""
