@@ -181,7 +181,12 @@ def test_workers_die_with_a_killed_parent():
 ])  # fmt: skip
 def test_ctrl_c_and_sigterm_stop_in_one_line_leaving_nothing_behind(tmp_path, signum, code, word):
     out = tmp_path / "results.json"
-    command = run_bbbench("eval", "pd", "--task", FLAT, "--workers", "2", "--json", str(out))
+    # As from a terminal: a shell without job control starts background commands (the
+    # tests, run with `&`) with Ctrl-C ignored, and children inherit that.
+    command = run_bbbench(
+        "eval", "pd", "--task", FLAT, "--workers", "2", "--json", str(out),
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
     workers = wait_for_workers(command, 2)
     if signum == signal.SIGINT:
         os.killpg(command.pid, signum)  # as a terminal's Ctrl-C: the whole process group

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import trimesh
 
 from bbbench.sim import World
 from bbbench.terrain.bullet import HeightfieldBody, HeightfieldGround
-from bbbench.terrain.generators import GENERATORS, Bumps
+from bbbench.terrain.generators import GENERATORS, Bumps, exp_same_everywhere
 from bbbench.terrain.heightmap import HeightfieldTerrain
 from bbbench.terrain.mesh import export, to_trimesh
 
@@ -134,3 +138,41 @@ def test_export_writes_a_mesh_file_atomically(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["terrain.obj"]  # no partial file left
     with pytest.raises(ValueError, match=r"expected a file name ending in \.obj"):
         export(heightmap, tmp_path / "terrain.txt")
+
+
+# The bits of an eval seed's terrain, as generated on the machine that built the
+# leaderboard (AVX-512). Any machine must give the same: the leaderboard check
+# compares episodes played on it byte for byte.
+TERRAIN_BITS = {
+    "bbbench/Bumps-v1": "a74cd920fa4b0e621f954805bc1cfeed3a006a9385a723d7c8363d666a94a56e",
+    "bbbench/Bumps-v0": "9fb45e79b81d1a4f4b43728c3f4bcc6accbcb5575ae452a33ec68d45ac560970",
+}
+TERRAIN_HASH = """
+import hashlib, sys
+import bbbench
+from bbbench.tasks.spec import episode_streams
+task = bbbench.spec(sys.argv[1])
+heights = task.terrain.generate(episode_streams(task.eval_seeds[0]).terrain).heights
+print(hashlib.sha256(heights.tobytes()).hexdigest())
+"""
+
+
+@pytest.mark.parametrize("task_id", sorted(TERRAIN_BITS))
+def test_terrain_has_the_same_bits_on_every_cpu(task_id):
+    """numpy's exp rounds differently on AVX-512 and AVX2 CPUs; terrain must not."""
+    for disabled in ("", "X86_V4 AVX512_ICL"):  # this CPU's SIMD paths, then AVX2's
+        env = {**os.environ, "NPY_DISABLE_CPU_FEATURES": disabled}
+        run = subprocess.run(
+            [sys.executable, "-c", TERRAIN_HASH, task_id], env=env, capture_output=True, text=True
+        )
+        if disabled and run.returncode and "NPY_DISABLE_CPU_FEATURES" in run.stderr:
+            continue  # a CPU without AVX-512: its own paths were checked above
+        assert run.returncode == 0, run.stderr
+        assert run.stdout.strip() == TERRAIN_BITS[task_id]
+
+
+def test_exp_same_everywhere_is_exp_to_the_last_bit():
+    x = np.concatenate([np.linspace(-800.0, 0.0, 20001), np.linspace(-1.0, 1.0, 2001)])
+    ours, numpys = exp_same_everywhere(x), np.exp(x)
+    assert np.all(np.abs(ours - numpys) <= np.spacing(numpys))
+    assert exp_same_everywhere(np.array([0.0]))[0] == 1.0

@@ -10,7 +10,7 @@ evaluation.document["tasks"][0]["aggregate"]["iqm"]
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
@@ -22,7 +22,15 @@ from bbbench.tasks.suite import list_tasks, spec
 
 LOCKSTEP = 8  # single-bot episodes a worker plays side by side
 
-__all__ = ["BACKENDS", "EpisodeResult", "Evaluation", "dumps", "evaluate", "select_tasks"]
+__all__ = [
+    "BACKENDS",
+    "EpisodeResult",
+    "Evaluation",
+    "dumps",
+    "evaluate",
+    "results_document",
+    "select_tasks",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,11 +119,26 @@ def evaluate(
     for (task_id, group), played in zip(jobs, done, strict=True):
         for i, seed in enumerate(group):
             by_seed[task_id, seed] = None if played is None else played[i]
-    results = [
-        [by_seed[task.id, seed] for seed in ts] for task, ts in zip(tasks, seeds, strict=True)
-    ]
+    results = {
+        task.id: [by_seed[task.id, seed] for seed in ts]
+        for task, ts in zip(tasks, seeds, strict=True)
+    }
     missing = [key for key, result in by_seed.items() if result is None]
     steps = sum(result.length for result in by_seed.values() if result is not None)
-    record = policy.record()
+    return Evaluation(results_document(policy, results, stochastic), missing, steps)
+
+
+def results_document(
+    policy: Policy,
+    results: Mapping[str, Sequence[EpisodeResult | None]],
+    stochastic: bool = False,
+) -> dict[str, Any]:
+    """The results document of `policy`'s episodes: `results[task_id]` holds the episodes
+    on the task's first eval seeds, in order (None for one that is missing)."""
+    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in results]
+    played = list(results.values())
+    seeds = [
+        list(task.eval_seeds[: len(episodes)]) for task, episodes in zip(tasks, played, strict=True)
+    ]
     deterministic = not (stochastic or policy.random_actions)
-    return Evaluation(document(record, tasks, seeds, results, deterministic), missing, steps)
+    return document(policy.record(), tasks, seeds, played, deterministic)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,6 +44,18 @@ class EpisodeResult:
             "velocity_error": self.velocity_error,
             "failure": self.failure,
         }
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> EpisodeResult:
+        """The episode a results document recorded (`record`'s inverse)."""
+        return cls(
+            seed=record["seed"],
+            episode_return=record["return"],
+            length=record["length"],
+            falls=record["falls"],
+            velocity_error=record["velocity_error"],
+            failure=record["failure"],
+        )
 
 
 def action_generator(seed: int) -> np.random.Generator:
@@ -92,7 +105,9 @@ class EpisodeRunner:
             return make_parallel(task_id, action_mode=self.action_mode)
         # The env itself: the loop below keeps the time limit, as TimeLimit would.
         scan = {"height_scan": True} if self.height_scan else {}
-        return make(task_id, action_mode=self.action_mode, **scan).unwrapped
+        with warnings.catch_warnings():  # older versions are scored on purpose, for comparison
+            warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
+            return make(task_id, action_mode=self.action_mode, **scan).unwrapped
 
     def close(self) -> None:
         for envs in self._envs.values():

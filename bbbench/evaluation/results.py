@@ -19,6 +19,11 @@ from bbbench.evaluation.episodes import EpisodeResult
 from bbbench.tasks.spec import TaskSpec, parse_task_id
 
 SCHEMA = "bbbench-results/1"
+# The version of the code that plays episodes (seeding, lockstep groups, actors): bump it
+# when the same policy on the same task spec and seeds would play differently. The
+# leaderboard reuses a stored task result only when it matches (with the policy's hash,
+# the task's fingerprint and the seeds).
+HARNESS_VERSION = 1
 
 
 def task_version(task_id: str) -> int:
@@ -87,6 +92,7 @@ def document(
     return {
         "schema": SCHEMA,
         "bbbench_version": bbbench.__version__,
+        "harness_version": HARNESS_VERSION,
         "policy": policy,
         "deterministic": deterministic,
         "statistics": {

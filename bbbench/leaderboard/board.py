@@ -1,0 +1,295 @@
+"""From submissions to the leaderboard document.
+
+Two steps, kept apart. `score` plays each submission's episodes with the
+shipped harness (`bbbench.evaluation.evaluate`) and returns its results
+document, the `bbbench eval --json` format, reusing stored task results whose
+key still matches. `leaderboard_document` ranks entries from those results
+documents alone: nothing in it looks at a policy or an env.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from collections.abc import Callable, Sequence
+from importlib import metadata as package_metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import bbbench
+from bbbench.evaluation import EpisodeResult, evaluate, results_document, stats
+from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
+from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
+from bbbench.leaderboard.submissions import Submission, SubmissionError
+from bbbench.policies import Policy
+from bbbench.tasks.spec import parse_task_id
+from bbbench.tasks.suite import list_tasks, spec
+
+SCHEMA = "bbbench-leaderboard/1"
+TRACKS = {"single": "single-bot tasks", "multi": "multi-bot tasks (one policy shared by every bot)"}
+RANK_RULE = (
+    "entries are ordered by the IQM of normalized scores over the track's ranked tasks; "
+    "neighbours share a rank group unless the 95% interval of the probability that the "
+    "upper one improves on the lower one (rliable's P(X > Y)) lies above 0.5"
+)
+
+
+class BuildError(RuntimeError):
+    """The board cannot be completed (an episode whose worker died twice)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Board:
+    """What a leaderboard plays: its tasks (default: the whole suite) and the first
+    `episodes` eval seeds of each (default: all of them)."""
+
+    tasks: tuple[str, ...] = dataclasses.field(default_factory=lambda: tuple(list_tasks()))
+    episodes: int | None = None
+
+    def seeds(self, task_id: str) -> list[int]:
+        return list(spec(task_id).eval_seeds[: self.episodes])
+
+    def track_tasks(self, track: str) -> list[str]:
+        """The track's tasks: by name, each name's versions newest first."""
+        multi = track == "multi"
+        tasks = [t for t in self.tasks if spec(t).multi_agent == multi]
+        return sorted(tasks, key=lambda t: (parse_task_id(t)[1], -parse_task_id(t)[2]))
+
+    def ranked(self, track: str) -> list[str]:
+        """The latest version of each task of the track: the ones the ranking uses."""
+        latest: dict[str, str] = {}
+        for task_id in self.track_tasks(track):
+            latest.setdefault(parse_task_id(task_id)[1], task_id)
+        return list(latest.values())
+
+
+@dataclasses.dataclass(frozen=True)
+class Scored:
+    """A submission and its results document; `played`: episodes played to get it (the
+    rest came from stored results)."""
+
+    submission: Submission
+    results: dict[str, Any]
+    played: int
+
+
+def score(
+    submissions: Sequence[Submission],
+    board: Board,
+    stored: Path | None,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    on_episodes: Callable[[int], None] | None = None,
+) -> list[Scored]:
+    """Each submission's results document on the board's tasks it fits. With `stored`
+    (the folder of results documents, `<root>/results`), a task whose stored result has
+    the same key (policy file's SHA-256 and statistics, task fingerprint, seeds, harness
+    and bbbench versions) is not played again."""
+    scored = []
+    for submission in submissions:
+        policy = submission.load_policy()
+        task_ids = [t for t in board.tasks if policy.mismatch(t) is None]
+        if not task_ids:
+            raise SubmissionError(
+                f"{submission.policy_file or submission.folder}: the policy "
+                f"({policy.spaces_text()}) fits none of the board's tasks"
+            )
+        reused = {} if stored is None else _stored_episodes(stored, submission.slug, policy, board)
+        pending = [t for t in task_ids if t not in reused]
+        played: dict[str, list[EpisodeResult]] = {}
+        if pending:
+            evaluation = evaluate(
+                policy,
+                pending,
+                episodes=board.episodes,
+                workers=workers,
+                backend=backend,
+                address=address,
+                on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
+            )
+            if evaluation.missing:
+                lost = ", ".join(f"{task} seed {seed}" for task, seed in evaluation.missing)
+                raise BuildError(f"{submission.slug}: episodes lost (worker died twice): {lost}")
+            played = _episodes(evaluation.document)
+        results = {t: reused[t] if t in reused else played[t] for t in task_ids}
+        scored.append(
+            Scored(
+                submission,
+                results_document(policy, results),
+                sum(len(played[t]) for t in pending),
+            )
+        )
+    return scored
+
+
+def _episodes(document: dict[str, Any]) -> dict[str, list[EpisodeResult]]:
+    return {
+        block["task"]: [EpisodeResult.from_record(record) for record in block["episodes"]]
+        for block in document["tasks"]
+    }
+
+
+def _stored_episodes(
+    folder: Path, slug: str, policy: Policy, board: Board
+) -> dict[str, list[EpisodeResult]]:
+    """The tasks of `folder/<slug>.json` whose key matches today's: their episodes."""
+    try:
+        old = json.loads((folder / f"{slug}.json").read_text())
+        if (
+            old["schema"] != RESULTS_SCHEMA
+            or old["harness_version"] != HARNESS_VERSION
+            or old["bbbench_version"] != bbbench.__version__
+            or old["policy"] != policy.record()
+            or old["deterministic"] != (not policy.random_actions)
+        ):
+            return {}
+        reusable = {}
+        for block in old["tasks"]:
+            task = spec(block["task"]).with_height_scan(policy.height_scan)
+            seeds = board.seeds(task.id)
+            episodes = [EpisodeResult.from_record(record) for record in block["episodes"]]
+            if (
+                task.id in board.tasks
+                and block["fingerprint"] == task.fingerprint
+                and block["seeds"] == seeds
+                and [episode.seed for episode in episodes] == seeds
+            ):
+                reusable[task.id] = episodes
+        return reusable
+    except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
+        return {}
+
+
+def seeds_hash(seeds: Sequence[int]) -> str:
+    """SHA-256 of the seeds as a JSON list: '[2147483648, ...]'."""
+    return hashlib.sha256(json.dumps(list(seeds)).encode()).hexdigest()
+
+
+def leaderboard_document(scored: Sequence[Scored], board: Board) -> dict[str, Any]:
+    """The leaderboard: per track, entries ranked from their results documents."""
+    return {
+        "schema": SCHEMA,
+        "bbbench_version": bbbench.__version__,
+        "harness_version": HARNESS_VERSION,
+        "pybullet_version": package_metadata.version("pybullet"),
+        "statistics": {
+            "interval": "percentile, stratified bootstrap (rliable)",
+            "confidence": stats.CONFIDENCE,
+            "reps": stats.BOOTSTRAP_REPS,
+            "seed": stats.BOOTSTRAP_SEED,
+            "ranking": RANK_RULE,
+        },
+        "tracks": [_track(track, scored, board) for track in TRACKS if board.track_tasks(track)],
+    }
+
+
+def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]:
+    ranked = board.ranked(track)
+    members = []
+    for entry in scored:
+        blocks = {block["task"]: block for block in entry.results["tasks"]}
+        if any(task_id in blocks for task_id in ranked):
+            members.append((entry, blocks))
+    strata = {entry.submission.slug: _normalized(blocks, ranked) for entry, blocks in members}
+    overalls = {
+        entry.submission.slug: overall(
+            [spec(t) for t in strata[entry.submission.slug]],
+            [
+                [EpisodeResult.from_record(r) for r in blocks[t]["episodes"]]
+                for t in strata[entry.submission.slug]
+            ],
+        )
+        for entry, blocks in members
+    }
+    members.sort(
+        key=lambda member: (
+            -overalls[member[0].submission.slug].get("normalized_iqm", -np.inf),
+            member[0].submission.slug,
+        )
+    )
+    entries, group, rank = [], 1, 1
+    for position, (entry, blocks) in enumerate(members):
+        slug = entry.submission.slug
+        versus = None
+        if position + 1 < len(members):
+            versus = _versus(strata[slug], strata[members[position + 1][0].submission.slug])
+            versus = {"slug": members[position + 1][0].submission.slug, **versus}
+        entries.append(
+            {
+                "rank": rank,
+                "rank_group": group,
+                "slug": slug,
+                "submission": entry.submission.metadata,
+                "policy": entry.results["policy"],
+                "height_scan": any(block.get("height_scan", False) for block in blocks.values()),
+                "results": f"results/{slug}.json",
+                "tasks": {
+                    task_id: blocks[task_id]["aggregate"]
+                    for task_id in board.track_tasks(track)
+                    if task_id in blocks
+                },
+                "overall": overalls[slug],
+                "versus_next": versus,
+            }
+        )
+        if versus is not None and versus["significant"]:
+            group += 1
+            rank = position + 2
+    return {
+        "track": track,
+        "title": TRACKS[track],
+        "tasks": [
+            {
+                "task": task_id,
+                "version": parse_task_id(task_id)[2],
+                "fingerprint": spec(task_id).fingerprint,
+                "eval_seeds_sha256": seeds_hash(board.seeds(task_id)),
+                "episodes": len(board.seeds(task_id)),
+                "ranked": task_id in ranked,
+            }
+            for task_id in board.track_tasks(track)
+        ],
+        "entries": entries,
+    }
+
+
+def _normalized(blocks: dict[str, Any], ranked: Sequence[str]) -> dict[str, np.ndarray]:
+    """Per ranked task the entry played: its episodes' normalized scores."""
+    return {
+        task_id: np.array(
+            [normalized(record["return"], spec(task_id)) for record in blocks[task_id]["episodes"]]
+        )
+        for task_id in ranked
+        if task_id in blocks and spec(task_id).random_return is not None
+    }
+
+
+def _versus(upper: dict[str, np.ndarray], lower: dict[str, np.ndarray]) -> dict[str, Any]:
+    """P(upper > lower) over the ranked tasks both played, with its interval."""
+    common = [task_id for task_id in upper if task_id in lower]
+    if not common:
+        return {"tasks": 0, "probability_of_improvement": None, "ci": None, "significant": False}
+    point, (low, high) = stats.probability_of_improvement(
+        [upper[t] for t in common], [lower[t] for t in common]
+    )
+    return {
+        "tasks": len(common),
+        "probability_of_improvement": point,
+        "ci": [low, high],
+        "significant": low > 0.5,
+    }
+
+
+def performance_profile(
+    results: dict[str, Any], ranked: Sequence[str], thresholds: np.ndarray
+) -> np.ndarray:
+    """rliable's score distribution: for each threshold tau, the fraction of episodes
+    with normalized score above tau, averaged over the ranked tasks played."""
+    blocks = {block["task"]: block for block in results["tasks"]}
+    strata = _normalized(blocks, ranked)
+    fractions = [(scores[:, None] > thresholds[None, :]).mean(axis=0) for scores in strata.values()]
+    return np.mean(fractions, axis=0)

@@ -1,0 +1,117 @@
+"""The leaderboard's figures, drawn by matplotlib as SVG text with the same bytes on every
+build: a fixed `svg.hashsalt` for element ids, no date or creator metadata, text kept
+as text (`svg.fonttype: none`: small, and no glyph outlines)."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+# rliable's score distributions over this range of normalized score; 0 is the random
+# policy, 1 the task's maximum return.
+THRESHOLDS = np.linspace(-0.25, 1.0, 126)
+_STYLE = {
+    "svg.hashsalt": "bbbench",
+    "svg.fonttype": "none",
+    "font.family": "sans-serif",
+    "font.size": 9,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+}
+
+
+def _svg(figure) -> str:
+    buffer = io.StringIO()
+    figure.savefig(buffer, format="svg", metadata={"Date": None, "Creator": None})
+    text = buffer.getvalue()
+    return text[text.index("<svg") :].strip()  # inline in HTML: no XML prolog or doctype
+
+
+def _figure(width: float, height: float):
+    from matplotlib.figure import Figure  # the board's pages only: not on eval's path
+
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def _style():
+    import matplotlib
+
+    return matplotlib.rc_context(_STYLE)
+
+
+def _colors(count: int) -> list:
+    import matplotlib
+
+    palette = matplotlib.colormaps["tab10"]
+    return [palette(i % 10) for i in range(count)]
+
+
+def interval_estimates(entries: Sequence[dict[str, Any]]) -> str:
+    """Each entry's overall normalized IQM with its 95% interval, best at the top."""
+    with _style():
+        figure = _figure(6.0, 0.9 + 0.32 * len(entries))
+        axes = figure.add_subplot()
+        for row, (entry, color) in enumerate(zip(entries, _colors(len(entries)), strict=True)):
+            score = entry["overall"]
+            if not score.get("tasks"):
+                continue
+            low, high = score["normalized_iqm_ci"]
+            axes.plot([low, high], [row, row], color=color, linewidth=6, alpha=0.55)
+            axes.plot([score["normalized_iqm"]], [row], "|", color="black", markersize=12)
+        axes.set_yticks(range(len(entries)), [e["submission"]["name"] for e in entries])
+        axes.invert_yaxis()
+        axes.set_xlabel("IQM of normalized scores (95% CI); 0 = random, 1 = maximum return")
+        axes.grid(axis="x", alpha=0.3)
+        return _svg(figure)
+
+
+def performance_profiles(profiles: Sequence[tuple[str, np.ndarray]]) -> str:
+    """One curve per entry: the fraction of episodes scoring above each threshold."""
+    with _style():
+        figure = _figure(6.0, 3.4)
+        axes = figure.add_subplot()
+        for (name, fractions), color in zip(profiles, _colors(len(profiles)), strict=True):
+            axes.plot(THRESHOLDS, fractions, color=color, label=name, linewidth=1.6)
+        axes.set_xlabel("normalized score threshold \N{GREEK SMALL LETTER TAU}")
+        axes.set_ylabel("fraction of episodes > \N{GREEK SMALL LETTER TAU}")
+        axes.set_ylim(-0.02, 1.02)
+        axes.grid(alpha=0.3)
+        axes.legend(loc="lower left", frameon=False)
+        return _svg(figure)
+
+
+def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) -> str:
+    """Each task's normalized score (mean return, normalized) per entry, with its interval."""
+    with _style():
+        figure = _figure(7.0, 3.6)
+        axes = figure.add_subplot()
+        width = 0.8 / max(len(entries), 1)
+        positions = np.arange(len(task_ids))
+        for i, (entry, color) in enumerate(zip(entries, _colors(len(entries)), strict=True)):
+            scores, lows, highs = [], [], []
+            for task_id in task_ids:
+                block = entry["tasks"].get(task_id)
+                value = None if block is None else block.get("normalized_score")
+                scores.append(np.nan if value is None else value)
+                low, high = (np.nan, np.nan) if value is None else block["normalized_ci"]
+                lows.append(value - low if value is not None else 0.0)
+                highs.append(high - value if value is not None else 0.0)
+            axes.bar(
+                positions + (i - (len(entries) - 1) / 2) * width,
+                scores,
+                width,
+                yerr=[lows, highs],
+                color=color,
+                label=entry["submission"]["name"],
+                error_kw={"elinewidth": 0.8, "capsize": 1.5},
+            )
+        labels = [task_id.removeprefix("bbbench/") for task_id in task_ids]
+        axes.set_xticks(positions, labels, rotation=25, ha="right")
+        axes.set_ylabel("normalized score (95% CI)")
+        axes.axhline(0.0, color="black", linewidth=0.6)
+        axes.grid(axis="y", alpha=0.3)
+        axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+        return _svg(figure)

@@ -1,0 +1,470 @@
+"""The leaderboard: built from submissions, byte for byte; checked; added to; refused."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import gymnasium as gym
+import jsonschema
+import numpy as np
+import pytest
+import referencing
+from stable_baselines3 import PPO
+
+import bbbench
+from bbbench import leaderboard
+from bbbench.cli import main
+from bbbench.evaluation import dumps, evaluate, stats
+from bbbench.leaderboard import Board, SubmissionError
+from bbbench.leaderboard.submissions import FIELDS, read_submission
+from bbbench.policies import load_policy
+from bbbench.policies.base import REFERENCE_POLICY
+from bbbench.tasks.spec import TaskSpec
+from conftest import pickled, rewrite
+
+DOCS = Path(__file__).parent.parent / "docs"
+# Small enough to build in seconds; an old and a new version of one task, both tracks.
+BOARD = Board(
+    tasks=(
+        "bbbench/Bumps-v0",
+        "bbbench/Bumps-v1",
+        "bbbench/FlatBalance-v0",
+        "bbbench/MultiBalance-v0",
+    ),
+    episodes=4,
+)
+GENERATED = ("bbbench-v0.json", "README.md", "index.html")
+
+
+def submission(**changes) -> dict:
+    data = {
+        "name": "PD baseline",
+        "authors": ["A. Person"],
+        "algorithm": "PD",
+        "action_mode": "discrete",
+        "builtin": "pd",
+        "training": {"env_steps": 0, "wall_time": "none", "hardware": "none"},
+        "training_seeds": [],
+        "command": "built in",
+        "licence": "MIT",
+    }
+    data.update(changes)
+    return {key: value for key, value in data.items() if value is not None}
+
+
+def write_submission(root: Path, slug: str, data: dict, policy: Path | None = None) -> Path:
+    folder = root / "submissions" / slug
+    folder.mkdir(parents=True)
+    (folder / "submission.json").write_text(json.dumps(data))
+    if policy is not None:
+        shutil.copyfile(policy, folder / "policy.zip")
+    return folder
+
+
+def reference_submission(root: Path, slug: str = "ppo") -> Path:
+    data = submission(name="PPO", algorithm="PPO", builtin=None)
+    return write_submission(root, slug, data, policy=REFERENCE_POLICY)
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory) -> Path:
+    """pd, random (built-ins) and the reference zip (a file), built with one worker."""
+    root = tmp_path_factory.mktemp("board") / "leaderboards"
+    write_submission(root, "pd", submission())
+    write_submission(root, "random", submission(name="Random", builtin="random"))
+    reference_submission(root)
+    leaderboard.build(root, BOARD, workers=1)
+    return root
+
+
+@pytest.fixture
+def board(built, tmp_path) -> Path:
+    """A copy of the built board to change."""
+    return Path(shutil.copytree(built, tmp_path / "leaderboards"))
+
+
+def files(root: Path) -> dict[str, bytes]:
+    return {
+        str(path.relative_to(root)): path.read_bytes()
+        for path in sorted(root.rglob("*"))
+        if path.is_file()
+    }
+
+
+def test_builds_are_byte_identical_twice_and_with_two_workers(built, board, tmp_path):
+    again = leaderboard.build(board, BOARD, workers=1)
+    assert again.played == 0  # every result stored
+    assert files(board) == files(built)
+    fresh = tmp_path / "fresh"
+    shutil.copytree(built / "submissions", fresh / "submissions")
+    rebuilt = leaderboard.build(fresh, BOARD, workers=2, cache=False)
+    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4  # ppo plays no multi-bot task
+    assert files(fresh) == files(built)
+
+
+def test_each_results_file_is_what_bbbench_eval_writes(built):
+    for slug, policy in [("pd", "pd"), ("ppo", str(REFERENCE_POLICY))]:
+        policy = load_policy(policy)
+        fitting = [task for task in BOARD.tasks if policy.mismatch(task) is None]
+        evaluation = evaluate(policy, fitting, episodes=BOARD.episodes, workers=1)
+        written = (built / "results" / f"{slug}.json").read_text()
+        assert written.replace('"policy.zip"', '"reference.zip"') == dumps(evaluation.document)
+
+
+def registry() -> referencing.Registry:
+    resources = [
+        referencing.Resource.from_contents(json.loads((DOCS / name).read_text()))
+        for name in ("submission-schema.json", "results-schema.json")
+    ]
+    return referencing.Registry().with_resources((r.id(), r) for r in resources)
+
+
+def test_every_generated_document_and_submission_follows_its_schema(built):
+    schema = json.loads((DOCS / "leaderboard-schema.json").read_text())
+    document = json.loads((built / "bbbench-v0.json").read_text())
+    jsonschema.Draft202012Validator(schema, registry=registry()).validate(document)
+    results = json.loads((DOCS / "results-schema.json").read_text())
+    for path in (built / "results").glob("*.json"):
+        jsonschema.validate(json.loads(path.read_text()), results)
+    submission_schema = json.loads((DOCS / "submission-schema.json").read_text())
+    for path in (built / "submissions").glob("*/submission.json"):
+        jsonschema.validate(json.loads(path.read_text()), submission_schema)
+    assert [track["track"] for track in document["tracks"]] == ["single", "multi"]
+    single = document["tracks"][0]
+    assert [(t["task"], t["ranked"]) for t in single["tasks"]] == [
+        ("bbbench/Bumps-v1", True),
+        ("bbbench/Bumps-v0", False),
+        ("bbbench/FlatBalance-v0", True),
+    ]
+    assert [e["slug"] for e in document["tracks"][1]["entries"]] == ["pd", "random"]
+
+
+def test_the_repository_board_follows_the_schemas():
+    root = Path(__file__).parent.parent / "leaderboards"
+    schema = json.loads((DOCS / "leaderboard-schema.json").read_text())
+    document = json.loads((root / "bbbench-v0.json").read_text())
+    jsonschema.Draft202012Validator(schema, registry=registry()).validate(document)
+    for folder in sorted((root / "submissions").iterdir()):
+        read_submission(folder)  # bbbench's own checks pass too
+    slugs = {entry["slug"] for track in document["tracks"] for entry in track["entries"]}
+    assert slugs == {"pd", "random", "ppo-reference"}
+
+
+def test_the_submission_schema_and_the_checks_in_code_name_the_same_fields():
+    schema = json.loads((DOCS / "submission-schema.json").read_text())
+    assert list(schema["properties"]) == list(FIELDS)
+    assert schema["required"] == [name for name, field in FIELDS.items() if field.required]
+    training = schema["properties"]["training"]
+    assert list(training["properties"]) == list(FIELDS["training"].fields)
+    assert schema["properties"]["builtin"]["enum"] == list(bbbench.policies.BUILTIN_POLICIES)
+
+
+def test_check_passes_on_a_fresh_build(board):
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.problems == []
+    assert checked.episodes == 44
+    assert checked.entries == 3
+
+
+def test_check_names_an_edited_number(board):
+    path = board / "bbbench-v0.json"
+    document = json.loads(path.read_text())
+    document["tracks"][0]["entries"][0]["tasks"]["bbbench/FlatBalance-v0"]["mean"] += 0.01
+    path.write_text(dumps(document))
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert len(problems) == 1, problems
+    slug = document["tracks"][0]["entries"][0]["slug"]
+    assert f"tracks[single].entries[{slug}].tasks.bbbench/FlatBalance-v0.mean" in problems[0]
+
+
+def test_check_names_a_swapped_policy_file(board, tmp_path):
+    other = tmp_path / "other.zip"
+    PPO("MlpPolicy", bbbench.make("bbbench/FlatBalance-v0"), n_steps=64, device="cpu").save(other)
+    shutil.copyfile(other, board / "submissions" / "ppo" / "policy.zip")
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert problems == [problems[0]]
+    assert "ppo/policy.zip: SHA-256" in problems[0]
+    assert "the policy file changed" in problems[0]
+
+
+def test_check_names_a_submission_added_without_a_rebuild(board):
+    write_submission(board, "twin", submission(name="Twin"))
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert len(problems) == 1
+    assert "submissions/twin: a submission that is not on the board" in (problems[0])
+
+
+def test_check_names_a_task_whose_behaviour_changed(board, monkeypatch):
+    monkeypatch.setattr(TaskSpec, "fingerprint", property(lambda task: "0123456789abcdef"))
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert len(problems) == len(BOARD.tasks)
+    assert all("fingerprint is now 0123456789abcdef" in problem for problem in problems)
+
+
+def test_check_names_an_edited_page_and_a_stale_result(board):
+    page = board / "index.html"
+    page.write_text(page.read_text().replace("bbbench leaderboard", "my leaderboard", 1))
+    (board / "results" / "gone.json").write_text("{}")
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert any("index.html: differs from the rebuild from line" in p for p in problems)
+    assert any("gone.json: no submission 'gone'" in p for p in problems)
+
+
+def test_add_plays_only_the_new_submission(board):
+    counted = []
+    metadata = submission(name="Twin")
+    del metadata["builtin"]
+    built = leaderboard.add(
+        board, "pd", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
+    )
+    assert built.played == sum(counted) == 4 * 4  # pd on the 4 tasks, nothing else
+    assert (board / "submissions" / "twin" / "submission.json").is_file()
+    assert leaderboard.check(board, BOARD, workers=1).problems == []
+
+
+def test_identical_policies_share_a_rank_and_pd_and_random_do_not(board):
+    write_submission(board, "twin", submission(name="Twin"))
+    document = leaderboard.build(board, BOARD, workers=1).document
+    for track in document["tracks"]:
+        ranks = {entry["slug"]: (entry["rank"], entry["rank_group"]) for entry in track["entries"]}
+        assert ranks["pd"] == ranks["twin"]
+        assert ranks["random"][1] > ranks["pd"][1]
+        versus = {e["slug"]: e["versus_next"] for e in track["entries"]}
+        first = "pd" if versus["pd"]["slug"] == "twin" else "twin"
+        assert versus[first]["probability_of_improvement"] == 0.5
+        assert not versus[first]["significant"]
+
+
+def test_an_interrupted_build_changes_nothing(board, monkeypatch):
+    before = files(board)
+    write_submission(board, "twin", submission(name="Twin"))
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(leaderboard.board, "evaluate", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        leaderboard.build(board, BOARD, workers=1)
+    after = files(board)
+    del after["submissions/twin/submission.json"]
+    assert after == before
+
+
+def test_probability_of_improvement_is_the_pairwise_win_rate():
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(size=30), rng.normal(0.3, size=40)
+    y[:5] = x[:5]  # ties count half
+    wins = np.mean([[1.0 if a > b else 0.5 if a == b else 0.0 for b in y] for a in x])
+    point, (low, high) = stats.probability_of_improvement([x, x], [y, y])
+    assert point == pytest.approx(wins)
+    assert low < point < high
+    assert stats.probability_of_improvement([x], [x])[0] == 0.5
+
+
+# -- the command --------------------------------------------------------------------
+
+
+@pytest.fixture
+def command_board(board, monkeypatch) -> Path:
+    monkeypatch.setattr(leaderboard, "DEFAULT_BOARD", BOARD)
+    return board
+
+
+def leaderboard_exit_2(capsys, root: Path, *argv: str) -> str:
+    before = files(root)
+    code = main(["leaderboard", *argv, "--root", str(root), "--workers", "1"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("bbbench: error:"), err
+    assert len(err.strip().splitlines()) == 1, err
+    assert files(root) == before  # nothing written
+    return err
+
+
+ADD = [
+    "--name", "X", "--algorithm", "PPO", "--author", "A", "--env-steps", "10",
+    "--wall-time", "1 min", "--hardware", "laptop", "--command", "train.py", "--licence", "MIT",
+]  # fmt: skip
+
+
+def test_show_prints_the_ranked_tables(command_board, capsys):
+    assert main(["leaderboard", "show", "--root", str(command_board), "--track", "multi"]) == 0
+    out = capsys.readouterr().out
+    assert "Multi-bot tasks" in out
+    assert "Single-bot" not in out
+    assert out.index("PD baseline") < out.index("Random")
+
+
+def test_build_and_check_from_the_command(command_board, capsys):
+    assert main(["leaderboard", "build", "--root", str(command_board), "--workers", "1"]) == 0
+    assert "44 episodes (0 played, 44 from stored results)" in capsys.readouterr().out
+    assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
+    assert capsys.readouterr().out.startswith("leaderboard check ok: 3 entries, 4 tasks, 44 ")
+    (command_board / "README.md").write_text("edited\n")
+    assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 1
+    assert "README.md: differs from the rebuild from line 1" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("content", "expected"),
+    [
+        ("{not json", "pd/submission.json: not valid JSON"),
+        (json.dumps(submission(extra=1)), "unknown field 'extra'"),
+        (json.dumps(submission(licence=None)), "missing field 'licence'"),
+        (json.dumps(submission(training={"env_steps": -1})), "field 'training.env_steps'"),
+        (json.dumps(submission(authors=[])), "field 'authors': expected a non-empty list"),
+        (json.dumps(submission(action_mode="both")), "field 'action_mode': expected one of"),
+        (json.dumps(submission(url="javascript:x")), "field 'url': expected an http(s) URL"),
+        ('{"name": "a", "name": "b"}', "the field 'name' is given twice"),
+    ],
+)
+def test_a_malformed_submission_is_exit_2_naming_file_and_field(
+    command_board, capsys, content, expected
+):
+    (command_board / "submissions" / "pd" / "submission.json").write_text(content)
+    assert expected in leaderboard_exit_2(capsys, command_board, "build")
+
+
+def test_stray_files_and_unsafe_folder_names_are_refused(command_board, capsys):
+    (command_board / "submissions" / "pd" / "run.py").write_text("print('hi')")
+    assert "pd/run.py: not part of a submission" in leaderboard_exit_2(
+        capsys, command_board, "build"
+    )
+    (command_board / "submissions" / "pd" / "run.py").unlink()
+    moved = command_board / "submission.json"
+    (command_board / "submissions" / "pd" / "submission.json").rename(moved)
+    assert "pd/submission.json: missing" in leaderboard_exit_2(capsys, command_board, "build")
+    moved.rename(command_board / "submissions" / "pd" / "submission.json")
+    shutil.copytree(command_board / "submissions" / "pd", command_board / "submissions" / "P D")
+    assert "is not a safe folder name" in leaderboard_exit_2(capsys, command_board, "check")
+
+
+@pytest.mark.parametrize(
+    ("policy", "slug", "expected"),
+    [
+        ("pd", "../evil", "slug '../evil' is not a safe folder name"),
+        ("pd", "pd", "the slug 'pd' is taken"),
+        ("nothing.zip", "new", "nothing.zip: no such file, and not a built-in policy"),
+    ],
+)
+def test_add_refuses_bad_slugs_and_missing_policies(command_board, capsys, policy, slug, expected):
+    err = leaderboard_exit_2(capsys, command_board, "add", policy, "--slug", slug, *ADD)
+    assert expected in err
+
+
+def test_add_refuses_a_hostile_zip_and_runs_none_of_it(command_board, capsys, tmp_path, marker):
+    hostile = rewrite(
+        REFERENCE_POLICY,
+        tmp_path / "hostile.zip",
+        lambda data: data.update(policy_class=pickled(marker)),
+    )
+    err = leaderboard_exit_2(capsys, command_board, "add", str(hostile), "--slug", "new", *ADD)
+    assert str(hostile) in err
+    assert not marker.exists()
+    assert not (command_board / "submissions" / "new").exists()
+
+
+def test_add_refuses_an_oversized_file(command_board, capsys, tmp_path):
+    big = tmp_path / "big.zip"
+    big.write_bytes(b"\0" * (leaderboard.MAX_POLICY_BYTES + 1))
+    err = leaderboard_exit_2(capsys, command_board, "add", str(big), "--slug", "new", *ADD)
+    assert "big.zip: 5.0 MB, over the 5 MB cap" in err
+
+
+def test_add_refuses_a_wrong_action_mode_and_a_policy_that_fits_no_task(
+    command_board, capsys, tmp_path
+):
+    argv = ["--slug", "new", *ADD]
+    err = leaderboard_exit_2(
+        capsys, command_board, "add", str(REFERENCE_POLICY), "--action-mode", "continuous", *argv
+    )
+    assert "field 'action_mode' is 'continuous', but the policy acts in discrete mode" in err
+    cartpole = tmp_path / "cartpole.zip"
+    PPO("MlpPolicy", gym.make("CartPole-v1"), n_steps=64, device="cpu").save(cartpole)
+    err = leaderboard_exit_2(capsys, command_board, "add", str(cartpole), *argv)
+    assert "cartpole.zip" in err
+    assert "fits no task of the suite" in err
+
+
+def test_the_metadata_of_an_added_submission_is_checked_like_a_written_one(board):
+    with pytest.raises(SubmissionError, match=r"field 'training\.env_steps'"):
+        leaderboard.add(board, "pd", "new", {**submission(), "training": {"env_steps": "many"}})
+
+
+# -- the page, in a real browser (headless Chromium; .ci/run installs it) -----------
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    """A headless Chromium driven by Selenium. Skipped where Chromium is not installed,
+    unless BBBENCH_REQUIRE_BROWSER is set (as .ci/run sets it): then it fails."""
+    browser, driver = shutil.which("chromium"), shutil.which("chromedriver")
+    if not (browser and driver):
+        if os.environ.get("BBBENCH_REQUIRE_BROWSER"):
+            pytest.fail("Chromium and chromedriver are required (apt-get install chromium ...)")
+        pytest.skip("needs chromium and chromium-driver (Debian packages)")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for argument in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
+        options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    session = webdriver.Chrome(service=Service(executable_path=driver), options=options)
+    yield session
+    session.quit()
+
+
+def rows_of(table) -> list[str]:
+    return [
+        row.get_attribute("data-slug") for row in table.find_elements("css selector", "tr.entry")
+    ]
+
+
+def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
+    hostile = submission(name="<img src=x onerror=alert(1)>", notes="</script><b>bold</b>")
+    write_submission(board, "hostile", hostile)
+    document = leaderboard.build(board, BOARD, workers=1).document
+    chromium.get((board / "index.html").as_uri())
+    for track in document["tracks"]:
+        table = chromium.find_element("id", f"table-{track['track']}")
+        assert rows_of(table) == [entry["slug"] for entry in track["entries"]]
+        headers = table.find_elements("css selector", "th")
+        name = next(h for h in headers if h.text == "Name")
+        name.click()
+        expected = sorted(track["entries"], key=lambda e: e["submission"]["name"].lower())
+        assert rows_of(table) == [entry["slug"] for entry in expected]
+        assert name.get_attribute("aria-sort") == "ascending"
+        name.click()
+        assert rows_of(table) == [entry["slug"] for entry in reversed(expected)]
+        headers[0].click()  # rank, ascending
+        assert rows_of(table) == [entry["slug"] for entry in track["entries"]]
+        row = table.find_element("css selector", "tr.entry[data-slug=hostile]")
+        details = row.find_element("xpath", "following-sibling::tr[1]")
+        assert not details.is_displayed()
+        row.click()
+        assert details.is_displayed()
+        assert "</script><b>bold</b>" in details.text  # shown as text, not markup
+        assert "<img src=x onerror=alert(1)>" in row.text
+        for plot in ("interval-estimates", "performance-profiles", "per-task"):
+            figure = chromium.find_element("id", f"{track['track']}-{plot}")
+            svg = figure.find_element("css selector", "svg")
+            assert svg.size["width"] > 200
+            assert svg.size["height"] > 100
+            assert len(svg.find_elements("css selector", "path")) > 5
+    errors = [e for e in chromium.get_log("browser") if e["level"] == "SEVERE"]
+    assert errors == []
+
+
+def test_texts_with_terminal_escapes_are_refused(board):
+    data = submission(name="\x1b[2J\x1b[31mred")
+    (board / "submissions" / "pd" / "submission.json").write_text(json.dumps(data))
+    with pytest.raises(SubmissionError, match="field 'name': expected text without control"):
+        leaderboard.build(board, BOARD, workers=1)
+    schema = json.loads((DOCS / "submission-schema.json").read_text())
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(data, schema)
