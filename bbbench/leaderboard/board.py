@@ -187,56 +187,63 @@ def leaderboard_document(scored: Sequence[Scored], board: Board) -> dict[str, An
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class _Member:
+    """An entry on a track: its results by task, and its scores on the ranked tasks."""
+
+    scored: Scored
+    blocks: dict[str, Any]  # task ID -> the task's block of the results document
+    strata: dict[str, np.ndarray]  # ranked task ID -> per-episode normalized scores
+    overall: dict[str, Any]
+
+    @property
+    def slug(self) -> str:
+        return self.scored.submission.slug
+
+    @property
+    def order(self) -> tuple[float, str]:
+        """Best overall first; ties by slug."""
+        return (-self.overall.get("normalized_iqm", -np.inf), self.slug)
+
+
+def _member(entry: Scored, ranked: Sequence[str]) -> _Member | None:
+    blocks = {block["task"]: block for block in entry.results["tasks"]}
+    if not any(task_id in blocks for task_id in ranked):
+        return None
+    strata = _normalized(blocks, ranked)
+    played = [[EpisodeResult.from_record(r) for r in blocks[t]["episodes"]] for t in strata]
+    return _Member(entry, blocks, strata, overall([spec(t) for t in strata], played))
+
+
 def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]:
     ranked = board.ranked(track)
-    members = []
-    for entry in scored:
-        blocks = {block["task"]: block for block in entry.results["tasks"]}
-        if any(task_id in blocks for task_id in ranked):
-            members.append((entry, blocks))
-    strata = {entry.submission.slug: _normalized(blocks, ranked) for entry, blocks in members}
-    overalls = {
-        entry.submission.slug: overall(
-            [spec(t) for t in strata[entry.submission.slug]],
-            [
-                [EpisodeResult.from_record(r) for r in blocks[t]["episodes"]]
-                for t in strata[entry.submission.slug]
-            ],
-        )
-        for entry, blocks in members
-    }
-    members.sort(
-        key=lambda member: (
-            -overalls[member[0].submission.slug].get("normalized_iqm", -np.inf),
-            member[0].submission.slug,
-        )
+    members = sorted(
+        (m for m in (_member(entry, ranked) for entry in scored) if m is not None),
+        key=lambda member: member.order,
     )
     entries, group, rank = [], 1, 1
-    for position, (entry, blocks) in enumerate(members):
-        slug = entry.submission.slug
-        versus = None
-        if position + 1 < len(members):
-            versus = _versus(strata[slug], strata[members[position + 1][0].submission.slug])
-            versus = {"slug": members[position + 1][0].submission.slug, **versus}
+    for position, member in enumerate(members):
+        below = members[position + 1] if position + 1 < len(members) else None
+        versus = None if below is None else {"slug": below.slug, **_versus(member, below)}
         entries.append(
             {
                 "rank": rank,
                 "rank_group": group,
-                "slug": slug,
-                "submission": entry.submission.metadata,
-                "policy": entry.results["policy"],
-                "height_scan": any(block.get("height_scan", False) for block in blocks.values()),
-                "results": f"results/{slug}.json",
+                "slug": member.slug,
+                "submission": member.scored.submission.metadata,
+                "policy": member.scored.results["policy"],
+                "height_scan": any(b.get("height_scan", False) for b in member.blocks.values()),
+                "results": f"results/{member.slug}.json",
                 "tasks": {
-                    task_id: blocks[task_id]["aggregate"]
+                    task_id: member.blocks[task_id]["aggregate"]
                     for task_id in board.track_tasks(track)
-                    if task_id in blocks
+                    if task_id in member.blocks
                 },
-                "overall": overalls[slug],
+                "overall": member.overall,
                 "versus_next": versus,
             }
         )
-        if versus is not None and versus["significant"]:
+        if versus is not None and versus["significant"]:  # the next starts a lower group
             group += 1
             rank = position + 2
     return {
@@ -268,13 +275,13 @@ def _normalized(blocks: dict[str, Any], ranked: Sequence[str]) -> dict[str, np.n
     }
 
 
-def _versus(upper: dict[str, np.ndarray], lower: dict[str, np.ndarray]) -> dict[str, Any]:
+def _versus(upper: _Member, lower: _Member) -> dict[str, Any]:
     """P(upper > lower) over the ranked tasks both played, with its interval."""
-    common = [task_id for task_id in upper if task_id in lower]
+    common = [task_id for task_id in upper.strata if task_id in lower.strata]
     if not common:
         return {"tasks": 0, "probability_of_improvement": None, "ci": None, "significant": False}
     point, (low, high) = stats.probability_of_improvement(
-        [upper[t] for t in common], [lower[t] for t in common]
+        [upper.strata[t] for t in common], [lower.strata[t] for t in common]
     )
     return {
         "tasks": len(common),
