@@ -468,3 +468,11 @@ def test_texts_with_terminal_escapes_are_refused(board):
     schema = json.loads((DOCS / "submission-schema.json").read_text())
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(data, schema)
+
+
+def test_a_build_on_ray_writes_the_same_bytes(built, tmp_path):
+    pytest.importorskip("ray", reason="the Ray backend is an extra: pip install 'bbbench[ray]'")
+    fresh = tmp_path / "on-ray"
+    shutil.copytree(built / "submissions", fresh / "submissions")
+    leaderboard.build(fresh, BOARD, workers=2, backend="ray", cache=False)
+    assert files(fresh) == files(built)
