@@ -6,6 +6,17 @@ import numpy as np
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.policies.lqr import (
+    COST_INPUT,
+    COST_STATE,
+    GAINS,
+    MODEL_A,
+    MODEL_B,
+    LQRController,
+    identify,
+    lqr_gains,
+)
+from bbbench.robots import MODEL
 from conftest import FLAT
 
 SEEDS = range(20)
@@ -63,3 +74,44 @@ def test_the_pd_baseline_tracks_the_target_velocity_without_bias():
     # Without the target fed forward it settled at twice the target: mean |error| 0.41 m/s.
     assert abs(np.mean(errors)) < 0.05
     assert np.mean(np.abs(errors)) < 0.25
+
+
+# -- LQR -------------------------------------------------------------------------------
+
+
+def test_the_lqr_baseline_stands_on_every_eval_seed_in_both_modes():
+    from bbbench.evaluation import evaluate
+    from bbbench.policies import load_policy
+
+    for mode, episodes in (("discrete", None), ("continuous", 16)):
+        policy = load_policy("lqr", action_mode=mode)
+        document = evaluate(policy, [FLAT], episodes=episodes, workers=1).document
+        aggregate = document["tasks"][0]["aggregate"]
+        assert aggregate["success_rate"] == 1.0, mode
+        assert aggregate["episodes"] == (episodes or 100)
+
+
+def test_the_lqr_baseline_tracks_the_target_velocity_without_bias():
+    env = bbbench.make("bbbench/VelocityTracking-v0")
+    policy = LQRController()
+    errors = []
+    for seed in range(5):
+        observation, _ = env.reset(seed=seed)
+        for _ in range(1500):
+            observation, _, terminated, truncated, _ = env.step(policy(observation))
+            velocity = MODEL.wheel_radius * (observation[2] + observation[1])
+            errors.append(velocity - observation[4])
+            if terminated or truncated:
+                break
+    assert len(errors) == 5 * 1500  # no fall
+    assert abs(np.mean(errors)) < 0.02
+    assert np.mean(np.abs(errors)) < 0.25
+
+
+def test_the_lqr_model_is_what_the_simulator_does():
+    a, b = identify()
+    assert np.allclose(a, MODEL_A, atol=2e-3)
+    assert np.allclose(b, MODEL_B, atol=2e-3)
+    assert np.allclose(GAINS, lqr_gains(MODEL_A, MODEL_B, COST_STATE, COST_INPUT))
+    closed_loop = MODEL_A - np.outer(MODEL_B, GAINS)
+    assert np.max(np.abs(np.linalg.eigvals(closed_loop))) < 1.0  # stable

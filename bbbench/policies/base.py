@@ -78,7 +78,7 @@ class Policy(abc.ABC):
 
 @dataclasses.dataclass(frozen=True)
 class PDActor:
-    """The PD baseline on each row of a batch."""
+    """A classical controller (PD, LQR) on each row of a batch."""
 
     controller: Any
 
@@ -112,6 +112,21 @@ class PDPolicy(Policy):
         from bbbench.policies.pd import PDController
 
         return PDActor(PDController(action_mode=self.action_mode))
+
+
+class LQRPolicy(Policy):
+    """The LQR baseline (`bbbench.policies.lqr.LQRController`): designed from a model
+    identified from the simulator; reads only the shared layout, so it fits every task."""
+
+    name = algorithm = "lqr"
+
+    def __init__(self, action_mode: str = "discrete") -> None:
+        self.action_mode = action_mode
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        from bbbench.policies.lqr import LQRController
+
+        return PDActor(LQRController(action_mode=self.action_mode))
 
 
 class RandomPolicy(Policy):
@@ -281,6 +296,7 @@ TERRAIN_POLICIES = {
 # `register_policy`) and `bbbench eval NAME` scores it.
 BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "pd": PDPolicy,
+    "lqr": LQRPolicy,
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,

@@ -1,0 +1,327 @@
+"""`bbbench train`: train a policy on a task with the recipe shipped for it.
+
+    from bbbench.training import train
+    result = train(["bbbench/FlatBalance-v0"], "ppo", out="policy.zip", seed=0)
+
+Hyperparameters come from the rl-zoo3 files in `bbbench/training/recipes/`.
+Training is seeded and single-threaded (torch on the CPU, one thread), so the same
+call on one machine writes the same zip bytes. Every `eval_freq` steps the policy
+plays a fixed set of *training* seeds of each task (never an eval seed); the best
+one is kept. Written beside the zip (or in `log_dir`): `curve.json` and `curve.png`
+(the learning curve), `train.json` (the recipe, seed, budget, time, machine) and
+`results.json` (the final `bbbench eval` document on the task's eval seeds).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import os
+import platform
+import re
+import tempfile
+import time
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bbbench.evaluation import EpisodeResult, evaluate, stats
+from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.files import check_output_path, write_all_atomic, write_atomic
+from bbbench.tasks.spec import TRAINING_SEEDS
+from bbbench.tasks.suite import list_tasks, spec
+from bbbench.training.recipes import ACTION_MODES, ALGORITHMS, MIX, Recipe, recipe
+
+__all__ = ["ALGORITHMS", "MIX", "Trained", "evaluation_seeds", "train"]
+
+_ADDRESS = re.compile(r" at 0x[0-9a-f]+")
+EVALUATION_EPISODES = 10  # per task, at each evaluation during training
+
+
+def evaluation_seeds(task_id: str, count: int = EVALUATION_EPISODES) -> list[int]:
+    """The training seeds a policy is evaluated on while it trains: fixed, drawn from the
+    task's name, and never one of its evaluation seeds."""
+    rng = np.random.default_rng(list(task_id.encode()))
+    seeds = [int(s) for s in rng.integers(TRAINING_SEEDS.stop, size=count)]
+    held_out = set(spec(task_id).eval_seeds)
+    if held_out.intersection(seeds):
+        raise AssertionError(f"{task_id}: a training evaluation seed is an eval seed")
+    return seeds
+
+
+@dataclasses.dataclass(frozen=True)
+class Trained:
+    """What `train` did: the zip, the learning curve, the final results document."""
+
+    out: Path
+    log_dir: Path
+    curve: list[dict[str, float]]
+    results: dict[str, Any]
+    seconds: float
+    recipe: Recipe
+
+
+def check_request(
+    task_ids: Sequence[str], algorithm: str, action_mode: str | None, steps: int | None
+) -> tuple[list[str], str, str]:
+    """The tasks (IDs normalized), recipe key and action mode of a training request;
+    `ValueError` saying what is wrong and what to do."""
+    from bbbench.training.recipes import _unknown
+
+    if algorithm not in ALGORITHMS:
+        raise ValueError(_unknown("algorithm", algorithm, ALGORITHMS))
+    if not task_ids:
+        raise ValueError("give a task ID (bbbench list shows them)")
+    tasks = list(dict.fromkeys(spec(task_id).id for task_id in task_ids))
+    if len(tasks) > 1 and any(spec(t).multi_agent for t in tasks):
+        raise ValueError(
+            "several tasks train one generalist on single-bot tasks; a multi-bot task "
+            "trains on its own"
+        )
+    modes = ACTION_MODES[algorithm]
+    mode = action_mode or modes[0]
+    if mode not in modes:
+        raise ValueError(
+            f"{algorithm.upper()} learns {' or '.join(modes)} actions, not {mode}: "
+            f"use --action-mode {modes[0]}, or an algorithm for {mode} actions "
+            f"({', '.join(a for a in ALGORITHMS if mode in ACTION_MODES[a])})"
+        )
+    if steps is not None and steps < 1:
+        raise ValueError(f"--steps must be at least 1, got {steps}")
+    return tasks, (MIX if len(tasks) > 1 else tasks[0]), mode
+
+
+def train(
+    task_ids: Sequence[str],
+    algorithm: str,
+    out: str | Path,
+    action_mode: str | None = None,
+    steps: int | None = None,
+    seed: int = 0,
+    n_envs: int | None = None,
+    log_dir: str | Path | None = None,
+    eval_freq: int | None = None,
+    final_episodes: int | None = None,
+    on_progress: Callable[[int, int, dict | None], None] | None = None,
+) -> Trained:
+    """Train `algorithm` on `task_ids` (several: one generalist on all of them) with its
+    recipe; write the best policy to `out` and the logs beside it.
+
+    `steps` and `n_envs` default to the recipe's; `eval_freq` to a tenth of the
+    budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
+    `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
+    """
+    import torch
+
+    tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps)
+    plan = recipe(algorithm, key)
+    budget = steps or plan.n_timesteps
+    n_envs = n_envs or plan.n_envs
+    if n_envs < 1:
+        raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
+    if seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {seed}")
+    out = check_output_path(out, "--out")
+    log_dir = Path(log_dir) if log_dir is not None else out.parent
+    log_dir.mkdir(parents=True, exist_ok=True)
+    check_output_path(log_dir / "curve.json", "--log")
+    eval_freq = eval_freq or max(budget // 10, 1)
+
+    torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
+    began = time.perf_counter()
+    env = _vec_env(tasks, n_envs, mode, seed)
+    model = _model(plan, env, seed)
+    with tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
+        best = Path(scratch) / "best.zip"
+        callback = _Evaluation(tasks, mode, eval_freq, best, began, on_progress, budget)
+        model.learn(total_timesteps=budget, callback=callback)
+        callback.evaluate_now(model)  # the end of the budget is a point of the curve
+        env.close()
+        callback.close()
+        data = reproducible_zip(best.read_bytes())
+    seconds = time.perf_counter() - began
+    write_atomic(out, data)
+
+    from bbbench.policies import load_policy
+
+    policy = load_policy(out)
+    results = evaluate(policy, tasks, episodes=final_episodes).document
+    record = {
+        "tasks": tasks,
+        "action_mode": mode,
+        "seed": seed,
+        "steps": budget,
+        "n_envs": n_envs,
+        "eval_freq": eval_freq,
+        "evaluation_seeds": {task_id: evaluation_seeds(task_id) for task_id in tasks},
+        "best": max(callback.curve, key=lambda point: point["mean"]),
+        "wall_time_s": round(seconds, 1),
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
+        "recipe": plan.record(),
+    }
+    write_all_atomic(
+        {
+            log_dir / "curve.json": _dumps({"points": callback.curve}),
+            log_dir / "curve.png": _curve_png(callback.curve, tasks, algorithm),
+            log_dir / "train.json": _dumps(record),
+            log_dir / "results.json": _dumps(results),
+        }
+    )
+    return Trained(out, log_dir, callback.curve, results, seconds, plan)
+
+
+def _dumps(document: dict[str, Any]) -> bytes:
+    return (json.dumps(document, indent=2) + "\n").encode()
+
+
+def _vec_env(tasks: list[str], n_envs: int, mode: str, seed: int):
+    import gymnasium as gym
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from bbbench.vec import make_vec
+
+    if len(tasks) == 1:
+        env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
+    else:  # the generalist: sub-env i plays task i mod len(tasks)
+        plays = [tasks[i % len(tasks)] for i in range(n_envs)]
+        env = DummyVecEnv(
+            [lambda task=task: Monitor(gym.make(task, action_mode=mode)) for task in plays]
+        )
+    env.seed(seed)
+    return env
+
+
+def _model(plan: Recipe, env, seed: int):
+    from stable_baselines3 import A2C, DQN, PPO, SAC, TD3
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    classes = {"ppo": PPO, "a2c": A2C, "dqn": DQN, "sac": SAC, "td3": TD3}
+    extra = {}
+    if plan.noise_std is not None:
+        size = env.action_space.shape[0]
+        extra["action_noise"] = NormalActionNoise(np.zeros(size), plan.noise_std * np.ones(size))
+    return classes[plan.algorithm](
+        plan.policy,
+        env,
+        seed=seed,
+        device="cpu",
+        verbose=0,
+        policy_kwargs=plan.policy_kwargs,
+        **plan.hyperparameters,
+        **extra,
+    )
+
+
+def _callback_base():
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    return BaseCallback
+
+
+class _Evaluation(_callback_base()):
+    """Every `every` steps: play the tasks' training evaluation seeds deterministically,
+    add a point to the curve, and save the model when its mean return is the best."""
+
+    def __init__(self, tasks, mode, every, best_path, began, on_progress, budget) -> None:
+        super().__init__()
+        self.tasks, self.every, self.best_path = tasks, every, best_path
+        self.began, self.on_progress, self.budget = began, on_progress, budget
+        self.mode = mode
+        self.next_at = every
+        self.curve: list[dict[str, float]] = []
+        self.best = -np.inf
+        self.runner: EpisodeRunner | None = None
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next_at:
+            self.next_at += self.every
+            self.evaluate_now(self.model)
+        elif self.on_progress is not None and self.n_calls % 64 == 0:
+            self.on_progress(self.num_timesteps, self.budget, None)
+        return True
+
+    def evaluate_now(self, model) -> None:
+        if self.curve and self.curve[-1]["steps"] == model.num_timesteps:
+            return
+        from bbbench.policies.base import TorchActor
+
+        actor = TorchActor(model.policy)
+        self.runner = self.runner or EpisodeRunner(actors={}, action_mode=self.mode, sampled=False)
+        for task_id in self.tasks:
+            self.runner.actors[task_id] = actor
+        played: list[EpisodeResult] = []
+        for task_id in self.tasks:
+            played += self.runner.play(task_id, evaluation_seeds(task_id))
+        returns = np.array([episode.episode_return for episode in played])
+        point = {
+            "steps": int(model.num_timesteps),
+            "wall_time_s": round(time.perf_counter() - self.began, 2),
+            "mean": float(returns.mean()),
+            "iqm": stats.iqm(returns),
+            "mean_length": float(np.mean([episode.length for episode in played])),
+        }
+        self.curve.append(point)
+        if point["mean"] > self.best:
+            self.best = point["mean"]
+            model.save(self.best_path)
+        if self.on_progress is not None:
+            self.on_progress(self.num_timesteps, self.budget, point)
+
+    def close(self) -> None:
+        if self.runner is not None:
+            self.runner.close()
+
+
+def reproducible_zip(data: bytes) -> bytes:
+    """A stable-baselines3 zip with the same bytes for the same training: members with
+    a fixed date, without the two fields that hold wall-clock times (`start_time` and
+    `ep_info_buffer`, which `learn` sets up again), and with the memory addresses in
+    the descriptions of pickled values zeroed. SB3's `load` reads it."""
+    source = zipfile.ZipFile(io.BytesIO(data))
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as target:
+        for info in source.infolist():
+            content = source.read(info.filename)
+            if info.filename == "data":
+                fields = json.loads(content)
+                for timed in ("start_time", "ep_info_buffer"):
+                    fields.pop(timed, None)
+                # The descriptions beside pickled values name objects by memory address.
+                text = _ADDRESS.sub(" at 0x0", json.dumps(fields, indent=4))
+                content = text.encode()
+            member = zipfile.ZipInfo(info.filename, date_time=(1980, 1, 1, 0, 0, 0))
+            member.compress_type = zipfile.ZIP_DEFLATED
+            member.external_attr = 0o644 << 16
+            target.writestr(member, content)
+    return buffer.getvalue()
+
+
+def _curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) -> bytes:
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(6.0, 3.4), layout="constrained")
+    axes = figure.add_subplot()
+    steps = [point["steps"] for point in curve]
+    axes.plot(steps, [point["mean"] for point in curve], marker="o", label="mean return")
+    axes.plot(steps, [point["iqm"] for point in curve], marker=".", label="IQM")
+    axes.set_xlabel("environment steps")
+    axes.set_ylabel("return on training seeds")
+    names = ", ".join(task.removeprefix("bbbench/") for task in tasks)
+    axes.set_title(f"{algorithm.upper()} on {names}", fontsize=9)
+    axes.grid(alpha=0.3)
+    axes.legend(frameon=False)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    return buffer.getvalue()
+
+
+def single_bot_mix() -> list[str]:
+    """The generalist's tasks: every single-bot task, latest version of each."""
+    from bbbench.leaderboard.board import Board
+
+    return Board(tasks=tuple(list_tasks(multi_agent=False))).ranked("single")

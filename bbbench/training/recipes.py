@@ -1,0 +1,132 @@
+"""Training recipes: rl-zoo3 hyperparameter files shipped in the package, one per algorithm,
+keyed by task ID (`bbbench/training/recipes/ppo.yml`).
+
+The same file drives `bbbench train` and rl-zoo3's own `python -m rl_zoo3.train --algo
+ppo --env bbbench/Bumps-v1 --gym-packages bbbench -conf <file>`. The keys rl-zoo3
+reads besides the algorithm's own arguments are understood here too: `n_envs`,
+`n_timesteps`, `policy`, `policy_kwargs` (a `dict(...)` string, read without `eval`),
+`noise_type` and `noise_std` (TD3's action noise).
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import difflib
+from importlib import resources
+from typing import Any
+
+import yaml
+
+ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3")
+# Which action modes each algorithm can learn in; the first is its default.
+ACTION_MODES = {
+    "ppo": ("discrete", "continuous"),
+    "a2c": ("discrete", "continuous"),
+    "dqn": ("discrete",),
+    "sac": ("continuous",),
+    "td3": ("continuous",),
+}
+MIX = "single-bot mix"  # the recipe key of a generalist trained on several tasks
+_ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "noise_type", "noise_std")
+_ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "SiLU", "Sigmoid")
+
+
+@dataclasses.dataclass(frozen=True)
+class Recipe:
+    """How to train `algorithm` on `key` (a task ID, or `MIX`)."""
+
+    algorithm: str
+    key: str
+    n_envs: int
+    n_timesteps: int
+    policy: str
+    hyperparameters: dict[str, Any]  # keyword arguments of the algorithm's class
+    policy_kwargs: dict[str, Any]
+    noise_std: float | None = None  # Gaussian action noise (TD3)
+
+    def record(self) -> dict[str, Any]:
+        """As `train.json` records it."""
+        return {
+            "algorithm": self.algorithm,
+            "recipe": self.key,
+            "n_envs": self.n_envs,
+            "n_timesteps": self.n_timesteps,
+            "policy": self.policy,
+            "hyperparameters": self.hyperparameters,
+            "policy_kwargs": _show_policy_kwargs(self.policy_kwargs),
+            **({"noise_std": self.noise_std} if self.noise_std is not None else {}),
+        }
+
+
+def recipe_file(algorithm: str):
+    """The recipe file of `algorithm` (a path inside the installed package)."""
+    return resources.files("bbbench.training") / "recipes" / f"{algorithm}.yml"
+
+
+def recipes(algorithm: str) -> dict[str, dict[str, Any]]:
+    if algorithm not in ALGORITHMS:
+        raise ValueError(_unknown("algorithm", algorithm, ALGORITHMS))
+    return yaml.safe_load(recipe_file(algorithm).read_text())
+
+
+def recipe(algorithm: str, key: str) -> Recipe:
+    """`algorithm`'s recipe for `key`; `ValueError` naming the ones there are."""
+    table = recipes(algorithm)
+    if key not in table:
+        raise ValueError(
+            f"no {algorithm} recipe for {key}; {algorithm}.yml has recipes for {', '.join(table)}"
+        )
+    entry = dict(table[key])
+    noise_type = entry.get("noise_type")
+    if noise_type not in (None, "normal"):
+        raise ValueError(f"{algorithm}.yml, {key}: noise_type {noise_type!r}: only 'normal'")
+    return Recipe(
+        algorithm=algorithm,
+        key=key,
+        n_envs=int(entry.get("n_envs", 1)),
+        n_timesteps=int(entry["n_timesteps"]),
+        policy=entry.get("policy", "MlpPolicy"),
+        hyperparameters={k: v for k, v in entry.items() if k not in _ZOO_KEYS},
+        policy_kwargs=parse_policy_kwargs(entry.get("policy_kwargs", "dict()")),
+        noise_std=float(entry["noise_std"]) if noise_type else None,
+    )
+
+
+def parse_policy_kwargs(text: str) -> dict[str, Any]:
+    """rl-zoo3's `policy_kwargs` string, 'dict(net_arch=[64, 64], activation_fn=nn.ReLU)',
+    read as data: literal values, and torch.nn activations by name."""
+    import torch.nn
+
+    try:
+        call = ast.parse(text, mode="eval").body
+    except SyntaxError:
+        call = None
+    if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)) or call.args:
+        raise ValueError(f"policy_kwargs {text!r}: expected dict(name=value, ...)")
+    if call.func.id != "dict":
+        raise ValueError(f"policy_kwargs {text!r}: expected dict(name=value, ...)")
+    kwargs = {}
+    for keyword in call.keywords:
+        value = keyword.value
+        if isinstance(value, ast.Attribute) and value.attr in _ACTIVATIONS:
+            kwargs[keyword.arg] = getattr(torch.nn, value.attr)
+        else:
+            try:
+                kwargs[keyword.arg] = ast.literal_eval(value)
+            except ValueError:
+                raise ValueError(
+                    f"policy_kwargs {text!r}: {keyword.arg} must be a literal or an nn "
+                    f"activation ({', '.join(_ACTIVATIONS)})"
+                ) from None
+    return kwargs
+
+
+def _show_policy_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
+    return {k: v.__name__ if isinstance(v, type) else v for k, v in kwargs.items()}
+
+
+def _unknown(what: str, given: str, known: tuple[str, ...]) -> str:
+    close = difflib.get_close_matches(str(given).lower(), known, n=1)
+    hint = f" Did you mean {close[0]!r}?" if close else ""
+    return f"unknown {what} {given!r}.{hint} Known: {', '.join(known)}"

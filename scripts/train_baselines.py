@@ -1,0 +1,133 @@
+"""Train the leaderboard's reference baselines with `bbbench train`, and add each to the
+leaderboard with `bbbench leaderboard add` as it finishes.
+
+    python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-s0 ...] [--list]
+
+Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
+the command's output); its policy goes into `leaderboards/submissions/<slug>/` with a
+submission.json that records the exact command, the steps, the wall time and the
+machine. Runs already on the board are skipped. Training takes most of a 2-core
+machine for hours: run it in the background.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+LATEST_SINGLE = (
+    "bbbench/FlatBalance-v0",
+    "bbbench/VelocityTracking-v0",
+    "bbbench/NoisySensors-v0",
+    "bbbench/Bumps-v1",
+    "bbbench/Obstacles-v1",
+    "bbbench/Slopes-v1",
+)
+SEEDS = (0, 1, 2)
+
+
+def runs() -> list[dict]:
+    """Every baseline: (slug, tasks, algorithm, seed), cheapest first."""
+    plan = []
+    for seed in SEEDS:
+        for task in LATEST_SINGLE:
+            plan.append({"tasks": [task], "algo": "ppo", "seed": seed})
+    for task in LATEST_SINGLE:
+        plan.append({"tasks": [task], "algo": "sac", "seed": 0})
+    for task in ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0"):
+        plan.append({"tasks": [task], "algo": "ppo", "seed": 0})
+    plan.append({"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True})
+    for run in plan:
+        name = "generalist" if run.get("generalist") else _short(run["tasks"][0])
+        run["slug"] = f"{run['algo']}-{name}-s{run['seed']}"
+    return plan
+
+
+def _short(task_id: str) -> str:
+    return task_id.removeprefix("bbbench/").lower()
+
+
+def command(run: dict, folder: Path) -> list[str]:
+    return [
+        "bbbench", "train", *run["tasks"], "--algo", run["algo"], "--seed", str(run["seed"]),
+        "--out", str(folder / "policy.zip"),
+    ]  # fmt: skip
+
+
+def _add(run: dict, folder: Path, board: Path, minutes: float) -> str:
+    """`bbbench leaderboard add` of a finished run, with what it took."""
+    argv = command(run, folder)
+    record = json.loads((folder / "train.json").read_text())
+    points = len(json.loads((folder / "curve.json").read_text())["points"])
+    names = "a mix of the single-bot tasks" if run.get("generalist") else run["tasks"][0]
+    add = [
+        "bbbench", "leaderboard", "add", str(folder / "policy.zip"),
+        "--root", str(board), "--slug", run["slug"],
+        "--name", f"{run['algo'].upper()} {_display(run)} (seed {run['seed']})",
+        "--algorithm", run["algo"].upper(), "--author", "bbbench maintainers",
+        "--env-steps", str(record["steps"]),
+        "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
+        "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
+        "two trainings side by side",
+        "--seeds", str(run["seed"]),
+        "--command", " ".join([*argv[:-2], "--out", "policy.zip"]),
+        "--licence", "MIT",
+        "--notes", f"Trained on {names} with the shipped {run['algo']} recipe "
+        f"(bbbench/training/recipes/{run['algo']}.yml): the best of {points} evaluations "
+        f"on training seeds. Curve and logs: baselines/{run['slug']}/.",
+    ]  # fmt: skip
+    subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
+    (folder / "policy.zip").unlink()  # the board keeps it, in submissions/<slug>/
+    return f"{run['slug']}: {minutes:.1f} min, on the board"
+
+
+def _display(run: dict) -> str:
+    if run.get("generalist"):
+        return "generalist"
+    return run["tasks"][0].removeprefix("bbbench/")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--parallel", type=int, default=2)
+    parser.add_argument("--only", nargs="*", help="slugs to train (default: every missing one)")
+    parser.add_argument("--list", action="store_true", help="print the plan and exit")
+    parser.add_argument("--root", type=Path, default=Path("baselines"))
+    parser.add_argument("--board", type=Path, default=Path("leaderboards"))
+    args = parser.parse_args()
+    plan = [run for run in runs() if not args.only or run["slug"] in args.only]
+    missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
+    if args.list:
+        for run in plan:
+            print(run["slug"], "" if run in missing else "(on the board)")
+        return
+    with ThreadPoolExecutor(args.parallel) as pool:
+        for line in pool.map(lambda run: _train_and_add(run, args), missing):
+            print(line, flush=True)
+
+
+_BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
+
+
+def _train_and_add(run: dict, args: argparse.Namespace) -> str:
+    folder = args.root / run["slug"]
+    folder.mkdir(parents=True, exist_ok=True)
+    began = time.perf_counter()
+    with open(folder / "train.log", "w") as log:
+        done = subprocess.run(command(run, folder), stdout=log, stderr=subprocess.STDOUT)
+    if done.returncode:
+        return f"{run['slug']}: training failed (exit {done.returncode}), see {folder}/train.log"
+    with _BOARD:
+        return _add(run, folder, args.board, (time.perf_counter() - began) / 60)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
