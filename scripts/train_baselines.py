@@ -35,16 +35,22 @@ SEEDS = (0, 1, 2)
 
 
 def runs() -> list[dict]:
-    """Every baseline: (slug, tasks, algorithm, seed), cheapest first."""
-    plan = []
-    for seed in SEEDS:
-        for task in LATEST_SINGLE:
-            plan.append({"tasks": [task], "algo": "ppo", "seed": seed})
-    for task in LATEST_SINGLE:
-        plan.append({"tasks": [task], "algo": "sac", "seed": 0})
-    for task in ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0"):
-        plan.append({"tasks": [task], "algo": "ppo", "seed": 0})
-    plan.append({"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True})
+    """Every baseline, in the order they are trained: one seed of everything first."""
+    ppo = [{"tasks": [task], "algo": "ppo"} for task in LATEST_SINGLE]
+    sac = [{"tasks": [task], "algo": "sac", "seed": 0} for task in LATEST_SINGLE]
+    multi = [
+        {"tasks": [task], "algo": "ppo", "seed": 0}
+        for task in ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
+    ]
+    generalist = {"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True}
+    plan = [
+        *({**run, "seed": 0} for run in ppo),
+        *multi,
+        *sac[:3],
+        generalist,
+        *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
+        *sac[3:],
+    ]
     for run in plan:
         name = "generalist" if run.get("generalist") else _short(run["tasks"][0])
         run["slug"] = f"{run['algo']}-{name}-s{run['seed']}"
