@@ -150,7 +150,7 @@ def test_the_repository_board_follows_the_schemas():
     for folder in sorted((root / "submissions").iterdir()):
         read_submission(folder)  # bbbench's own checks pass too
     slugs = {entry["slug"] for track in document["tracks"] for entry in track["entries"]}
-    assert slugs == {"pd", "random", "ppo-reference"}
+    assert {"pd", "lqr", "random", "ppo-reference"} <= slugs
 
 
 def test_the_submission_schema_and_the_checks_in_code_name_the_same_fields():
@@ -476,3 +476,22 @@ def test_a_build_on_ray_writes_the_same_bytes(built, tmp_path):
     shutil.copytree(built / "submissions", fresh / "submissions")
     leaderboard.build(fresh, BOARD, workers=2, backend="ray", cache=False)
     assert files(fresh) == files(built)
+
+
+def test_the_projects_readme_gets_the_baselines_table_and_check_guards_it(board):
+    from bbbench.leaderboard.views import BASELINES_END, BASELINES_START
+
+    readme = board.parent / "README.md"
+    readme.write_text(f"# Project\n\n{BASELINES_START}\nstale\n{BASELINES_END}\n\nMore.\n")
+    leaderboard.build(board, BOARD, workers=1)
+    text = readme.read_text()
+    assert "stale" not in text
+    assert text.startswith("# Project\n")
+    assert text.endswith(f"{BASELINES_END}\n\nMore.\n")
+    table = text[text.index(BASELINES_START) : text.index(BASELINES_END)]
+    assert "| 1 | PD baseline |" in table
+    assert "Bumps-v0" not in table
+    readme.write_text(text.replace("| 1 | PD baseline |", "| 1 | PD champion |"))
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert len(problems) == 1
+    assert "README.md: differs from the rebuild" in problems[0]

@@ -54,7 +54,7 @@ from bbbench.leaderboard.submissions import (
     read_submissions,
     validate,
 )
-from bbbench.leaderboard.views import markdown, page
+from bbbench.leaderboard.views import markdown, page, with_baselines
 
 __all__ = [
     "DOCUMENT",
@@ -113,7 +113,13 @@ def generate(
         address=address,
         on_episodes=on_episodes,
     )
-    return _files(scored, board)
+    built = _files(scored, board)
+    readme = root.parent / "README.md"  # the project's, where the board sits in a repository
+    if readme.is_file():
+        text = with_baselines(readme.read_text(encoding="utf-8"), built.document)
+        if text is not None:
+            built.files["../README.md"] = text.encode()
+    return built
 
 
 def _files(scored: list[Scored], board: Board) -> Built:

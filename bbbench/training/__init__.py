@@ -133,8 +133,8 @@ def train(
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
-    env = _vec_env(tasks, n_envs, mode, seed)
-    model = _model(plan, env, seed)
+    env = training_env(tasks, n_envs, mode, seed)
+    model = build_model(plan, env, seed)
     with tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
         best = Path(scratch) / "best.zip"
         callback = _Evaluation(tasks, mode, eval_freq, best, began, on_progress, budget)
@@ -178,7 +178,9 @@ def _dumps(document: dict[str, Any]) -> bytes:
     return (json.dumps(document, indent=2) + "\n").encode()
 
 
-def _vec_env(tasks: list[str], n_envs: int, mode: str, seed: int):
+def training_env(tasks: list[str], n_envs: int, mode: str, seed: int):
+    """The VecEnv a recipe trains in: `n_envs` envs of the task (worlds of bots for a
+    multi-bot task; for several tasks, sub-env i plays task i mod len(tasks)), seeded."""
     import gymnasium as gym
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
@@ -196,7 +198,8 @@ def _vec_env(tasks: list[str], n_envs: int, mode: str, seed: int):
     return env
 
 
-def _model(plan: Recipe, env, seed: int):
+def build_model(plan: Recipe, env, seed: int):
+    """The stable-baselines3 model of `plan` on `env`, seeded, on the CPU."""
     from stable_baselines3 import A2C, DQN, PPO, SAC, TD3
     from stable_baselines3.common.noise import NormalActionNoise
 
