@@ -506,7 +506,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         fields = {"rate": f"{rate:,.0f} steps/s"}
         if point is not None:
             fields["score"] = f"eval mean {point['mean']:.1f}"
-        progress.update(bar, completed=steps, total=total, **fields)
+        progress.update(bar, completed=min(steps, total), total=total, **fields)
 
     with progress:
         trained = training.train(

@@ -284,6 +284,11 @@ def _reference() -> Policy:
     return SB3ZipPolicy(REFERENCE_POLICY)
 
 
+# PPO with stable-baselines3's defaults (64 x 64 tanh MLP, n_steps 2048, batch 64, learning
+# rate 3e-4), discrete actions, 4 envs of VelocityTracking-v0, 400,000 steps, seed 0:
+# PPO("MlpPolicy", make_vec_env("bbbench/VelocityTracking-v0", n_envs=4, seed=0), seed=0,
+# device="cpu").learn(400_000). Kept byte for byte as the default of `bbbench eval`; the
+# recipes of `bbbench train` (bbbench/training/recipes/) train the baselines now.
 REFERENCE_POLICY = Path(__file__).with_name("reference.zip")
 # PPO policies trained on the -v1 terrain tasks, 1M steps each (docs/tasks.md): the
 # evidence that learning pays there, shipped so that it is re-scored byte for byte.
