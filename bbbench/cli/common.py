@@ -1,0 +1,63 @@
+"""What the commands share: the user-mistake exception, checks, and the results table."""
+
+from __future__ import annotations
+
+from rich.table import Table
+
+
+class UsageError(Exception):
+    """A mistake in what the user asked for: reported in one line, exit code 2."""
+
+
+def check_seed(value: int, flag: str = "--seed") -> int:
+    if value < 0:
+        raise UsageError(f"{flag} {value}: an episode seed is a whole number >= 0")
+    return value
+
+
+def say_normalization(policy) -> None:
+    import sys
+
+    if policy.normalization_source:
+        print(f"bbbench: {policy.normalization_source}", file=sys.stderr)
+
+
+def results_table(document: dict) -> Table:
+    policy = document["policy"]
+    title = (
+        f"{policy['name']} ({policy['algorithm']}, {policy['action_mode']} actions, "
+        f"{'deterministic' if document['deterministic'] else 'sampled'})"
+    )
+    table = Table(title=title, title_justify="left")
+    table.add_column("task", no_wrap=True)
+    for column in ("episodes", "mean [95% CI]", "IQM", "success", "normalized"):
+        table.add_column(column, justify="right", no_wrap=True)
+    for task in document["tasks"]:
+        score = task["aggregate"]
+        if not score["episodes"]:
+            table.add_row(task["task"].removeprefix("bbbench/"), "0", "-", "-", "-", "-")
+            continue
+        low, high = score["mean_ci"]
+        normalized = score["normalized_score"]
+        table.add_row(
+            task["task"].removeprefix("bbbench/"),
+            str(score["episodes"]) + (f" (-{len(task['missing'])})" if task["missing"] else ""),
+            f"{score['mean']:.2f} [{low:.2f}, {high:.2f}]",
+            f"{score['iqm']:.2f}",
+            f"{score['success_rate']:.0%}",
+            "-" if normalized is None else f"{normalized:.3f}",
+        )
+    overall = document["overall"]
+    if overall["tasks"] > 1:
+        low, high = overall["normalized_iqm_ci"]
+        table.caption = (
+            f"IQM of normalized scores over {overall['tasks']} tasks: "
+            f"{overall['normalized_iqm']:.3f} (95% CI {low:.3f} to {high:.3f})"
+        )
+    return table
+
+
+def builtin_policies() -> list[str]:
+    from bbbench.policies.base import BUILTIN_POLICIES
+
+    return sorted(BUILTIN_POLICIES)

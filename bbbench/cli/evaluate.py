@@ -1,0 +1,137 @@
+"""`bbbench eval`: score a policy on the suite's fixed evaluation seeds."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress
+
+import bbbench
+from bbbench.cli.common import UsageError, builtin_policies, results_table, say_normalization
+from bbbench.files import check_output_path, write_atomic
+
+
+def add_parser(commands) -> None:
+    evaluate = commands.add_parser(
+        "eval",
+        help="score a policy on the suite's fixed evaluation seeds",
+        description="Score a policy on the suite's fixed evaluation seeds: every task it fits, "
+        "or those given with --task. POLICY is a stable-baselines3 .zip (read without "
+        "unpickling anything) or a built-in: reference (the default, a PPO policy shipped "
+        f"with bbbench), {', '.join(p for p in builtin_policies() if p != 'reference')}.",
+    )
+    evaluate.add_argument("policy", nargs="?", default="reference", metavar="POLICY")
+    evaluate.add_argument(
+        "--task", action="extend", nargs="+", metavar="ID", help="task ID(s); default: all it fits"
+    )
+    evaluate.add_argument(
+        "--episodes", type=int, help="the first N eval seeds of each task (default: all)"
+    )
+    evaluate.add_argument("--workers", type=int, help="worker processes (default: every core)")
+    evaluate.add_argument("--backend", choices=("local", "ray"), default="local")
+    evaluate.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
+    evaluate.add_argument(
+        "--vecnormalize",
+        metavar="PKL",
+        help="the VecNormalize statistics (VecNormalize.save) the policy was trained with, "
+        "read without unpickling; found on its own where rl-zoo3 saves them",
+    )
+    evaluate.add_argument(
+        "--video", metavar="OUT", help="write the first task's first episode (.gif or .mp4)"
+    )
+    evaluate.add_argument(
+        "--stochastic", action="store_true", help="sample actions (default: deterministic)"
+    )
+    evaluate.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    # Imported here: `bbbench list` should not pay for torch.
+    from bbbench import evaluation
+    from bbbench.evaluation.backends import check_ray_address, default_workers
+    from bbbench.evaluation.video import check_video_path, record_episode
+    from bbbench.policies import PolicyError, load_policy
+
+    if args.episodes is not None and args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    cores = default_workers()
+    if args.workers is not None and args.workers > cores and not args.address:
+        # evaluate() caps them; the command says so
+        print(
+            f"bbbench: --workers {args.workers} is more than the {cores} core(s) here: "
+            f"using {cores}",
+            file=sys.stderr,
+        )
+    try:  # everything the run will need, before any episode is played
+        if args.json is not None:
+            check_output_path(args.json, "--json")
+        if args.video is not None:
+            check_video_path(args.video)
+        if args.backend == "ray":
+            check_ray_address(args.address)
+        policy = load_policy(args.policy, vecnormalize=args.vecnormalize)
+        task_ids = evaluation.select_tasks(policy, args.task)
+    except (PolicyError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    say_normalization(policy)
+    most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
+    if args.episodes is not None and args.episodes > most:
+        raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
+
+    per_task = args.episodes or most
+    total = per_task * len(task_ids)
+    console = Console(stderr=True)
+    with Progress(
+        *Progress.get_default_columns(),
+        MofNCompleteColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    ) as progress:
+        bar = progress.add_task(f"{policy.name}: {len(task_ids)} task(s)", total=total)
+        try:
+            result = evaluation.evaluate(
+                policy,
+                task_ids,
+                episodes=args.episodes,
+                workers=args.workers,
+                backend=args.backend,
+                address=args.address,
+                stochastic=args.stochastic,
+                on_result=lambda count, played: progress.advance(bar, count),
+            )
+        except PolicyError as error:  # its network cannot be built for a task's spaces
+            raise UsageError(str(error)) from None
+        except ConnectionError as error:  # Ray answered on the port, then failed
+            raise UsageError(f"--address {args.address}: {error}") from None
+    document = result.document
+    out = Console()
+    if not out.is_terminal:  # a pipe or a file: wide enough that nothing is cut
+        out = Console(width=120)
+    out.print(results_table(document))
+    if args.json is not None:
+        write_atomic(args.json, evaluation.dumps(document).encode())
+        args.written.append(args.json)
+        print(f"wrote {args.json}")
+    if args.video is not None:
+        task_id = task_ids[0]
+        seed = bbbench.spec(task_id).eval_seeds[0]
+        frames = record_episode(policy, task_id, seed, args.video, stochastic=args.stochastic)
+        args.written.append(args.video)
+        print(f"wrote {args.video}: {task_id}, episode seed {seed}, {frames} frames")
+    if result.missing:
+        missing = ", ".join(f"{task_id} seed {seed}" for task_id, seed in result.missing)
+        print(
+            f"bbbench: {len(result.missing)} episode(s) missing, their worker died twice: "
+            f"{missing}",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

@@ -1,0 +1,281 @@
+"""`bbbench leaderboard build | check | add | show`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress
+from rich.table import Table
+from rich.text import Text
+
+from bbbench.cli.common import UsageError
+
+
+def add_parser(commands) -> None:
+    board = commands.add_parser(
+        "leaderboard",
+        help="build, check, add to or show the leaderboard",
+        description="The leaderboard: submissions in <root>/submissions, scored on every "
+        "evaluation seed by the shipped harness, ranked with intervals.",
+    )
+    actions = board.add_subparsers(dest="action", required=True, metavar="ACTION")
+
+    def with_common(parser: argparse.ArgumentParser, plays: bool = True):
+        parser.add_argument(
+            "--root", default="leaderboards", help="the leaderboard folder (default leaderboards)"
+        )
+        if plays:
+            parser.add_argument(
+                "--workers", type=int, help="worker processes (default: every core)"
+            )
+            parser.add_argument("--backend", choices=("local", "ray"), default="local")
+            parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+        return parser
+
+    building = with_common(
+        actions.add_parser(
+            "build", help="score every submission and write the board (JSON, Markdown, HTML)"
+        )
+    )
+    building.add_argument(
+        "--no-cache", action="store_true", help="play every episode again (ignore stored results)"
+    )
+    building.set_defaults(run=build)
+    checking = with_common(
+        actions.add_parser(
+            "check",
+            help="rebuild from scratch and fail (exit 1) if any checked-in file differs",
+        )
+    )
+    checking.set_defaults(run=check)
+    adding = with_common(
+        actions.add_parser(
+            "add",
+            help="add a submission: check the policy, score it, write its folder and the board",
+        )
+    )
+    adding.add_argument("policy", metavar="POLICY", help="a policy .zip, or a built-in's name")
+    adding.add_argument("--slug", required=True, help="the entry's folder name, e.g. my-ppo")
+    adding.add_argument("--name", required=True, help="display name")
+    adding.add_argument("--algorithm", required=True, help="e.g. PPO")
+    adding.add_argument(
+        "--author", action="append", required=True, help="an author (repeat for several)"
+    )
+    adding.add_argument(
+        "--action-mode",
+        choices=("discrete", "continuous"),
+        help="checked against the zip (default: the zip's; discrete for a built-in)",
+    )
+    adding.add_argument(
+        "--env-steps", type=int, required=True, help="environment steps used in training"
+    )
+    adding.add_argument("--wall-time", required=True, help="training wall time, in words")
+    adding.add_argument("--hardware", required=True, help="the training machine, in words")
+    adding.add_argument(
+        "--seeds", type=int, nargs="*", default=[], metavar="SEED", help="training seed(s)"
+    )
+    adding.add_argument(
+        "--command",
+        dest="training_command",
+        required=True,
+        help="the exact command or recipe that trained it",
+    )
+    adding.add_argument("--licence", required=True, help="the policy's licence (SPDX), e.g. MIT")
+    adding.add_argument("--url", help="a paper, repository or write-up")
+    adding.add_argument("--notes", help="anything else a reader should know")
+    adding.add_argument("--date", help="the submission's own date, as you state it")
+    adding.add_argument(
+        "--vecnormalize", metavar="PKL", help="VecNormalize statistics the policy needs"
+    )
+    adding.set_defaults(run=add)
+    showing = with_common(actions.add_parser("show", help="print the ranked tables"), plays=False)
+    showing.add_argument("--track", choices=("single", "multi"), help="one track (default both)")
+    showing.set_defaults(run=show)
+
+
+def _options(args: argparse.Namespace) -> dict:
+    """The options every leaderboard command that plays episodes shares, checked."""
+    from bbbench.evaluation.backends import check_ray_address
+
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    if args.backend == "ray":
+        try:
+            check_ray_address(args.address)
+        except ValueError as error:
+            raise UsageError(str(error)) from None
+    return {"workers": args.workers, "backend": args.backend, "address": args.address}
+
+
+def _root(args: argparse.Namespace):
+    from pathlib import Path
+
+    root = Path(args.root)
+    if not root.is_dir():
+        raise UsageError(
+            f"--root {args.root}: no such folder (run from the repository's top, or give the "
+            f"leaderboard folder)"
+        )
+    return root
+
+
+def _playing(what: str):
+    """A live count of episodes played, on a terminal."""
+    console = Console(stderr=True)
+    progress = Progress(
+        *Progress.get_default_columns()[:1],
+        MofNCompleteColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    )
+    bar = progress.add_task(what, total=None)
+    return progress, lambda count: progress.advance(bar, count)
+
+
+def build(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard
+
+    root = _root(args)
+    options = _options(args)
+    progress, on_episodes = _playing("episodes played")
+    try:
+        with progress:
+            built = leaderboard.build(
+                root,
+                leaderboard.DEFAULT_BOARD,
+                cache=not args.no_cache,
+                on_episodes=on_episodes,
+                **options,
+            )
+    except leaderboard.SubmissionError as error:
+        raise UsageError(str(error)) from None
+    except leaderboard.BuildError as error:
+        print(f"bbbench: {error}; nothing written", file=sys.stderr)
+        return 1
+    args.written.append(str(root))
+    tracks = ", ".join(
+        f"{len(track['entries'])} on the {track['track']}-bot track"
+        for track in built.document["tracks"]
+    )
+    print(
+        f"wrote {root}: {tracks}; {built.episodes} episodes ({built.played} played, "
+        f"{built.episodes - built.played} from stored results)"
+    )
+    return 0
+
+
+def check(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard
+
+    root = _root(args)
+    options = _options(args)
+    progress, on_episodes = _playing("episodes re-scored")
+    try:
+        with progress:
+            checked = leaderboard.check(
+                root, leaderboard.DEFAULT_BOARD, on_episodes=on_episodes, **options
+            )
+    except leaderboard.SubmissionError as error:
+        raise UsageError(str(error)) from None
+    except leaderboard.BuildError as error:
+        print(f"bbbench: {error}", file=sys.stderr)
+        return 1
+    if checked.problems:
+        print(f"leaderboard check FAILED: {root} is not what its submissions give:")
+        for problem in checked.problems:
+            print(f"  {problem}")
+        print("Rebuild with `bbbench leaderboard build` and commit what it writes.")
+        return 1
+    print(
+        f"leaderboard check ok: {checked.entries} entries, {checked.tasks} tasks, "
+        f"{checked.episodes} episodes re-scored, {checked.seconds:.0f} s"
+    )
+    return 0
+
+
+def add(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard
+
+    root = _root(args)
+    options = _options(args)
+    metadata = {
+        "name": args.name,
+        "authors": args.author,
+        "algorithm": args.algorithm,
+        **({"action_mode": args.action_mode} if args.action_mode else {}),
+        "training": {
+            "env_steps": args.env_steps,
+            "wall_time": args.wall_time,
+            "hardware": args.hardware,
+        },
+        "training_seeds": args.seeds,
+        "command": args.training_command,
+        **({"url": args.url} if args.url else {}),
+        "licence": args.licence,
+        **({"notes": args.notes} if args.notes else {}),
+        **({"date": args.date} if args.date else {}),
+    }
+    progress, on_episodes = _playing("episodes played")
+    try:
+        with progress:
+            built = leaderboard.add(
+                root,
+                args.policy,
+                args.slug,
+                metadata,
+                vecnormalize=args.vecnormalize,
+                board=leaderboard.DEFAULT_BOARD,
+                on_episodes=on_episodes,
+                **options,
+            )
+    except leaderboard.SubmissionError as error:
+        raise UsageError(str(error)) from None
+    except leaderboard.BuildError as error:
+        print(f"bbbench: {error}; nothing written", file=sys.stderr)
+        return 1
+    args.written.append(str(root))
+    for track in built.document["tracks"]:
+        for entry in track["entries"]:
+            if entry["slug"] == args.slug:
+                print(
+                    f"{track['track']}-bot track: {args.slug} ranks {entry['rank']} of "
+                    f"{len(track['entries'])}"
+                )
+    print(
+        f"wrote {root / 'submissions' / args.slug} and the board: {built.played} episodes "
+        f"played, {built.episodes - built.played} from stored results. Commit both."
+    )
+    return 0
+
+
+def show(args: argparse.Namespace) -> int:
+    import json
+
+    from bbbench.leaderboard import DOCUMENT
+    from bbbench.leaderboard.views import rows
+
+    path = _root(args) / DOCUMENT
+    try:
+        document = json.loads(path.read_bytes())
+        tracks = [t for t in document["tracks"] if args.track in (None, t["track"])]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise UsageError(
+            f"{path}: not a leaderboard ({error}); run `bbbench leaderboard build`"
+        ) from None
+    out = Console()
+    if not out.is_terminal:
+        out = Console(width=200)
+    for track in tracks:
+        header, body = rows(track)
+        table = Table(title=track["title"].capitalize(), title_justify="left")
+        for i, column in enumerate(header):
+            table.add_column(column, justify="left" if i in (1, 2) else "right")
+        for row in body:
+            table.add_row(*map(Text, row))  # submitted names are text, not rich markup
+        out.print(table)
+    return 0

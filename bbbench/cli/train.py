@@ -1,0 +1,115 @@
+"""`bbbench train`: train a policy with the recipe shipped for its task."""
+
+from __future__ import annotations
+
+import argparse
+
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress
+
+from bbbench.cli.common import UsageError, check_seed, results_table
+from bbbench.files import check_output_path
+
+
+def add_parser(commands) -> None:
+    trainer = commands.add_parser(
+        "train",
+        help="train a policy on a task with its shipped recipe (stable-baselines3)",
+        description="Train a policy with the recipe shipped for the task (rl-zoo3 "
+        "hyperparameter files in bbbench/training/recipes/). Several single-bot tasks "
+        "train one generalist on all of them.",
+    )
+    trainer.add_argument("task", nargs="+", metavar="TASK", help="task ID(s)")
+    trainer.add_argument("--algo", required=True, help="ppo, a2c, dqn, sac or td3")
+    trainer.add_argument(
+        "--action-mode",
+        choices=("discrete", "continuous"),
+        help="default: discrete for ppo, a2c and dqn; continuous for sac and td3",
+    )
+    trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
+    trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
+    trainer.add_argument("--n-envs", type=int, help="parallel envs (default: the recipe's)")
+    trainer.add_argument("--out", default="policy.zip", help="the policy zip (default policy.zip)")
+    trainer.add_argument(
+        "--log", help="folder for curve.json, curve.png, train.json (default: the zip's)"
+    )
+    trainer.add_argument(
+        "--eval-episodes",
+        type=int,
+        help="eval seeds per task in the final table (default: all)",
+    )
+    trainer.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
+
+    from bbbench import training
+
+    try:
+        tasks, _, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
+        if args.n_envs is not None and args.n_envs < 1:
+            raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
+        check_seed(args.seed)
+        check_output_path(args.out, "--out")
+        if args.log is not None:
+            from pathlib import Path
+
+            log = Path(args.log)
+            if log.exists() and not log.is_dir():
+                raise ValueError(f"--log {args.log}: exists and is not a folder")
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    console = Console(stderr=True)
+    progress = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TextColumn("{task.fields[score]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    )
+    bar = progress.add_task(
+        f"{args.algo.upper()} {', '.join(tasks)}", total=None, rate="", score=""
+    )
+    began = [None]
+
+    def on_progress(steps: int, total: int, point: dict | None) -> None:
+        import time
+
+        now = time.perf_counter()
+        began[0] = began[0] or now
+        rate = steps / (now - began[0]) if now > began[0] else 0.0
+        fields = {"rate": f"{rate:,.0f} steps/s"}
+        if point is not None:
+            fields["score"] = f"eval mean {point['mean']:.1f}"
+        progress.update(bar, completed=min(steps, total), total=total, **fields)
+
+    with progress:
+        trained = training.train(
+            tasks,
+            args.algo,
+            out=args.out,
+            action_mode=args.action_mode,
+            steps=args.steps,
+            seed=args.seed,
+            n_envs=args.n_envs,
+            log_dir=args.log,
+            final_episodes=args.eval_episodes,
+            on_progress=on_progress,
+        )
+    args.written.append(args.out)
+    best = max(trained.curve, key=lambda point: point["mean"])
+    out = Console()
+    if not out.is_terminal:
+        out = Console(width=120)
+    out.print(results_table(trained.results))
+    print(
+        f"wrote {args.out} (best at {best['steps']:,} steps: mean return {best['mean']:.1f} on "
+        f"training seeds) and {trained.log_dir}/curve.json, curve.png, train.json, "
+        f"results.json; {trained.seconds:.0f} s"
+    )
+    return 0
