@@ -16,7 +16,7 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import EpisodeResult
-from bbbench.tasks.spec import TaskSpec, parse_task_id
+from bbbench.tasks.spec import TaskSpec
 
 SCHEMA = "bbbench-results/1"
 # The version of the code that plays episodes (seeding, lockstep groups, actors): bump it
@@ -24,11 +24,6 @@ SCHEMA = "bbbench-results/1"
 # leaderboard reuses a stored task result only when it matches (with the policy's hash,
 # the task's fingerprint and the seeds).
 HARNESS_VERSION = 1
-
-
-def task_version(task_id: str) -> int:
-    """0 for 'bbbench/FlatBalance-v0'."""
-    return parse_task_id(task_id)[2]
 
 
 def normalized(value: float, task: TaskSpec) -> float | None:
@@ -104,7 +99,7 @@ def document(
         "tasks": [
             {
                 "task": task.id,
-                "version": task_version(task.id),
+                "version": task.version,
                 "fingerprint": task.fingerprint,
                 "bots": task.group.n_bots if task.group else 1,
                 "max_return": task.max_return,

@@ -25,7 +25,6 @@ from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import Submission, SubmissionError
 from bbbench.policies import Policy
-from bbbench.tasks.spec import parse_task_id
 from bbbench.tasks.suite import list_tasks, spec
 
 SCHEMA = "bbbench-leaderboard/1"
@@ -56,13 +55,13 @@ class Board:
         """The track's tasks: by name, each name's versions newest first."""
         multi = track == "multi"
         tasks = [t for t in self.tasks if spec(t).multi_agent == multi]
-        return sorted(tasks, key=lambda t: (parse_task_id(t)[1], -parse_task_id(t)[2]))
+        return sorted(tasks, key=lambda t: (spec(t).name, -spec(t).version))
 
     def ranked(self, track: str) -> list[str]:
         """The latest version of each task of the track: the ones the ranking uses."""
         latest: dict[str, str] = {}
         for task_id in self.track_tasks(track):
-            latest.setdefault(parse_task_id(task_id)[1], task_id)
+            latest.setdefault(spec(task_id).name, task_id)
         return list(latest.values())
 
 
@@ -252,7 +251,7 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
         "tasks": [
             {
                 "task": task_id,
-                "version": parse_task_id(task_id)[2],
+                "version": spec(task_id).version,
                 "fingerprint": spec(task_id).fingerprint,
                 "eval_seeds_sha256": seeds_hash(board.seeds(task_id)),
                 "episodes": len(board.seeds(task_id)),

@@ -16,16 +16,16 @@ from typing import Any
 
 from bbbench.tasks.balance import BalanceEnv
 from bbbench.tasks.spec import TaskSpec
-from bbbench.tasks.suite import SUITE, task_name
+from bbbench.tasks.suite import SUITE
 
 
 def _with_version_history(cls: type[BalanceEnv]) -> type[BalanceEnv]:
     """Append the Version History of every version of the class's task to its docstring."""
     name = cls.__name__.removesuffix("Env")
-    versions = [spec for task_id, spec in SUITE.items() if task_name(task_id) == name]
+    versions = [spec for spec in SUITE.values() if spec.name == name]
     if not versions:
         raise LookupError(f"{cls.__name__} plays no task of the suite (no bbbench/{name}-vN)")
-    newest = max(versions, key=lambda spec: int(spec.id.rsplit("-v", 1)[1]))
+    newest = max(versions, key=lambda spec: spec.version)
     history = "\n".join(f"    - {entry}" for entry in newest.version_history)
     cls.__doc__ = f"{cls.__doc__.rstrip()}\n\n    ## Version History\n\n{history}\n"
     cls.default_task = newest.id

@@ -21,7 +21,7 @@ from bbbench.tasks.actions import (
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others, spawn_poses
 from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, sensed
 from bbbench.tasks.sensors import PerfectSensors
-from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams, parse_task_id
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
 from bbbench.terrain import load_ground
 
 # m: where fallen bots are set aside, far beyond anything an episode reaches.
@@ -186,7 +186,7 @@ class MultiBalanceEnv(ParallelEnv):
         self.render_mode = render_mode
         self.metadata = {
             **self.metadata,
-            "name": f"bbbench_{parse_task_id(task.id)[1].lower()}",  # bbbench_multibumps, ...
+            "name": f"bbbench_{task.name.lower()}",  # bbbench_multibumps, ...
             "render_fps": round(1.0 / task.control_dt),
         }
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
@@ -462,10 +462,10 @@ def agent_observation_space(group: Group) -> spaces.Box:
 
 
 def _version_history() -> str:
-    from bbbench.tasks.suite import SUITE, task_name
+    from bbbench.tasks.suite import SUITE
 
     return "\n".join(
-        f"    - {task_name(task.id)}: {entry}"
+        f"    - {task.name}: {entry}"
         for task in SUITE.values()
         if task.multi_agent
         for entry in task.version_history

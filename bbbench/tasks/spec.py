@@ -190,6 +190,16 @@ class TaskSpec:
         return digest.hexdigest()[:16]
 
     @property
+    def name(self) -> str:
+        """'Bumps' for 'bbbench/Bumps-v0': the task without namespace or version."""
+        return parse_task_id(self.id)[1]
+
+    @property
+    def version(self) -> int:
+        """0 for 'bbbench/Bumps-v0'."""
+        return parse_task_id(self.id)[2]
+
+    @property
     def fingerprint(self) -> str:
         """The spec's hash with the stored golden-rollout hash of its ID (`tasks/golden.py`).
 

@@ -14,7 +14,7 @@ from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
 from bbbench.tasks.observation import observation_space
 from bbbench.tasks.sensors import NoisySensors
-from bbbench.tasks.spec import TaskSpec, parse_task_id
+from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain, ObstacleCourse, Obstacles, Slopes
 
 _VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0))
@@ -163,17 +163,12 @@ SUITE: dict[str, TaskSpec] = {
 }
 
 
-def task_name(task_id: str) -> str:
-    """'Bumps' for 'bbbench/Bumps-v0': the task without namespace or version."""
-    return parse_task_id(task_id)[1]
-
-
 def entry_point(task_id: str) -> str:
     """The class that plays a task: one per single-bot task name (`bbbench/tasks/envs.py`),
     one for every multi-bot task (`bbbench/tasks/multi.py`)."""
     if SUITE[task_id].multi_agent:
         return "bbbench.tasks.multi:MultiBalanceEnv"
-    return f"bbbench.tasks.envs:{task_name(task_id)}Env"
+    return f"bbbench.tasks.envs:{SUITE[task_id].name}Env"
 
 
 def register_suite() -> None:
