@@ -33,7 +33,7 @@ from bbbench.evaluation import EpisodeResult, evaluate, stats
 from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.files import check_output_path, write_all_atomic, write_atomic
 from bbbench.tasks.spec import TRAINING_SEEDS
-from bbbench.tasks.suite import list_tasks, spec
+from bbbench.tasks.suite import spec
 from bbbench.training.recipes import ACTION_MODES, ALGORITHMS, MIX, Recipe, recipe
 
 __all__ = ["ALGORITHMS", "MIX", "Trained", "evaluation_seeds", "train"]
@@ -321,10 +321,3 @@ def _curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) 
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
     return buffer.getvalue()
-
-
-def single_bot_mix() -> list[str]:
-    """The generalist's tasks: every single-bot task, latest version of each."""
-    from bbbench.leaderboard.board import Board
-
-    return Board(tasks=tuple(list_tasks(multi_agent=False))).ranked("single")
