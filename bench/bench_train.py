@@ -84,7 +84,7 @@ def tutorial(seed: int):
 
 def bbbench_recipe(seed: int):
     plan = recipe("ppo", FLAT)
-    env = training_env([FLAT], plan.n_envs, "discrete", seed)
+    env = training_env(plan, [FLAT], plan.n_envs, "discrete", seed)
     return build_model(plan, env, seed), plan.n_timesteps
 
 

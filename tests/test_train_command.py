@@ -14,7 +14,13 @@ import bbbench
 from bbbench import training
 from bbbench.cli import main
 from bbbench.policies import load_policy
-from bbbench.training.recipes import ALGORITHMS, parse_policy_kwargs, recipe, recipes
+from bbbench.training.recipes import (
+    ALGORITHMS,
+    parse_env_wrapper,
+    parse_policy_kwargs,
+    recipe,
+    recipes,
+)
 from conftest import FLAT
 
 MULTI = "bbbench/MultiBalance-v0"
@@ -134,3 +140,30 @@ def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     saved = list(Path(tmp_path / "logs").rglob("*.zip"))
     assert saved, run.stdout[-2000:]
     assert load_policy(saved[0]).mismatch(FLAT) is None
+
+
+def test_a_recipe_can_charge_for_falls_in_training_only(tmp_path):
+    plan = recipe("ppo", "bbbench/Bumps-v1")
+    assert plan.wrappers == (("bbbench.training.wrappers.FallPenalty", {"penalty": 3.0}),)
+    env = plan.wrap(bbbench.make("bbbench/Bumps-v1"))
+    plain = bbbench.make("bbbench/Bumps-v1")
+    env.reset(seed=3)
+    plain.reset(seed=3)
+    while True:  # the zero action falls
+        _, charged, terminated, truncated, _ = env.step(4)
+        _, reward, *_ = plain.step(4)
+        if terminated or truncated:
+            break
+        assert charged == reward
+    assert terminated
+    assert charged == pytest.approx(reward - 3.0)
+    trained = training.train(
+        ["bbbench/Bumps-v1"], "ppo", out=tmp_path / "p.zip", steps=1024, n_envs=2,
+        final_episodes=1,
+    )  # fmt: skip
+    assert trained.recipe.wrappers
+
+
+def test_a_recipe_names_only_bbbench_wrappers():
+    with pytest.raises(ValueError, match=r"only bbbench\.training\.wrappers\.\* wrappers"):
+        parse_env_wrapper(["os.system"], "ppo.yml, x")

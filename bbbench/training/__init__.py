@@ -133,7 +133,7 @@ def train(
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
-    env = training_env(tasks, n_envs, mode, seed)
+    env = training_env(plan, tasks, n_envs, mode, seed)
     model = build_model(plan, env, seed)
     with tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
         best = Path(scratch) / "best.zip"
@@ -178,7 +178,7 @@ def _dumps(document: dict[str, Any]) -> bytes:
     return (json.dumps(document, indent=2) + "\n").encode()
 
 
-def training_env(tasks: list[str], n_envs: int, mode: str, seed: int):
+def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: int):
     """The VecEnv a recipe trains in: `n_envs` envs of the task (worlds of bots for a
     multi-bot task; for several tasks, sub-env i plays task i mod len(tasks)), seeded."""
     import gymnasium as gym
@@ -187,12 +187,17 @@ def training_env(tasks: list[str], n_envs: int, mode: str, seed: int):
 
     from bbbench.vec import make_vec
 
-    if len(tasks) == 1:
+    if len(tasks) == 1 and not plan.wrappers:
         env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
-    else:  # the generalist: sub-env i plays task i mod len(tasks)
+    elif spec(tasks[0]).multi_agent:
+        raise ValueError(f"{plan.key}: env_wrapper is for single-bot tasks")
+    else:  # sub-env i plays task i mod len(tasks), each (Monitor first) in the wrappers
         plays = [tasks[i % len(tasks)] for i in range(n_envs)]
         env = DummyVecEnv(
-            [lambda task=task: Monitor(gym.make(task, action_mode=mode)) for task in plays]
+            [
+                lambda task=task: plan.wrap(Monitor(gym.make(task, action_mode=mode)))
+                for task in plays
+            ]
         )
     env.seed(seed)
     return env

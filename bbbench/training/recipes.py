@@ -28,7 +28,16 @@ ACTION_MODES = {
     "td3": ("continuous",),
 }
 MIX = "single-bot mix"  # the recipe key of a generalist trained on several tasks
-_ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "noise_type", "noise_std")
+_ZOO_KEYS = (
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "policy_kwargs",
+    "noise_type",
+    "noise_std",
+    "env_wrapper",
+)
+_WRAPPERS = "bbbench.training.wrappers."  # the only wrappers a recipe may name
 _ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "SiLU", "Sigmoid")
 
 
@@ -44,6 +53,8 @@ class Recipe:
     hyperparameters: dict[str, Any]  # keyword arguments of the algorithm's class
     policy_kwargs: dict[str, Any]
     noise_std: float | None = None  # Gaussian action noise (TD3)
+    # rl-zoo3's env_wrapper: (class path, keyword arguments), applied to each training env
+    wrappers: tuple[tuple[str, dict[str, Any]], ...] = ()
 
     def record(self) -> dict[str, Any]:
         """As `train.json` records it."""
@@ -56,7 +67,17 @@ class Recipe:
             "hyperparameters": self.hyperparameters,
             "policy_kwargs": _show_policy_kwargs(self.policy_kwargs),
             **({"noise_std": self.noise_std} if self.noise_std is not None else {}),
+            **({"env_wrapper": [{p: k} for p, k in self.wrappers]} if self.wrappers else {}),
         }
+
+    def wrap(self, env):
+        """`env` inside the recipe's wrappers, in order."""
+        import importlib
+
+        for path, kwargs in self.wrappers:
+            module, _, name = path.rpartition(".")
+            env = getattr(importlib.import_module(module), name)(env, **kwargs)
+        return env
 
 
 def recipe_file(algorithm: str):
@@ -90,7 +111,22 @@ def recipe(algorithm: str, key: str) -> Recipe:
         hyperparameters={k: v for k, v in entry.items() if k not in _ZOO_KEYS},
         policy_kwargs=parse_policy_kwargs(entry.get("policy_kwargs", "dict()")),
         noise_std=float(entry["noise_std"]) if noise_type else None,
+        wrappers=parse_env_wrapper(entry.get("env_wrapper"), f"{algorithm}.yml, {key}"),
     )
+
+
+def parse_env_wrapper(value: Any, where: str) -> tuple[tuple[str, dict[str, Any]], ...]:
+    """rl-zoo3's env_wrapper: a class path, or a list of them or of {class path: kwargs}."""
+    if value is None:
+        return ()
+    items = value if isinstance(value, list) else [value]
+    wrappers = []
+    for item in items:
+        path, kwargs = (item, {}) if isinstance(item, str) else next(iter(item.items()))
+        if not path.startswith(_WRAPPERS):
+            raise ValueError(f"{where}: env_wrapper {path!r}: only {_WRAPPERS}* wrappers")
+        wrappers.append((path, dict(kwargs or {})))
+    return tuple(wrappers)
 
 
 def parse_policy_kwargs(text: str) -> dict[str, Any]:

@@ -1,0 +1,30 @@
+"""Wrappers a recipe can name (rl-zoo3's `env_wrapper` key), applied in training only:
+evaluation always plays the task's own reward."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+
+class FallPenalty(gym.Wrapper):
+    """Subtract `penalty` from the reward of the step on which the bot falls.
+
+    At 1-2 m/s a bot that terrain holds back earns nothing per step (the velocity
+    term cancels the upright term), so a fall, which ends the episode, costs it
+    nothing: PPO learns to fall at once. The penalty makes staying up worth it.
+    docs/tasks.md has the runs behind the values the recipes use.
+    """
+
+    def __init__(self, env: gym.Env, penalty: float) -> None:
+        super().__init__(env)
+        if penalty < 0:
+            raise ValueError(f"penalty must be >= 0, got {penalty}")
+        self.penalty = float(penalty)
+
+    def step(self, action: Any):
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        if terminated:
+            reward -= self.penalty
+        return observation, reward, terminated, truncated, info
