@@ -142,26 +142,30 @@ def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     assert load_policy(saved[0]).mismatch(FLAT) is None
 
 
-def test_a_recipe_can_charge_for_falls_in_training_only(tmp_path):
+def test_a_terrain_recipe_pays_for_staying_up_and_charges_falls_in_training_only(tmp_path):
     plan = recipe("ppo", "bbbench/Bumps-v1")
-    assert plan.wrappers == (("bbbench.training.wrappers.FallPenalty", {"penalty": 3.0}),)
+    assert plan.wrappers == (
+        ("bbbench.training.wrappers.AliveBonus", {"bonus": 0.1}),
+        ("bbbench.training.wrappers.FallPenalty", {"penalty": 3.0}),
+    )
     env = plan.wrap(bbbench.make("bbbench/Bumps-v1"))
     plain = bbbench.make("bbbench/Bumps-v1")
     env.reset(seed=3)
     plain.reset(seed=3)
     while True:  # the zero action falls
-        _, charged, terminated, truncated, _ = env.step(4)
+        _, shaped, terminated, truncated, _ = env.step(4)
         _, reward, *_ = plain.step(4)
         if terminated or truncated:
             break
-        assert charged == reward
+        assert shaped == pytest.approx(reward + 0.1)
     assert terminated
-    assert charged == pytest.approx(reward - 3.0)
+    assert shaped == pytest.approx(reward + 0.1 - 3.0)
     trained = training.train(
         ["bbbench/Bumps-v1"], "ppo", out=tmp_path / "p.zip", steps=1024, n_envs=2,
         final_episodes=1,
     )  # fmt: skip
-    assert trained.recipe.wrappers
+    assert trained.recipe.wrappers  # and its final table plays the task's own reward
+    assert trained.results["tasks"][0]["aggregate"]["mean"] < 20
 
 
 def test_a_recipe_names_only_bbbench_wrappers():
