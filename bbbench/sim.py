@@ -45,6 +45,13 @@ def physics_parameters() -> dict[str, int]:
     }
 
 
+def bullet_client_id(client: BulletClient) -> int:
+    """The `physicsClientId` of a `BulletClient`, for hot paths that call pybullet's module
+    functions directly (a client's methods build a partial per call). BulletClient keeps
+    it in `_client` and has no public name for it: this is the one place that reads it."""
+    return client._client
+
+
 def check_display() -> None:
     """`RuntimeError` unless pybullet's GUI can open a window here. Without a display,
     pybullet's GUI connection ends the whole Python process (it calls `exit()`)."""
@@ -77,6 +84,7 @@ class World:
         self.substeps = int(substeps)
         self.gui = bool(gui)
         self._client: BulletClient | None = None
+        self._client_id = -1  # the connected client's id, for `step()`
 
     @property
     def connected(self) -> bool:
@@ -87,12 +95,21 @@ class World:
         """The world's client, connecting (and configuring) it on first use."""
         if self._client is None:
             self._client = self._connect()
+            self._client_id = bullet_client_id(self._client)
         return self._client
 
     @property
     def client_id(self) -> int:
         """The pybullet `physicsClientId`, for hot paths that call pybullet directly."""
-        return self.client._client
+        return bullet_client_id(self.client)
+
+    def step(self) -> None:
+        """Advance the world by `time_step` (one `stepSimulation`, of `substeps` sub-steps)."""
+        pybullet.stepSimulation(self._client_id)
+
+    def detect_collisions(self) -> None:
+        """Run collision detection alone, without stepping: contact points refreshed."""
+        pybullet.performCollisionDetection(self._client_id)
 
     def _connect(self) -> BulletClient:
         if not self.gui:
@@ -165,6 +182,7 @@ class World:
             with contextlib.suppress(pybullet.error):
                 self._client.disconnect()
             self._client = None
+            self._client_id = -1
             if self.gui:
                 World._gui_world_open = False
 
@@ -172,6 +190,7 @@ class World:
         # A pickled world is a description, never a connection: the copy builds its own.
         state = self.__dict__.copy()
         state["_client"] = None
+        state["_client_id"] = -1
         return state
 
     def __del__(self) -> None:

@@ -24,8 +24,9 @@ from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnvStepReturn,
 )
 
+from bbbench.tasks.factory import make_parallel
 from bbbench.tasks.multi import MultiBalanceEnv
-from bbbench.tasks.suite import make_parallel, spec
+from bbbench.tasks.suite import spec
 
 
 class BotSlotsVecEnv(VecEnv):

@@ -44,10 +44,10 @@ def play_pd(task: TaskSpec, seeds: list[int]) -> list[tuple[bool, float]]:
 
 
 def pd_outcomes(
-    task: TaskSpec, episodes: int, pool: multiprocessing.pool.Pool
+    task: TaskSpec, episodes: int, pool: multiprocessing.pool.Pool, workers: int
 ) -> list[tuple[bool, float]]:
     seeds = list(task.eval_seeds[:episodes])
-    n = len(pool._pool)  # one contiguous share of seeds per worker
+    n = workers  # one share of seeds per worker
     shares = [seeds[i::n] for i in range(n)]
     return [
         outcome for share in pool.starmap(play_pd, [(task, s) for s in shares]) for outcome in share
@@ -68,7 +68,9 @@ def main() -> None:
         for task_id in args.tasks:
             spec = bbbench.spec(task_id)
             for difficulty in sorted({*DIFFICULTIES, spec.difficulty}):
-                outcomes = pd_outcomes(spec.with_difficulty(difficulty), args.episodes, pool)
+                outcomes = pd_outcomes(
+                    spec.with_difficulty(difficulty), args.episodes, pool, args.workers
+                )
                 success = statistics.fmean(ok for ok, _ in outcomes)
                 mean = statistics.fmean(total for _, total in outcomes)
                 normalized = (mean - spec.random_return) / (spec.max_return - spec.random_return)

@@ -64,8 +64,8 @@ class EnvLoop:
                 self.episodes += 1
 
     def pose(self) -> tuple:
-        bot = self.env.unwrapped._bot
-        return pybullet.getBasePositionAndOrientation(bot.body, bot._client_id)
+        bot = self.env.unwrapped.scene.bots[0]
+        return pybullet.getBasePositionAndOrientation(bot.body, bot.client_id)
 
     def close(self) -> None:
         self.env.close()

@@ -67,7 +67,7 @@ def test_the_pd_baseline_tracks_the_target_velocity_without_bias():
         observation, _ = env.reset(seed=seed)
         for _ in range(1500):
             observation, _, terminated, truncated, _ = env.step(policy(observation))
-            state = env.unwrapped._bot.read()
+            state = env.unwrapped.scene.bots[0].read()
             errors.append(state.forward_velocity - observation[4])
             if terminated or truncated:
                 break

@@ -89,7 +89,7 @@ def test_terrain_writes_the_episodes_mesh(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
     env = bbbench.make("bbbench/Bumps-v0")
     env.reset(seed=3)  # the file holds exactly the terrain that episode plays on
-    heights = env.unwrapped._ground.heightmap.heights
+    heights = env.unwrapped.scene.ground.heightmap.heights
     vertices = trimesh.load(out, process=False).vertices
     assert np.allclose(np.sort(vertices[:, 2]), np.sort(heights.ravel()), atol=1e-6)
 

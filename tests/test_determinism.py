@@ -104,14 +104,14 @@ def test_a_cloudpickled_copy_has_a_world_of_its_own():
     for _ in range(20):
         original.step(8)
     copy = cloudpickle.loads(cloudpickle.dumps(original))
-    assert copy.unwrapped._bot is None  # no world until it is reset
+    assert not copy.unwrapped.scene.built  # no world until it is reset
     copy.reset(seed=30)
-    assert copy.unwrapped._world.client_id != original.unwrapped._world.client_id
+    assert copy.unwrapped.scene.world.client_id != original.unwrapped.scene.world.client_id
     # Driving the copy hard does not move the original's bot.
-    before = original.unwrapped._bot.read()
+    before = original.unwrapped.scene.bots[0].read()
     for _ in range(50):
         copy.step(0)
-    assert original.unwrapped._bot.read() == before
+    assert original.unwrapped.scene.bots[0].read() == before
     # And the copy behaves exactly like a fresh env.
     actions = fixed_actions(200)
     assert digest(*rollout(copy, 4, actions)) == digest(*rollout(gym.make(FLAT), 4, actions))

@@ -99,11 +99,11 @@ def test_step_before_reset_is_a_clear_error():
 
 def test_world_is_created_on_first_reset_only():
     env = gym.make(FLAT)
-    assert not env.unwrapped._world.connected
+    assert not env.unwrapped.scene.world.connected
     env.reset(seed=0)
-    assert env.unwrapped._world.connected
+    assert env.unwrapped.scene.world.connected
     env.close()
-    assert not env.unwrapped._world.connected
+    assert not env.unwrapped.scene.world.connected
     observation, _ = env.reset(seed=0)  # a closed env builds a new world when reset
     assert env.observation_space.contains(observation)
 

@@ -95,9 +95,9 @@ def test_a_runner_holds_the_worlds_of_one_task_at_a_time_and_results_do_not_chan
     flat_seeds = bbbench.spec(FLAT).eval_seeds[:3]
     try:
         first = runner.play(FLAT, flat_seeds)
-        assert len(runner._envs[FLAT]) == 3
+        assert runner.worlds() == {FLAT: 3}
         runner.play(VELOCITY, bbbench.spec(VELOCITY).eval_seeds[:2])
-        assert list(runner._envs) == [VELOCITY]  # Flat's worlds were closed
+        assert list(runner.worlds()) == [VELOCITY]  # Flat's worlds were closed
         assert runner.play(FLAT, flat_seeds) == first
     finally:
         runner.close()

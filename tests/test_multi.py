@@ -25,7 +25,7 @@ MULTI_TASKS = bbbench.list_tasks(multi_agent=True)
 
 def fixed_actions(env, step: int) -> dict:
     """A fixed, varied discrete action per live agent: the same for any process."""
-    return {agent: (step * 7 + 3 * env._index[agent]) % 9 for agent in env.agents}
+    return {agent: (step * 7 + 3 * env.agent_index[agent]) % 9 for agent in env.agents}
 
 
 def play(env, seed: int, steps: int, digest=None):
@@ -102,7 +102,7 @@ def test_the_single_bot_layout_comes_first_unchanged():
     env = bbbench.make_parallel(MULTI, n_bots=2)
     observations, _ = env.reset(seed=11)
     for agent, observation in observations.items():
-        bot = env._bots[env._index[agent]]
+        bot = env.scene.bots[env.agent_index[agent]]
         state = bot.read()
         assert observation[INDEX["pitch"]] == np.float32(state.pitch)
         assert observation[INDEX["wheel_command"]] == 0.0
@@ -128,9 +128,9 @@ def test_neighbour_block_sees_the_others_in_the_bots_own_frame():
     env = bbbench.make_parallel(MULTI, n_bots=2)
     observations, _ = env.reset(seed=5)
     k = Group().neighbours
-    (x0, y0), (x1, y1) = (env._bots[i].read().position[:2] for i in range(2))
+    (x0, y0), (x1, y1) = (env.scene.bots[i].read().position[:2] for i in range(2))
     for agent, other in (("bot_0", (x1 - x0, y1 - y0)), ("bot_1", (x0 - x1, y0 - y1))):
-        heading = env._bots[env._index[agent]].read().heading
+        heading = env.scene.bots[env.agent_index[agent]].read().heading
         right, forward = observations[agent][5:7]
         assert forward == pytest.approx(other[0] * heading[0] + other[1] * heading[1], abs=1e-5)
         assert right == pytest.approx(other[0] * heading[1] - other[1] * heading[0], abs=1e-5)
@@ -166,7 +166,7 @@ def test_bots_meet_in_the_middle():
         if not env.agents:
             break
         observations, *_ = env.step({a: pd(observations[a][:5]) for a in env.agents})
-        positions = [bot.read().position[:2] for bot in env._bots]
+        positions = [bot.read().position[:2] for bot in env.scene.bots]
         closest = min(
             closest,
             min(math.dist(p, q) for i, p in enumerate(positions) for q in positions[i + 1 :]),
@@ -200,7 +200,7 @@ def test_an_episode_does_not_depend_on_the_episodes_before_it():
     env = bbbench.make_parallel(BUMPS, n_bots=6)
     for other in (5, 6):
         play(env, other, 150)
-    assert len(env._ended_at) > 0  # some bots fell, and were set aside
+    assert len(env.scene.live) < 6  # some bots fell, and were set aside
     assert play(env, seed, 150).hexdigest() == fresh
 
 
@@ -214,7 +214,7 @@ def test_a_fallen_bot_leaves_the_world():
     assert terminations["bot_0"]
     observations, *_ = env.step({"bot_1": 4})
     assert not observations["bot_1"][5:].any()  # nobody left to see
-    x, _, _ = env._bots[0].read().position
+    x, _, _ = env.scene.bots[0].read().position
     assert x > 100
 
 
@@ -231,13 +231,13 @@ def test_the_inlined_observation_and_reward_agree_with_the_shared_definitions():
     env = bbbench.make_parallel(MULTI, n_bots=3)
     env.reset(seed=8)
     for t in range(40):
-        live = list(zip(env.agents, env._live, strict=True))
+        live = list(zip(env.agents, env.scene.live, strict=True))
         _, rewards, _, _, infos = env.step(fixed_actions(env, t))
         for agent, i in live:
-            state = env._bots[i].read() if agent in env.agents else None
+            state = env.scene.bots[i].read() if agent in env.agents else None
             if state is None:
                 continue
-            error = abs(state.forward_velocity - env._targets[i, t + 1])
+            error = abs(state.forward_velocity - env.scene.episode.targets[i, t + 1])
             terms = reward_terms(state.pitch, error, env.task.reward)
             assert (infos[agent]["reward_upright"], infos[agent]["reward_velocity"]) == terms
             assert rewards[agent] == sum(terms)
@@ -256,15 +256,15 @@ def test_reset_without_a_seed_continues_the_seeded_sequence():
 def test_seed_decides_terrain_spawns_and_targets():
     env = bbbench.make_parallel(BUMPS)
     env.reset(seed=1)
-    heights, targets = env._ground.heightmap.heights.copy(), env._targets.copy()
-    positions = [bot.read().position for bot in env._bots]
+    heights, targets = env.scene.ground.heightmap.heights.copy(), env.scene.episode.targets.copy()
+    positions = [bot.read().position for bot in env.scene.bots]
     env.reset(seed=2)
-    assert not np.array_equal(heights, env._ground.heightmap.heights)
-    assert not np.array_equal(targets, env._targets)
+    assert not np.array_equal(heights, env.scene.ground.heightmap.heights)
+    assert not np.array_equal(targets, env.scene.episode.targets)
     env.reset(seed=1)
-    np.testing.assert_array_equal(heights, env._ground.heightmap.heights)
-    np.testing.assert_array_equal(targets, env._targets)
-    assert positions == [bot.read().position for bot in env._bots]
+    np.testing.assert_array_equal(heights, env.scene.ground.heightmap.heights)
+    np.testing.assert_array_equal(targets, env.scene.episode.targets)
+    assert positions == [bot.read().position for bot in env.scene.bots]
     # Each bot has its own targets.
     assert len({tuple(row) for row in targets}) == len(targets)
 
@@ -293,12 +293,12 @@ def test_cloudpickled_copies_are_independent():
     for agent in fresh_first:
         np.testing.assert_array_equal(copy_first[agent], fresh_first[agent])
     # Stepping the copy leaves the original where it was, and the other way round.
-    before = [bot.read() for bot in env._bots]
+    before = [bot.read() for bot in env.scene.bots]
     for t in range(20):
         copy.step(fixed_actions(copy, t))
         fresh.step(fixed_actions(fresh, t))
-    assert before == [bot.read() for bot in env._bots]
-    assert [bot.read() for bot in copy._bots] == [bot.read() for bot in fresh._bots]
+    assert before == [bot.read() for bot in env.scene.bots]
+    assert [bot.read() for bot in copy.scene.bots] == [bot.read() for bot in fresh.scene.bots]
 
 
 def test_fallen_agents_are_terminated_removed_and_never_revived():
@@ -382,15 +382,15 @@ def test_rgb_array_shows_the_whole_group():
 def assert_every_bot_in_view(env) -> None:
     from bbbench.tasks.multi import CAMERA_PITCH, CAMERA_YAW, RENDER_HEIGHT, RENDER_WIDTH
 
-    target, distance = env._camera()
-    client = env._world.client
+    target, distance = env.camera()
+    client = env.scene.world.client
     view = np.array(
         client.computeViewMatrixFromYawPitchRoll(target, distance, CAMERA_YAW, CAMERA_PITCH, 0, 2)
     ).reshape(4, 4, order="F")
     projection = np.array(
         client.computeProjectionMatrixFOV(50.0, RENDER_WIDTH / RENDER_HEIGHT, 0.05, 100.0)
     ).reshape(4, 4, order="F")
-    for bot in env._live_bots:  # a fallen bot has left the world
+    for bot in env.scene.live_bots:  # a fallen bot has left the world
         for height in (0.0, 0.5):  # the wheels' contact and the torso's top
             x, y, _ = bot.read().position
             clip = projection @ view @ np.array([x, y, height, 1.0])

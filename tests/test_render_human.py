@@ -19,14 +19,14 @@ pytestmark = pytest.mark.skipif(
 
 def test_human_mode_opens_one_gui_that_follows_the_bot():
     env = gym.make(FLAT, render_mode="human")
-    assert not env.unwrapped._world.connected  # nothing opens before reset
+    assert not env.unwrapped.scene.world.connected  # nothing opens before reset
     env.reset(seed=0)
-    client_id = env.unwrapped._world.client_id
+    client_id = env.unwrapped.scene.world.client_id
     assert pybullet.getConnectionInfo(client_id)["connectionMethod"] == pybullet.GUI
-    env.unwrapped._bot.reset(xy=(1.5, -2.0))  # far from where the camera started
+    env.unwrapped.scene.bots[0].reset(xy=(1.5, -2.0))  # far from where the camera started
     for _ in range(5):
         env.step(4)
-    x, y, _ = env.unwrapped._bot.read().position
+    x, y, _ = env.unwrapped.scene.bots[0].read().position
     # The GUI thread applies camera moves asynchronously: allow it a moment.
     deadline = time.monotonic() + 2.0
     while time.monotonic() < deadline:

@@ -105,9 +105,9 @@ def test_an_episode_seed_decides_the_episode_whoever_asks():
     env = bbbench.make("bbbench/Bumps-v0")
     env.reset(seed=5)
     seed = env.reset()[1]["episode_seed"]
-    drawn = env.unwrapped._ground.heightmap.heights.copy()
+    drawn = env.unwrapped.scene.ground.heightmap.heights.copy()
     env.reset(seed=seed)  # the same training seed, asked for by name
-    assert np.array_equal(env.unwrapped._ground.heightmap.heights, drawn)
+    assert np.array_equal(env.unwrapped.scene.ground.heightmap.heights, drawn)
 
 
 def test_difficulty_changes_the_terrain_and_is_recorded():
@@ -120,8 +120,8 @@ def test_difficulty_changes_the_terrain_and_is_recorded():
     )
     easy.reset(seed=2**31)
     hard.reset(seed=2**31)
-    low = easy.unwrapped._ground.heightmap.heights.max()
-    high = hard.unwrapped._ground.heightmap.heights.max()
+    low = easy.unwrapped.scene.ground.heightmap.heights.max()
+    high = hard.unwrapped.scene.ground.heightmap.heights.max()
     assert high > low
     assert easy.unwrapped.task.fingerprint != hard.unwrapped.task.fingerprint
 
@@ -146,7 +146,7 @@ def test_velocity_targets_change_within_an_episode_and_the_reward_tracks_them():
         observation, reward, terminated, truncated, _ = env.step(policy(observation))
         targets.append(float(observation[4]))
         rewards.append(reward)
-        velocities.append(env.unwrapped._bot.read().forward_velocity)
+        velocities.append(env.unwrapped.scene.bots[0].read().forward_velocity)
         if terminated or truncated:
             break
     assert len(set(targets)) >= 3  # piecewise constant, changing every 2-5 s
@@ -165,7 +165,7 @@ def test_noisy_sensors_have_the_stated_statistics():
         observation, _ = env.reset(seed=seed)
         errors = []
         for _ in range(200):
-            true_pitch = env.unwrapped._bot.read().pitch
+            true_pitch = env.unwrapped.scene.bots[0].read().pitch
             errors.append(float(observation[0]) - true_pitch)
             observation, _, terminated, truncated, _ = env.step(policy(observation))
             if terminated or truncated:
@@ -190,7 +190,7 @@ def test_the_pd_baseline_survives_most_bumps_eval_seeds_at_low_difficulty():
         survived += not terminated
         # ...and makes progress across the terrain.
         if not terminated:
-            assert env.unwrapped._bot.read().position[1] > 2.0
+            assert env.unwrapped.scene.bots[0].read().position[1] > 2.0
     assert survived >= 0.8 * len(seeds)
 
 

@@ -27,8 +27,8 @@ def ground_under(env, x: float, y: float) -> tuple[int, float]:
     """(body, height) of what a ray cast down at (x, y) meets first, the bot left out."""
     top = 5.0
     while True:
-        hit = env._world.client.rayTest((x, y, top), (x, y, -5.0))[0]
-        if hit[0] != env._bot.body:
+        hit = env.scene.world.client.rayTest((x, y, top), (x, y, -5.0))[0]
+        if hit[0] != env.scene.bots[0].body:
             return hit[0], hit[3][2]
         top = hit[3][2] - 1e-4  # on, from just under the bot
 
@@ -187,11 +187,11 @@ def test_the_field_follows_a_drifting_bot_and_the_ground_under_it_stays():
         observation, _ = env.reset(seed=seed)
         for _ in range(1500):
             observation, _, terminated, _, _ = env.step(policy(observation))
-            x, y, _ = env._bot.read().axle
+            x, y, _ = env.scene.bots[0].read().axle
             drifted = max(drifted, abs(x))
             if terminated or not terrain.bounds[2] < y < terrain.bounds[3]:
                 break
-            assert ground_under(env, x, y)[0] == env._ground.body, (seed, x, y)
+            assert ground_under(env, x, y)[0] == env.scene.ground.body, (seed, x, y)
     assert drifted > 2 * terrain.lateral_period  # the field really moved
 
 
@@ -257,16 +257,16 @@ def test_the_scan_reads_the_ground_bullet_simulates():
             break
         if step % 20:
             continue
-        state = env._bot.read()
+        state = env.scene.bots[0].read()
         x, y, axle_height = state.axle
         # The terrain repeats across: a point past the field's side is read from its copy
         # on the field (where the field will be when the bot gets there).
         period = env.task.terrain.lateral_period
-        middle = env._world.client.getBasePositionAndOrientation(env._ground.body)[0][0]
+        middle = env.scene.world.client.getBasePositionAndOrientation(env.scene.ground.body)[0][0]
         points = [(x + d * state.heading[0], y + d * state.heading[1]) for d in SCAN_OFFSETS]
         points = [(px - round((px - middle) / period) * period, py) for px, py in points]
         hits = [ground_under(env, px, py) for px, py in points]
-        assert {body for body, _ in hits} == {env._ground.body}
+        assert {body for body, _ in hits} == {env.scene.ground.body}
         ground = [height for _, height in hits]
         cell, steepest = 0.05, math.tan(math.radians(35))
         np.testing.assert_allclose(observation[5:] + axle_height, ground, atol=cell * steepest)

@@ -12,13 +12,13 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 import bbbench
-from bbbench.cli import evaluate, leaderboard, listing, rollout, terrain, train
+from bbbench.cli import dev, evaluate, leaderboard, listing, rollout, terrain, train
 from bbbench.cli.common import UsageError
 
 __all__ = ["USAGE_ERROR", "UsageError", "build_parser", "main", "run"]
 
 USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
-COMMANDS = (listing, rollout, terrain, evaluate, train, leaderboard)
+COMMANDS = (listing, rollout, terrain, evaluate, train, leaderboard, dev)
 
 
 def build_parser() -> argparse.ArgumentParser:

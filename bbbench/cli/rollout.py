@@ -36,8 +36,8 @@ def add_parser(commands) -> None:
 
 def run(args: argparse.Namespace) -> None:
     from bbbench.evaluation.episodes import action_generator
+    from bbbench.evaluation.play import Lockstep
     from bbbench.policies import PolicyError, load_policy
-    from bbbench.policies.base import act_once
 
     try:
         spec = bbbench.spec(args.task)
@@ -71,21 +71,12 @@ def run(args: argparse.Namespace) -> None:
     print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  ended by")
     returns, lengths = [], []
     for seed in range(args.seed, args.seed + args.episodes):
-        observation, _ = env.reset(seed=seed)
-        rng = action_generator(seed) if policy.random_actions else None
-        total, steps, ended = 0.0, 0, None
-        while ended is None:
-            action = act_once(actor, observation, rng)
-            if action is None:
-                ended = "NaN action"
-                break
-            observation, reward, terminated, truncated, _ = env.step(action)
-            total += reward
-            steps += 1
-            ended = "fall" if terminated else "time limit" if truncated else None
-        returns.append(total)
-        lengths.append(steps)
-        print(f"{seed:>8}  {steps:>5}  {total:>8.2f}  {ended}")
+        rngs = [action_generator(seed)] if policy.random_actions else None
+        (result,) = Lockstep([env], actor, [seed], spec.max_episode_steps, rngs).play()
+        ended = result.failure or ("fall" if result.falls else "time limit")
+        returns.append(result.episode_return)
+        lengths.append(result.length)
+        print(f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {ended}")
     env.close()
     print(
         f"mean return {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "

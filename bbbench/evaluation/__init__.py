@@ -14,7 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
-from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
+from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.evaluation.play import EpisodeResult
 from bbbench.evaluation.results import document, dumps
 from bbbench.policies.base import Policy, fitting_tasks
 from bbbench.policies.errors import PolicyError

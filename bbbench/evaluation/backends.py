@@ -20,7 +20,8 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
 
-from bbbench.evaluation.episodes import EpisodeResult, EpisodeRunner
+from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.evaluation.play import EpisodeResult
 
 Job = tuple[str, tuple[int, ...]]  # (task ID, episode seeds played together)
 Results = list[EpisodeResult] | None  # a job's episodes; None if its worker died twice

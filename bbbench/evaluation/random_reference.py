@@ -1,30 +1,8 @@
-"""Measure the random policy's mean return on each task's eval seeds: the 0 of the
-normalized score, stored in the suite as `TaskSpec.random_return`.
+"""Moved to `bbbench.dev.random_reference` (run it as `bbbench dev random-reference`); this
+name stays importable, as the same module."""
 
-    python -m bbbench.evaluation.random_reference
+import sys
 
-prints each task's measured value beside the stored one. tests/test_evaluation.py
-checks they agree, so a stored reference cannot go stale.
-"""
+from bbbench.dev import random_reference
 
-from __future__ import annotations
-
-from bbbench.evaluation import evaluate
-from bbbench.policies import load_policy
-from bbbench.tasks.suite import list_tasks, spec
-
-
-def measure(task_ids: list[str] | None = None, workers: int | None = None) -> dict[str, float]:
-    """The random policy's (discrete actions) mean return per bot over all eval seeds."""
-    task_ids = task_ids or list_tasks()
-    evaluation = evaluate(load_policy("random"), task_ids, workers=workers)
-    return {task["task"]: task["aggregate"]["mean"] for task in evaluation.document["tasks"]}
-
-
-def main() -> None:
-    for task_id, value in measure().items():
-        print(f"{task_id:30} measured {value!r:22} stored {spec(task_id).random_return!r}")
-
-
-if __name__ == "__main__":
-    main()
+sys.modules[__name__] = random_reference

@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 
 from bbbench.evaluation.episodes import action_generator
+from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import check_output_path, replacing
-from bbbench.policies.base import Policy, act_once
-from bbbench.tasks.suite import make, make_parallel, spec
+from bbbench.policies.base import Policy
+from bbbench.tasks.factory import make, make_parallel
+from bbbench.tasks.suite import spec
 
 VIDEO_FORMATS = (".gif", ".mp4")
 FRAME_EVERY = 4  # steps per frame: 25 frames per second of a 100 Hz task
@@ -62,30 +64,16 @@ def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -
     mode = policy.action_mode
     if task.multi_agent:
         env = make_parallel(task.id, action_mode=mode, render_mode="rgb_array")
-        observations, _ = env.reset(seed=seed)
+        steps = (played.step for played in MultiEpisode(env, act, seed, rng) if env.agents)
     else:
         env = make(task.id, action_mode=mode, render_mode="rgb_array", **policy.env_options())
-        observation, _ = env.reset(seed=seed)
-    steps, done = 0, False
+        rngs = None if rng is None else [rng]
+        played = Lockstep([env], act, [seed], task.max_episode_steps, rngs)
+        steps = (step.step for step in played if not step.ended)
     try:
-        while not done:
-            if steps % FRAME_EVERY == 0:
+        for step in steps:
+            if step % FRAME_EVERY == 0:
                 frames.append(env.render())
-            if task.multi_agent:
-                agents = env.agents
-                batch = np.stack([observations[agent] for agent in agents])
-                actions = act(batch, None if rng is None else [rng] * len(agents))
-                if any(action is None for action in actions):
-                    break  # NaN: the episode ends there, as in the evaluation
-                observations, *_ = env.step(dict(zip(agents, actions, strict=True)))
-                done = not env.agents
-            else:
-                action = act_once(act, observation, rng)
-                if action is None:
-                    break
-                observation, _, terminated, truncated, _ = env.step(action)
-                done = terminated or truncated
-            steps += 1
     finally:
         frames.append(env.render())
         env.close()

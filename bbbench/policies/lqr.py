@@ -114,7 +114,7 @@ def identify(
 ) -> tuple[np.ndarray, np.ndarray]:
     """A and B fitted by least squares to FlatBalance-v0's steps (see the module docstring)."""
     from bbbench.policies.pd import PDController
-    from bbbench.tasks.suite import make
+    from bbbench.tasks.factory import make
 
     env = make("bbbench/FlatBalance-v0", action_mode="continuous").unwrapped
     pd = PDController(action_mode="continuous")

@@ -29,6 +29,8 @@ from typing import NamedTuple
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.sim import bullet_client_id
+
 URDF_PATH = Path(__file__).with_name("balancebot.urdf")
 
 # Tilt from vertical (rad) past which the bot has fallen. Tilt is measured
@@ -170,12 +172,17 @@ class BalanceBot:
             )
         self._client = client
         # The hot path calls pybullet directly: BulletClient builds a partial per call.
-        self._client_id = client._client
+        self._client_id = bullet_client_id(client)
         self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
         self._com_above_axle = model.com_above_axle
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
         self._set_aside = False
         self.command_wheel_speed(0.0)
+
+    @property
+    def client_id(self) -> int:
+        """The `physicsClientId` of the bot's world."""
+        return self._client_id
 
     # -- acting ---------------------------------------------------------------
 

@@ -7,27 +7,20 @@ import time
 from typing import Any, ClassVar
 
 import numpy as np
-import pybullet
-from gymnasium import Env, logger
+from gymnasium import Env
 
-from bbbench.robots import FALL_TILT, BalanceBot, BotState
-from bbbench.sim import World
-from bbbench.tasks.actions import (
-    ACTION_MODES,
-    action_space,
-    continuous_change,
-    discrete_change,
-)
+from bbbench.robots import FALL_TILT, BotState
+from bbbench.tasks.actions import action_space
 from bbbench.tasks.observation import (
     SCAN_OFFSETS,
     observation_space,
     observe,
     observe_scanned,
 )
-from bbbench.tasks.reward import base_reward
-from bbbench.tasks.sensors import PerfectSensors
-from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
-from bbbench.terrain import load_ground
+from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.scene import Scene, configure, render_ready
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
+from bbbench.tasks.suite import spec
 
 RENDER_WIDTH, RENDER_HEIGHT = 320, 240  # pixels of an "rgb_array" frame
 _CAMERA_DISTANCE = 2.2  # m from the bot
@@ -142,14 +135,15 @@ class BalanceEnv(Env):
 
     ## Rewards
 
-    One function for every task (`bbbench.tasks.reward.base_reward`):
+    One function for every task (`bbbench.tasks.reward.reward_terms`, the sum of two terms):
 
         reward = 0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|
 
     with pitch in rad and the axle's true horizontal forward velocity in m/s.
     At most 0.1 per step, so a 1500-step episode scores at most 150.
-    `info["velocity_error"]` after each step is |forward_velocity - target_velocity|
-    in m/s (true, not sensed).
+    `info` after each step carries the two terms, `"reward_upright"` and
+    `"reward_velocity"` (the reward is their sum), and `"velocity_error"`,
+    |forward_velocity - target_velocity| in m/s (true, not sensed).
 
     ## Starting State
 
@@ -206,56 +200,28 @@ class BalanceEnv(Env):
         height_scan: bool | None = None,
         **unknown: Any,
     ) -> None:
-        if not isinstance(task, TaskSpec):
-            from bbbench.tasks.suite import spec  # the suite imports this module's path only
-
-            task = spec(task)
-        accepted = (
-            f"action_mode={ACTION_MODES}, render_mode="
-            f"{(None, *self.metadata['render_modes'])}, height_scan=(False, True)"
-            + (", difficulty=<a number in [0, 1]>" if task.difficulty is not None else "")
+        task = configure(
+            task if isinstance(task, TaskSpec) else spec(task),
+            unknown,
+            {"height_scan": height_scan, "difficulty": difficulty},
+            action_mode,
+            render_mode,
+            self.metadata["render_modes"],
         )
-        if unknown or (difficulty is not None and task.difficulty is None):
-            flat = difficulty is not None and task.difficulty is None
-            given = sorted(unknown) + (["difficulty"] if flat else [])
-            raise TypeError(
-                f"unknown keyword argument(s) {given} for {task.id}: accepted keyword "
-                f"arguments are {accepted}"
-            )
-        if difficulty is not None:
-            task = task.with_difficulty(difficulty)
-        if height_scan is not None:
-            task = task.with_height_scan(height_scan)
-        if action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
         self.task = task
         self.action_mode = action_mode
         self.render_mode = render_mode
         self._human = render_mode == "human"
         self.action_space = action_space(action_mode)
         self.observation_space = observation_space(task.height_scan)
-        self._height_scan = task.height_scan
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
-        self._wheel_speed_change = (
-            discrete_change if action_mode == "discrete" else continuous_change
-        )
-        self._delay = task.sensors.delay_steps
-        # Decided by the task, not per step: perfect, undelayed sensors take the hot path.
-        self._perfect_sensors = isinstance(task.sensors, PerfectSensors) and not self._delay
-        self._world = World(
-            time_step=task.control_dt, substeps=task.physics_substeps, gui=self._human
-        )
-        self._bot: BalanceBot | None = None  # built with the world, on the first reset
-        self._targets: list[float] = []
-        self._errors: list[tuple[float, float, float]] | None = None
-        self._last_reading = (0.0, 0.0, 0.0)
-        self._steps = 0
+        self._scene = Scene(task, action_mode, gui=self._human)
         self._last_frame_time = 0.0
+
+    @property
+    def scene(self) -> Scene:
+        """The episode's world, ground and bot, and what its seed drew (`scene.episode`)."""
+        return self._scene
 
     # -- the gymnasium API ----------------------------------------------------
 
@@ -265,139 +231,83 @@ class BalanceEnv(Env):
         super().reset(seed=seed)
         if options:
             raise ValueError(f"reset() takes no options, got {sorted(options)}")
-        if self._bot is None:
-            self._build_world()
-        task = self.task
         # One integer decides the episode: the seed given, or a training seed drawn
         # from np_random.
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if seed is None else seed
-        streams = episode_streams(episode_seed)
-        spawn_height = self._ground.reset(streams.terrain)
-        self._targets = task.command.targets(
-            streams.command, task.max_episode_steps, task.control_dt
-        )
-        pitch = float(streams.start.uniform(-task.initial_pitch, task.initial_pitch))
-        self._errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
-        self._bot.reset(pitch=pitch, ground_height=spawn_height)
-        self._steps = 0
-        state = self._bot.read()
-        self._last_reading = (state.pitch, state.pitch_rate, state.wheel_speed)
-        if self._height_scan:
-            observation = self._scanned(state, self._bot.wheel_command, self._targets[0], 0)
-        else:
-            observation = self._sensed(state, self._bot.wheel_command, self._targets[0], 0)
+        scene = self._scene
+        (state,) = scene.reset(episode_seed)
+        observation = self._observe(state, scene.bots[0].wheel_command, scene.target(0), 0)
         if self._human:
             self._render_human()
         return observation, {"episode_seed": episode_seed}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        bot = self._bot
-        if bot is None:
+        scene = self._scene
+        if not scene.built:
             raise RuntimeError(
                 f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
             )
-        command = bot.command_wheel_speed(bot.wheel_command + self._wheel_speed_change(action))
-        pybullet.stepSimulation(self._client_id)
-        state = bot.read()
-        if self._follow is not None:
-            self._follow(state.axle[0])
-        self._steps = steps = self._steps + 1
-        try:
-            target = self._targets[steps]
-        except IndexError:  # past the time limit (an env used without TimeLimit)
-            target = self._targets[-1]
+        command = scene.act(action)
+        state = scene.advance()
+        steps = scene.steps
+        target = scene.target(steps)
         velocity_error = abs(state.forward_velocity - target)
-        reward = base_reward(state.pitch, velocity_error, self.task.reward)
-        info = {"velocity_error": velocity_error}
+        upright, velocity = reward_terms(state.pitch, velocity_error, self.task.reward)
+        info = {
+            "reward_upright": upright,
+            "reward_velocity": velocity,
+            "velocity_error": velocity_error,
+        }
         if self._human:
             self._render_human()
-        if self._height_scan:
-            observation = self._scanned(state, command, target, steps)
-        elif self._perfect_sensors:
+        if scene.perfect_sensors and not self.task.height_scan:  # the hot path
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
-            observation = self._sensed(state, command, target, steps)
-        return observation, reward, state.tilt > FALL_TILT, False, info
+            observation = self._observe(state, command, target, steps)
+        return observation, upright + velocity, state.tilt > FALL_TILT, False, info
 
-    def _scanned(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
-        """The observation followed by the ground heights ahead, relative to the axle."""
+    def _observe(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
+        """The observation through the task's sensors; with the height scan, followed by
+        the ground heights ahead, relative to the axle."""
+        reading = self._scene.reading(state, step)
+        if not self.task.height_scan:
+            return observe(*reading, command, target)
         x, y, axle_height = state.axle
-        scan = self._ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
-        return observe_scanned(*self._reading(state, step), command, target, scan)
-
-    def _sensed(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
-        """The observation through the task's sensor model: delayed, biased, noisy."""
-        return observe(*self._reading(state, step), command, target)
-
-    def _reading(self, state: BotState, step: int) -> tuple[float, float, float]:
-        """Pitch, pitch rate and wheel speed as the task's sensors read them."""
-        reading = (state.pitch, state.pitch_rate, state.wheel_speed)
-        if self._perfect_sensors:
-            return reading
-        if self._delay:
-            reading, self._last_reading = self._last_reading, reading
-        if self._errors is not None:
-            errors = self._errors[min(step, len(self._errors) - 1)]
-            reading = (reading[0] + errors[0], reading[1] + errors[1], reading[2] + errors[2])
-        return reading
+        scan = self._scene.ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
+        return observe_scanned(*reading, command, target, scan)
 
     def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            logger.warn(
-                "render() was called without a render_mode; make the env with "
-                'render_mode="rgb_array" or "human".'
-            )
+        if not render_ready(self):
             return None
-        if self._bot is None:
-            raise RuntimeError(f"{self.task.id}: call reset() before render()")
         if self.render_mode == "rgb_array":
-            return self._render_rgb()
+            self._scene.ground.paint()
+            target, yaw = self.camera()
+            return self._scene.world.camera_image(
+                target, _CAMERA_DISTANCE, yaw, _CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
+            )
         self._render_human()
         return None
 
     def close(self) -> None:
-        self._world.close()
-        self._bot = None
+        self._scene.close()
 
     # -- internals ------------------------------------------------------------
 
-    def _build_world(self) -> None:
-        client = self._world.client
-        self._client_id = self._world.client_id
-        self._ground = load_ground(client, self.task.terrain)
-        self._bot = BalanceBot(client)
-        # Terrain with no side edge moves with the bot (`HeightfieldGround.follow`).
-        self._follow = self._ground.follow if self._ground.period else None
-
-    def _camera(self) -> tuple[tuple[float, float, float], float]:
+    def camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks (the axle, raised to the bot's middle height: steady
         while it leans) and its yaw (deg): it follows the bot, up the slopes too."""
-        state = self._bot.read()
+        state = self._scene.bots[0].read()
         x, y, axle_height = state.axle
         heading = math.degrees(math.atan2(state.heading[1], state.heading[0]))
         return (x, y, axle_height + 0.15), heading - 90.0 + _CAMERA_YAW_FROM_SIDE
 
-    def _render_rgb(self) -> np.ndarray:
-        self._ground.paint()
-        target, yaw = self._camera()
-        return self._world.camera_image(
-            target, _CAMERA_DISTANCE, yaw, _CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
-        )
-
     def _render_human(self) -> None:
-        target, yaw = self._camera()
-        self._world.client.resetDebugVisualizerCamera(_CAMERA_DISTANCE, yaw, _CAMERA_PITCH, target)
+        target, yaw = self.camera()
+        self._scene.world.client.resetDebugVisualizerCamera(
+            _CAMERA_DISTANCE, yaw, _CAMERA_PITCH, target
+        )
         # Real time: a frame per control step, no faster than the simulated clock.
         delay = self.task.control_dt - (time.perf_counter() - self._last_frame_time)
         if delay > 0:
             time.sleep(delay)
         self._last_frame_time = time.perf_counter()
-
-    def __getstate__(self) -> dict[str, Any]:
-        # The world pickles as a description; bodies and ids belong to the old connection.
-        state = self.__dict__.copy()
-        state["_bot"] = None
-        state.pop("_ground", None)
-        state.pop("_client_id", None)
-        state.pop("_follow", None)
-        return state

@@ -5,27 +5,20 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-import pybullet
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from bbbench.robots import FALL_TILT, BalanceBot, BotState
-from bbbench.sim import World
-from bbbench.tasks.actions import (
-    ACTION_MODES,
-    action_space,
-    continuous_change,
-    discrete_change,
-)
-from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others, spawn_poses
-from bbbench.tasks.observation import OBSERVATION_DTYPE, observation_space, sensed
+from bbbench.robots import FALL_TILT, BotState
+from bbbench.tasks.actions import action_space
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, nearest_others
+from bbbench.tasks.observation import OBSERVATION_DTYPE, agent_observation_space, sensed
+from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.scene import ActionError, Scene, configure, render_ready
 from bbbench.tasks.sensors import PerfectSensors
-from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec, episode_streams
-from bbbench.terrain import load_ground
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
+from bbbench.tasks.suite import SUITE, spec
 
-# m: where fallen bots are set aside, far beyond anything an episode reaches.
-_SET_ASIDE_X = 1000.0
 RENDER_WIDTH, RENDER_HEIGHT = 480, 360  # pixels of an "rgb_array" frame of the group
 CAMERA_YAW, CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole group in view
 
@@ -147,37 +140,16 @@ class MultiBalanceEnv(ParallelEnv):
         max_episode_steps: int | None = None,
         **unknown: Any,
     ) -> None:
-        if not isinstance(task, TaskSpec):
-            from bbbench.tasks.suite import spec
-
-            task = spec(task)
+        task = task if isinstance(task, TaskSpec) else spec(task)
         if task.group is None:
             raise ValueError(
                 f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
             )
-        if unknown or (difficulty is not None and task.difficulty is None):
-            flat = difficulty is not None and task.difficulty is None
-            given = sorted(unknown) + (["difficulty"] if flat else [])
-            accepted = "n_bots, action_mode, render_mode, max_episode_steps" + (
-                ", difficulty" if task.difficulty is not None else ""
-            )
-            raise TypeError(
-                f"unknown keyword argument(s) {given} for {task.id}: accepted keyword "
-                f"arguments are {accepted}"
-            )
-        if n_bots is not None:
-            task = task.with_n_bots(n_bots)
-        if difficulty is not None:
-            task = task.with_difficulty(difficulty)
-        if max_episode_steps is not None:
-            task = task.with_time_limit(max_episode_steps)
-        if action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
+        options = {"n_bots": n_bots, "max_episode_steps": max_episode_steps}
+        options["difficulty"] = difficulty
+        task = configure(
+            task, unknown, options, action_mode, render_mode, self.metadata["render_modes"]
+        )
         if not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps:
             raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
         self.task = task
@@ -191,21 +163,19 @@ class MultiBalanceEnv(ParallelEnv):
         }
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
-        self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
+        self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
         self._action_space = action_space(action_mode)
         self._observation_space = agent_observation_space(group)
         self._observation_size = self._observation_space.shape[0]
-        self._reward_weights = (task.reward.upright, task.reward.velocity)
-        self._change = discrete_change if action_mode == "discrete" else continuous_change
-        self._world = World(time_step=task.control_dt, substeps=task.physics_substeps)
-        self._bots: list[BalanceBot] | None = None  # built with the world, on the first reset
+        self._scene = Scene(task, action_mode)
         self._np_random: np.random.Generator | None = None
-        self._targets = np.zeros((group.n_bots, 1))
-        self._live: list[int] = []  # indices of the bots in self.agents, in order
-        self._live_bots: list[BalanceBot] = []  # and the bots themselves
         self._ended_at: dict[str, int] = {}  # agent -> step its episode ended
-        self._states: list[BotState] = []
-        self._steps = 0
+        self._states: list[BotState] = []  # of the live bots, in order
+
+    @property
+    def scene(self) -> Scene:
+        """The episode's world, ground and bots, and what its seed drew (`scene.episode`)."""
+        return self._scene
 
     # -- spaces -----------------------------------------------------------------
 
@@ -218,7 +188,7 @@ class MultiBalanceEnv(ParallelEnv):
         return self._action_space
 
     def _check_agent(self, agent: str) -> None:
-        if agent not in self._index:
+        if agent not in self.agent_index:
             raise ValueError(
                 f"unknown agent {agent!r}: {self.task.id} with {self.group.n_bots} bots has "
                 f"agents {self.possible_agents[0]!r} to {self.possible_agents[-1]!r}"
@@ -237,45 +207,15 @@ class MultiBalanceEnv(ParallelEnv):
             if self._np_random is None:
                 self._np_random, _ = seeding.np_random()
             episode_seed = int(self._np_random.integers(TRAINING_SEEDS.stop))
-        if self._bots is None:
-            self._build_world()
-        task, group = self.task, self.group
-        streams = episode_streams(episode_seed)
-        self._ground.reset(streams.terrain)
-        poses = spawn_poses(streams.start, group)
-        pitches = streams.start.uniform(-task.initial_pitch, task.initial_pitch, size=group.n_bots)
-        targets = np.array(
-            [
-                task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
-                for _ in range(group.n_bots)
-            ]
-        )
-        self._targets = targets
-        self._targets_by_step = targets.T.tolist()  # [step][bot], floats for the hot path
-        # Drop every contact point of the last episode at once (see BalanceBot.reset).
-        for bot in self._bots:
-            bot.move_clear()
-        pybullet.performCollisionDetection(self._client_id)
-        for bot, ((x, y), yaw), pitch in zip(self._bots, poses, pitches, strict=True):
-            bot.reset(
-                pitch=float(pitch),
-                yaw=yaw,
-                xy=(x, y),
-                ground_height=self._ground.spawn_height(x, y),
-                drop_contacts=False,
-            )
-        self._steps = 0
-        self._live = list(range(group.n_bots))
-        self._live_bots = list(self._bots)
+        self._states = self._scene.reset(episode_seed)
         self.agents = self.possible_agents[:]
         self._ended_at = {}
-        self._states = [bot.read() for bot in self._bots]
-        observations = self._observe(self._states, self._targets_by_step[0])
+        observations = self._observe(self._states, self._scene.live_targets(0))
         infos = {agent: {"episode_seed": episode_seed} for agent in self.agents}
         return dict(zip(self.agents, observations, strict=True)), infos
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        agents = self.agents
+        agents, scene = self.agents, self._scene
         if not isinstance(actions, dict):
             raise TypeError(
                 f"step() takes a dict of actions, one for each agent in env.agents, got "
@@ -285,68 +225,50 @@ class MultiBalanceEnv(ParallelEnv):
             self._refuse(actions)
         if not agents:
             return {}, {}, {}, {}, {}
-        change, live_bots = self._change, self._live_bots
-        for agent, bot in zip(agents, live_bots, strict=True):
-            try:
-                bot.command_wheel_speed(bot.wheel_command + change(actions[agent]))
-            except ValueError as error:
-                raise ValueError(f"action for {agent!r}: {error}") from None
-        pybullet.stepSimulation(self._client_id)
-        self._steps = steps = self._steps + 1
+        try:
+            scene.act_live([actions[agent] for agent in agents])
+        except ActionError as error:
+            raise ValueError(f"action for {agents[error.index]!r}: {error}") from None
         # Only the bots still in the world: a fallen one was set aside.
-        self._states = states = [bot.read() for bot in live_bots]
-        every_target = self._targets_by_step[min(steps, len(self._targets_by_step) - 1)]
-        targets = [every_target[i] for i in self._live]
+        self._states = states = scene.advance_live()
+        steps = scene.steps
+        targets = scene.live_targets(steps)
         observations = self._observe(states, targets)
-        upright_weight, velocity_weight = self._reward_weights
+        pitches = np.array([state.pitch for state in states])
+        errors = np.abs(np.array([state.forward_velocity for state in states]) - targets)
+        upright, velocity = reward_terms(pitches, errors, self.task.reward)
+        upright, velocity = upright.tolist(), velocity.tolist()
         truncated = steps >= self.task.max_episode_steps
         rewards, terminations, truncations, infos = {}, {}, {}, {}
-        fallen_any = False
-        for agent, state, target in zip(agents, states, targets, strict=True):
-            # reward.reward_terms, inlined on the hot path (tests/test_multi.py checks they agree).
-            error = abs(state.forward_velocity - target)
-            upright = upright_weight * (1.0 - abs(state.pitch))
-            velocity = -velocity_weight * error
-            rewards[agent] = upright + velocity
+        for k, (agent, state) in enumerate(zip(agents, states, strict=True)):
+            rewards[agent] = upright[k] + velocity[k]
             infos[agent] = {
-                "reward_upright": upright,
-                "reward_velocity": velocity,
-                "velocity_error": error,
+                "reward_upright": upright[k],
+                "reward_velocity": velocity[k],
+                "velocity_error": float(errors[k]),
             }
             truncations[agent] = truncated
-            fallen = terminations[agent] = state.tilt > FALL_TILT
-            fallen_any |= fallen
+            terminations[agent] = state.tilt > FALL_TILT
         returned = dict(zip(agents, observations, strict=True))
-        if truncated:
-            self._end(agents, steps)
-        elif fallen_any:
-            self._end([agent for agent in agents if terminations[agent]], steps)
+        ended = agents if truncated else [agent for agent in agents if terminations[agent]]
+        if ended:
+            self._end(ended, steps)
         return returned, rewards, terminations, truncations, infos
 
     def _end(self, ended: list[str], steps: int) -> None:
         """Take the agents whose episodes ended out of `agents`, and their bots out of the world."""
+        gone = set(ended)
         for agent in ended:
             self._ended_at[agent] = steps
-            i = self._index[agent]
-            # Far from everything and from each other, until the next reset.
-            self._bots[i].set_aside((_SET_ASIDE_X + 10.0 * i, 0.0, 10.0))
-        gone = set(ended)
-        kept = [
-            (agent, i, bot, state)
-            for agent, i, bot, state in zip(
-                self.agents, self._live, self._live_bots, self._states, strict=True
-            )
-            if agent not in gone
-        ]
-        self.agents = [agent for agent, *_ in kept]
-        self._live = [i for _, i, _, _ in kept]
-        self._live_bots = [bot for *_, bot, _ in kept]
-        self._states = [state for *_, state in kept] or self._states
+        kept = [k for k, agent in enumerate(self.agents) if agent not in gone]
+        self._scene.take_out([self.agent_index[agent] for agent in ended])
+        self.agents = [self.agents[k] for k in kept]
+        self._states = [self._states[k] for k in kept] or self._states
 
     def _refuse(self, actions: dict[str, Any]) -> None:
         """Raise the error that says what is wrong with the keys of `actions`."""
         for agent in actions:
-            if agent not in self._index:
+            if agent not in self.agent_index:
                 self._check_agent(agent)
             if agent not in self.agents:
                 ended = self._ended_at.get(agent)
@@ -377,11 +299,12 @@ class MultiBalanceEnv(ParallelEnv):
         positions = [complex(state.position[0], state.position[1]) for state in states]
         velocities = [complex(*state.velocity) for state in states]
         nearest = nearest_others(positions, k)
+        live_bots = self._scene.live_bots
         rows = []
         for i, state in enumerate(states):
             row = [
                 *sensed(state.pitch, state.pitch_rate, state.wheel_speed),
-                self._live_bots[i].wheel_command,
+                live_bots[i].wheel_command,
                 targets[i],
             ]
             here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
@@ -400,23 +323,15 @@ class MultiBalanceEnv(ParallelEnv):
         return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)
 
     def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            from gymnasium import logger
-
-            logger.warn(
-                "render() was called without a render_mode; make the env with "
-                'render_mode="rgb_array"'
-            )
+        if not render_ready(self):
             return None
-        if self._bots is None:
-            raise RuntimeError(f"{self.task.id}: call reset() before render()")
-        self._ground.paint()
-        target, distance = self._camera()
-        return self._world.camera_image(
+        self._scene.ground.paint()
+        target, distance = self.camera()
+        return self._scene.world.camera_image(
             target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
         )
 
-    def _camera(self) -> tuple[tuple[float, float, float], float]:
+    def camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks, and from how far, to frame every bot."""
         positions = np.array([state.position for state in self._states])
         low, high = positions.min(axis=0), positions.max(axis=0)
@@ -425,45 +340,15 @@ class MultiBalanceEnv(ParallelEnv):
         return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
 
     def close(self) -> None:
-        self._world.close()
-        self._bots = None
+        self._scene.close()
         self.agents = []
 
-    # -- internals ------------------------------------------------------------
-
-    def _build_world(self) -> None:
-        client = self._world.client
-        self._client_id = self._world.client_id
-        self._ground = load_ground(client, self.task.terrain)
-        self._bots = [BalanceBot(client) for _ in self.possible_agents]
-
     def __getstate__(self) -> dict[str, Any]:
-        # As BalanceEnv: the world pickles as a description; a copy builds its own.
-        state = self.__dict__.copy()
-        state["_bots"] = None
-        state["agents"] = []
-        state["_live"] = []
-        state["_live_bots"] = []
-        state["_states"] = []
-        state.pop("_ground", None)
-        state.pop("_client_id", None)
-        return state
-
-
-def agent_observation_space(group: Group) -> spaces.Box:
-    """One bot's observation space: the single-bot layout, then its neighbours'."""
-    single = observation_space()
-    low, high = group.bounds()
-    return spaces.Box(
-        low=np.concatenate([single.low, low]).astype(OBSERVATION_DTYPE),
-        high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
-        dtype=OBSERVATION_DTYPE,
-    )
+        # A copy has no world (the scene pickles without one) and no episode.
+        return {**self.__dict__, "agents": [], "_states": []}
 
 
 def _version_history() -> str:
-    from bbbench.tasks.suite import SUITE
-
     return "\n".join(
         f"    - {task.name}: {entry}"
         for task in SUITE.values()

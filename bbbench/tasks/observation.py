@@ -20,6 +20,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.robots import MODEL
+from bbbench.tasks.group import Group
 
 OBSERVATION_DTYPE = np.float32
 
@@ -158,4 +159,16 @@ def observe_scanned(
         chain(sensed(pitch, pitch_rate, wheel_speed), (wheel_command, target), scan),
         OBSERVATION_DTYPE,
         _OBSERVATION_SIZE + len(scan),
+    )
+
+
+def agent_observation_space(group: Group) -> spaces.Box:
+    """One bot's observation space in a multi-bot task: the single-bot layout, then its
+    neighbours' (`Group.bounds`)."""
+    single = observation_space()
+    low, high = group.bounds()
+    return spaces.Box(
+        low=np.concatenate([single.low, low]).astype(OBSERVATION_DTYPE),
+        high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
+        dtype=OBSERVATION_DTYPE,
     )

@@ -28,15 +28,11 @@ class RewardWeights:
                 raise ValueError(f"reward weight {name!r} must be >= 0, got {value!r}")
 
 
-def reward_terms(
-    pitch: float, velocity_error: float, weights: RewardWeights
-) -> tuple[float, float]:
-    """The base reward's two terms, (upright, velocity); `base_reward` is their sum.
-    `velocity_error` is |forward_velocity - target_velocity| in m/s."""
+def reward_terms(pitch, velocity_error, weights: RewardWeights):
+    """The base reward's two terms, (upright, velocity); the reward is their sum, at most
+    `weights.upright`. `velocity_error` is |forward_velocity - target_velocity| in m/s
+    (the envs report it in their info, with the two terms).
+
+    Floats give floats; numpy arrays (one value per bot) give arrays.
+    """
     return weights.upright * (1.0 - abs(pitch)), -weights.velocity * velocity_error
-
-
-def base_reward(pitch: float, velocity_error: float, weights: RewardWeights) -> float:
-    """The base reward of one step; at most `weights.upright`. `velocity_error` is
-    |forward_velocity - target_velocity| in m/s (the env reports it in its info too)."""
-    return weights.upright * (1.0 - abs(pitch)) - weights.velocity * velocity_error

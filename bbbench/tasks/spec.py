@@ -8,6 +8,7 @@ import hashlib
 import json
 import re
 from dataclasses import field
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -101,7 +102,7 @@ class TaskSpec:
     height_scan: bool = False
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
-    # of the normalized score. Measured once (`python -m bbbench.evaluation.random_reference`).
+    # of the normalized score. Measured once (`bbbench dev random-reference`).
     random_return: float | None = None
 
     def __post_init__(self) -> None:
@@ -201,7 +202,7 @@ class TaskSpec:
 
     @property
     def fingerprint(self) -> str:
-        """The spec's hash with the stored golden-rollout hash of its ID (`tasks/golden.py`).
+        """The spec's hash with the stored golden-rollout hash of its ID (`bbbench dev golden`).
 
         tests/test_versions.py checks that every registered ID still produces the
         stored rollout, so an ID's fingerprint changes only with a new version.
@@ -210,8 +211,11 @@ class TaskSpec:
         return hashlib.sha256(f"{self.spec_hash}:{rollout}".encode()).hexdigest()[:16]
 
 
+# The golden-rollout hashes stored for each task ID: data that `bbbench.dev.golden`
+# (the tool above the envs that computes them) writes, and the fingerprint reads.
+GOLDEN_FILE = Path(__file__).with_name("golden.json")
+
+
 @functools.cache
 def _stored_golden() -> dict[str, dict[str, str]]:
-    from bbbench.tasks.golden import load
-
-    return load()
+    return json.loads(GOLDEN_FILE.read_text()) if GOLDEN_FILE.exists() else {}

@@ -7,12 +7,11 @@ from typing import Any
 
 import gymnasium
 from gymnasium import spaces
-from pettingzoo import ParallelEnv
 
 from bbbench.tasks.actions import action_space
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
-from bbbench.tasks.observation import observation_space
+from bbbench.tasks.observation import agent_observation_space, observation_space
 from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain, ObstacleCourse, Obstacles, Slopes
@@ -199,10 +198,10 @@ def register_suite() -> None:
 
 def not_a_gymnasium_env(task: str, **kwargs: Any) -> gymnasium.Env:
     """What `gymnasium.make` of a multi-bot task calls: an error that says what to use."""
-    raise ValueError(_multi_bot_hint(task))
+    raise ValueError(multi_bot_hint(task))
 
 
-def _multi_bot_hint(task_id: str) -> str:
+def multi_bot_hint(task_id: str) -> str:
     return (
         f"{task_id} is a multi-bot (PettingZoo) task: make it with "
         f"bbbench.make_parallel({task_id!r}), or bbbench.make_vec for stable-baselines3"
@@ -243,26 +242,4 @@ def agent_spaces(
     task = spec(task_id)
     if task.group is None:
         return observation_space(height_scan), action_space(action_mode)
-    from bbbench.tasks.multi import agent_observation_space
-
     return agent_observation_space(task.group), action_space(action_mode)
-
-
-def make(task_id: str, **kwargs: Any) -> gymnasium.Env:
-    """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID."""
-    if spec(task_id).multi_agent:
-        raise ValueError(_multi_bot_hint(task_id))
-    return gymnasium.make(task_id, **kwargs)
-
-
-def make_parallel(task_id: str, **kwargs: Any) -> ParallelEnv:
-    """A multi-bot task as a PettingZoo `ParallelEnv` (see `MultiBalanceEnv` for keywords)."""
-    if not spec(task_id).multi_agent:
-        raise ValueError(
-            f"{task_id} is a single-bot task: make it with bbbench.make({task_id!r}) or "
-            f"gymnasium.make; the multi-bot tasks are "
-            f"{', '.join(list_tasks(multi_agent=True))}"
-        )
-    from bbbench.tasks.multi import MultiBalanceEnv
-
-    return MultiBalanceEnv(task_id, **kwargs)

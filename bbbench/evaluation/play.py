@@ -1,0 +1,224 @@
+"""The play loops: every episode bbbench plays goes through one of these two generators,
+one per env API, whoever plays it (`bbbench eval` and the leaderboard, `--video`,
+`bbbench rollout`, the golden rollouts of `bbbench.dev.golden`).
+
+    lockstep = Lockstep(envs, act, seeds, limit)   # single-bot envs, one lane each
+    for step in lockstep:                          # after reset, then after each step
+        ...                                        # step.observations, step.rewards
+    lockstep.results                               # an EpisodeResult per seed
+
+`act(batch, rngs)` is a policy's actor (`Policy.actor`): a batch of observations in,
+one action per row out (None for a NaN output); `rngs`, one generator per row, for a
+policy that acts at random. An episode ends at a fall, at `limit` steps, at a NaN
+action or at an action the env refuses (`EpisodeResult.failure` says which).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+_NAN = "the policy's output is NaN"
+
+Act = Callable[[np.ndarray, list | None], list]
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeResult:
+    """One evaluation episode. On a multi-bot task, `episode_return` and
+    `velocity_error` are per bot (the mean over bots) and `falls` counts bots."""
+
+    seed: int
+    episode_return: float  # sum of rewards (mean over bots)
+    length: int  # steps played
+    falls: int  # bots that fell (0 or 1 on a single-bot task)
+    velocity_error: float  # mean |forward velocity - target| per bot-step, m/s
+    failure: str | None = None  # why the episode stopped early: NaN action, ...
+
+    @property
+    def success(self) -> bool:
+        """Every bot reached the time limit."""
+        return self.falls == 0 and self.failure is None
+
+    def record(self) -> dict[str, Any]:
+        """As the results JSON writes it."""
+        return {
+            "seed": self.seed,
+            "return": self.episode_return,
+            "length": self.length,
+            "falls": self.falls,
+            "success": self.success,
+            "velocity_error": self.velocity_error,
+            "failure": self.failure,
+        }
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> EpisodeResult:
+        """The episode a results document recorded (`record`'s inverse)."""
+        return cls(
+            seed=record["seed"],
+            episode_return=record["return"],
+            length=record["length"],
+            falls=record["falls"],
+            velocity_error=record["velocity_error"],
+            failure=record["failure"],
+        )
+
+
+class Step(NamedTuple):
+    """What a lockstep group's step gave (or its reset, at step 0)."""
+
+    step: int  # steps played: 0 after reset
+    lanes: list[int]  # the lanes that played it, row by row (every lane at 0)
+    observations: np.ndarray  # one row per lane in `lanes`; reused by the loop: copy to keep
+    rewards: list[float] | None  # one per lane in `lanes`; None at 0
+    ended: list[int]  # lanes whose episode ended with this step (fall, limit or failure)
+
+
+class Lockstep:
+    """Single-bot episodes side by side, lane i playing `seeds[i]` in `envs[i]`: one
+    batched policy call per step for every lane still playing. Iterate it to play
+    (it yields a `Step` after reset and after each step); `results` after.
+
+    `envs` are single-bot envs without `TimeLimit` (`env.unwrapped`) or with one of
+    `limit` steps: the loop keeps the time limit itself.
+    """
+
+    def __init__(
+        self,
+        envs: Sequence[Any],
+        act: Act,
+        seeds: Sequence[int],
+        limit: int,
+        rngs: list[np.random.Generator] | None = None,
+    ) -> None:
+        self.envs, self.act, self.seeds, self.limit, self.rngs = envs, act, seeds, limit, rngs
+        self.results: list[EpisodeResult] = []
+
+    def __iter__(self) -> Iterator[Step]:
+        envs, act, seeds, limit, rngs = self.envs, self.act, self.seeds, self.limit, self.rngs
+        n = len(seeds)
+        first = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
+        batch = np.stack(first)  # row j: the observation of lane lanes[j]
+        lanes = list(range(n))
+        yield Step(0, lanes, batch, None, [])
+        steps = [env.step for env in envs]
+        totals, errors, lengths = [0.0] * n, [0.0] * n, [limit] * n
+        fell, failures = [False] * n, [None] * n
+        lane_rngs = rngs
+        for step in range(limit):
+            actions = act(batch, lane_rngs)
+            rewards = [0.0] * len(lanes)
+            ended = []
+            for j, (i, action) in enumerate(zip(lanes, actions, strict=True)):
+                if action is None:
+                    failures[i], lengths[i] = f"step {step}: {_NAN}", step
+                    ended.append(j)
+                    continue
+                try:
+                    observation, reward, terminated, _, info = steps[i](action)
+                except ValueError as problem:  # an action outside the space
+                    failures[i], lengths[i] = f"step {step}: {problem}", step
+                    ended.append(j)
+                    continue
+                batch[j] = observation
+                rewards[j] = reward
+                totals[i] += reward
+                errors[i] += info["velocity_error"]
+                if terminated:
+                    fell[i], lengths[i] = True, step + 1
+                    ended.append(j)
+            if step + 1 == limit:
+                ended = list(range(len(lanes)))
+            yield Step(step + 1, lanes, batch, rewards, [lanes[j] for j in ended])
+            if ended:
+                keep = [j for j in range(len(lanes)) if j not in ended]
+                if not keep:
+                    break
+                lanes = [lanes[j] for j in keep]
+                batch = batch[keep]
+                lane_rngs = None if rngs is None else [rngs[i] for i in lanes]
+        self.results = [
+            EpisodeResult(
+                seed,
+                totals[i],
+                lengths[i],
+                int(fell[i]),
+                errors[i] / lengths[i] if lengths[i] else 0.0,
+                failures[i],
+            )
+            for i, seed in enumerate(seeds)
+        ]
+
+    def play(self) -> list[EpisodeResult]:
+        """Play every lane to its end; the results, seed by seed."""
+        for _ in self:
+            pass
+        return self.results
+
+
+class MultiStep(NamedTuple):
+    """What a multi-bot episode's step gave (or its reset, at step 0), by agent."""
+
+    step: int
+    observations: dict[str, np.ndarray]
+    rewards: dict[str, float] | None  # None at 0
+
+
+class MultiEpisode:
+    """One multi-bot episode: the policy is shared, one batched call per step for every
+    live bot. Iterate it to play (a `MultiStep` after reset and after each step);
+    `result` after."""
+
+    def __init__(
+        self, env: Any, act: Act, seed: int, rng: np.random.Generator | None = None
+    ) -> None:
+        self.env, self.act, self.seed, self.rng = env, act, seed, rng
+        self.result: EpisodeResult | None = None
+
+    def __iter__(self) -> Iterator[MultiStep]:
+        env, act, rng = self.env, self.act, self.rng
+        observations, _ = env.reset(seed=self.seed)
+        yield MultiStep(0, observations, None)
+        returns = dict.fromkeys(env.possible_agents, 0.0)
+        error = 0.0
+        bot_steps = steps = falls = 0
+        failure = None
+        while env.agents:
+            agents = env.agents
+            batch = np.stack([observations[agent] for agent in agents])
+            actions = act(batch, None if rng is None else [rng] * len(agents))
+            if any(action is None for action in actions):
+                failure = f"step {steps}: {_NAN}"
+                break
+            try:
+                observations, rewards, terminations, _, infos = env.step(
+                    dict(zip(agents, actions, strict=True))
+                )
+            except ValueError as problem:
+                failure = f"step {steps}: {problem}"
+                break
+            steps += 1
+            for agent, reward in rewards.items():
+                returns[agent] += reward
+                error += infos[agent]["velocity_error"]
+            bot_steps += len(rewards)
+            falls += sum(terminations.values())
+            yield MultiStep(steps, observations, rewards)
+        self.result = EpisodeResult(
+            self.seed,
+            sum(returns.values()) / len(returns),
+            steps,
+            falls,
+            error / bot_steps if bot_steps else 0.0,
+            failure,
+        )
+
+    def play(self) -> EpisodeResult:
+        """Play the episode to its end; its result."""
+        for _ in self:
+            pass
+        return self.result

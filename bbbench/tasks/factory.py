@@ -1,0 +1,29 @@
+"""A task's env by ID: `make` (Gymnasium, single bot) and `make_parallel` (PettingZoo,
+several bots), each with a clear error for the other kind of task or an unknown ID."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+
+from bbbench.tasks.multi import MultiBalanceEnv
+from bbbench.tasks.suite import list_tasks, multi_bot_hint, spec
+
+
+def make(task_id: str, **kwargs: Any) -> gymnasium.Env:
+    """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID."""
+    if spec(task_id).multi_agent:
+        raise ValueError(multi_bot_hint(task_id))
+    return gymnasium.make(task_id, **kwargs)
+
+
+def make_parallel(task_id: str, **kwargs: Any) -> MultiBalanceEnv:
+    """A multi-bot task as a PettingZoo `ParallelEnv` (see `MultiBalanceEnv` for keywords)."""
+    if not spec(task_id).multi_agent:
+        raise ValueError(
+            f"{task_id} is a single-bot task: make it with bbbench.make({task_id!r}) or "
+            f"gymnasium.make; the multi-bot tasks are "
+            f"{', '.join(list_tasks(multi_agent=True))}"
+        )
+    return MultiBalanceEnv(task_id, **kwargs)

@@ -1,0 +1,326 @@
+"""`Scene`: one task's episode, the part both env APIs share.
+
+A scene owns the pybullet `World`, the task's ground, its bots (one, or a
+`Group`'s) and what the episode's seed drew (`scene.episode`: targets, sensor
+errors, heightmap, starting poses). It resets from a seed, applies actions to
+the bots' wheels, steps the world, and reads the bots. `BalanceEnv`
+(Gymnasium) and `MultiBalanceEnv` (PettingZoo) are API layers over it: they
+turn its states into observations, rewards and the dicts their API wants.
+
+Also here, written once for both envs: the keyword checks of their
+constructors (`configure`) and the start of their `render()`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+from gymnasium import logger
+
+from bbbench.robots import BalanceBot, BotState
+from bbbench.sim import World
+from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
+from bbbench.tasks.group import spawn_poses
+from bbbench.tasks.sensors import PerfectSensors
+from bbbench.tasks.spec import TaskSpec, episode_streams
+from bbbench.terrain import Heightmap, load_ground
+
+# m: where a bot taken out of the episode is set aside, far beyond anything an episode
+# reaches; bot i at (SET_ASIDE_X + 10 i, 0, 10).
+SET_ASIDE_X = 1000.0
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+    """What an episode's seed drew, read-only (`scene.episode`)."""
+
+    seed: int
+    # (bots, max_episode_steps + 1): bot i's target forward velocity (m/s) after reset
+    # (column 0) and after each step.
+    targets: np.ndarray
+    # (max_episode_steps + 1, 3): the error added to (pitch, pitch rate, wheel speed) at
+    # each step, bias included; None for perfect sensors.
+    sensor_errors: np.ndarray | None
+    heightmap: Heightmap | None  # the terrain; None for flat ground
+    poses: tuple[tuple[tuple[float, float], float], ...]  # per bot: (x, y) m, yaw rad
+    pitches: tuple[float, ...]  # per bot: the initial lean, rad
+
+
+class Scene:
+    """A task's world, ground and bots, and the episode being played in it.
+
+    Args:
+        task: the spec; a `Group` task has `task.group.n_bots` bots, any other one.
+        action_mode: how `act` reads actions, "discrete" or "continuous" (the
+            action table of `bbbench.tasks.actions`).
+        gui: open pybullet's GUI window (the single-bot env's human render mode).
+
+    The world is built on the first `reset()`; a pickled scene carries no world
+    and builds its own on its next `reset()`. Bot i is `bots[i]`; `live` lists
+    the bots still in the episode (all, until `take_out`).
+    """
+
+    def __init__(self, task: TaskSpec, action_mode: str = "discrete", gui: bool = False) -> None:
+        if action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        self.task = task
+        self.n_bots = task.group.n_bots if task.group is not None else 1
+        self.action_mode = action_mode
+        self.change = discrete_change if action_mode == "discrete" else continuous_change
+        self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
+        self.steps = 0  # world steps since the last reset
+        self.live: list[int] = []  # indices of the bots still in the episode, in order
+        self.live_bots: list[BalanceBot] = []  # and those bots
+        self._clear()
+        sensors = task.sensors
+        self._delay = sensors.delay_steps
+        # Decided by the task, not per step: perfect, undelayed sensors read the true state.
+        self.perfect_sensors = isinstance(sensors, PerfectSensors) and not self._delay
+
+    def _clear(self) -> None:
+        """Forget the world's bodies (closed, or never built: a new or unpickled scene)."""
+        self._ground = None
+        self._bots: tuple[BalanceBot, ...] = ()
+        self._episode: Episode | None = None
+        self._follow = None
+        self.live, self.live_bots = [], []
+
+    # -- read-only views ------------------------------------------------------
+
+    @property
+    def built(self) -> bool:
+        """Whether the world holds the ground and bots (after a `reset()`)."""
+        return bool(self._bots)
+
+    @property
+    def ground(self):
+        """The ground in the world (`PlaneGround` or `HeightfieldGround`); None before reset."""
+        return self._ground
+
+    @property
+    def bots(self) -> tuple[BalanceBot, ...]:
+        """Every bot of the scene, in order (empty before the first reset)."""
+        return self._bots
+
+    @property
+    def episode(self) -> Episode | None:
+        """What the current episode's seed drew; None before the first reset."""
+        return self._episode
+
+    # -- the episode ----------------------------------------------------------
+
+    def reset(self, seed: int) -> list[BotState]:
+        """Start episode `seed`: draw its terrain, targets, sensor errors and starts, put
+        every bot at rest at its start, and return the bots' states."""
+        if not self._bots:
+            self._build()
+        task, n = self.task, self.n_bots
+        streams = episode_streams(seed)
+        ground = self._ground
+        ground.reset(streams.terrain)
+        if task.group is not None:
+            poses = spawn_poses(streams.start, task.group)
+            pitches = streams.start.uniform(-task.initial_pitch, task.initial_pitch, size=n)
+        else:  # at the origin, heading along +y
+            poses = [((0.0, 0.0), 0.0)]
+            pitches = [streams.start.uniform(-task.initial_pitch, task.initial_pitch)]
+        rows = [
+            task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
+            for _ in range(n)
+        ]
+        errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
+        self._targets = rows[0] if n == 1 else rows  # floats, for the hot path
+        self._targets_by_step = [list(column) for column in zip(*rows, strict=True)]
+        self._errors = errors
+        self._episode = Episode(
+            seed=seed,
+            targets=_read_only(np.array(rows, dtype=np.float64)),
+            sensor_errors=None if errors is None else _read_only(np.array(errors)),
+            heightmap=getattr(ground, "heightmap", None),
+            poses=tuple(poses),
+            pitches=tuple(float(p) for p in pitches),
+        )
+        # Bullet keeps contact points from step to step and warm-starts its solver from
+        # them: drop the last episode's, with every bot clear of everything at once
+        # (tests/test_determinism.py: an episode does not depend on the ones before it).
+        for bot in self._bots:
+            bot.move_clear()
+        self.world.detect_collisions()
+        for bot, ((x, y), yaw), pitch in zip(self._bots, poses, pitches, strict=True):
+            bot.reset(
+                pitch=float(pitch),
+                yaw=yaw,
+                xy=(x, y),
+                ground_height=ground.spawn_height(x, y),
+                drop_contacts=False,
+            )
+        self.steps = 0
+        self.live = list(range(n))
+        self.live_bots = list(self._bots)
+        states = [bot.read() for bot in self._bots]
+        first = states[0]  # what a delayed sensor reports at the first step
+        self._last_reading = (first.pitch, first.pitch_rate, first.wheel_speed)
+        return states
+
+    def act(self, action: Any) -> float:
+        """Apply one action to the first bot (a single-bot task); return its wheel command."""
+        bot = self._bots[0]
+        return bot.command_wheel_speed(bot.wheel_command + self.change(action))
+
+    def act_live(self, actions) -> None:
+        """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
+        change = self.change
+        for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
+            try:
+                bot.command_wheel_speed(bot.wheel_command + change(action))
+            except ValueError as error:
+                raise ActionError(k, error) from None
+
+    def advance(self) -> BotState:
+        """Step the world once and read the first bot (a single-bot task)."""
+        self.world.step()
+        self.steps += 1
+        state = self._bots[0].read()
+        if self._follow is not None:
+            self._follow(state.axle[0])
+        return state
+
+    def advance_live(self) -> list[BotState]:
+        """Step the world once and read the live bots, in order."""
+        self.world.step()
+        self.steps += 1
+        return [bot.read() for bot in self.live_bots]
+
+    def target(self, step: int) -> float:
+        """The first bot's target velocity (m/s) at `step` (the last one past the limit)."""
+        targets = self._targets
+        return targets[step] if step < len(targets) else targets[-1]
+
+    def live_targets(self, step: int) -> list[float]:
+        """The live bots' target velocities (m/s) at `step`, in order."""
+        every = self._targets_by_step[min(step, len(self._targets_by_step) - 1)]
+        return [every[i] for i in self.live]
+
+    def reading(self, state: BotState, step: int) -> tuple[float, float, float]:
+        """The first bot's pitch, pitch rate and wheel speed as the task's sensors read
+        them at `step`: delayed, biased, noisy."""
+        reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        if self.perfect_sensors:
+            return reading
+        if self._delay:
+            reading, self._last_reading = self._last_reading, reading
+        errors = self._errors
+        if errors is not None:
+            error = errors[min(step, len(errors) - 1)]
+            reading = (reading[0] + error[0], reading[1] + error[1], reading[2] + error[2])
+        return reading
+
+    def take_out(self, indices) -> None:
+        """Take bots out of the episode: they collide with nothing and wait far away
+        (set aside, not removed: body ids, and so the world's pair order, stay)."""
+        gone = set(indices)
+        for i in indices:
+            self._bots[i].set_aside((SET_ASIDE_X + 10.0 * i, 0.0, 10.0))
+        self.live_bots = [
+            bot for i, bot in zip(self.live, self.live_bots, strict=True) if i not in gone
+        ]
+        self.live = [i for i in self.live if i not in gone]
+
+    def close(self) -> None:
+        self.world.close()
+        self._clear()
+
+    # -- internals ------------------------------------------------------------
+
+    def _build(self) -> None:
+        client = self.world.client
+        self._ground = load_ground(client, self.task.terrain)
+        self._bots = tuple(BalanceBot(client) for _ in range(self.n_bots))
+        # Terrain with no side edge moves with its one bot (`HeightfieldGround.follow`).
+        if self._ground.period is not None:
+            if self.n_bots != 1:
+                raise ValueError(f"{self.task.id}: a moving ground follows a single bot")
+            self._follow = self._ground.follow
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The world pickles as a description; bodies belong to the old connection.
+        state = self.__dict__.copy()
+        state.update(_ground=None, _bots=(), _episode=None, _follow=None, live=[], live_bots=[])
+        for key in ("_targets", "_targets_by_step", "_errors", "_last_reading"):
+            state.pop(key, None)
+        return state
+
+
+class ActionError(ValueError):
+    """An action a bot's action space does not hold; `index` is its place among the live bots."""
+
+    def __init__(self, index: int, error: ValueError) -> None:
+        super().__init__(str(error))
+        self.index = index
+
+
+# Each option an env takes, and the TaskSpec method that derives the task it asks for.
+_DERIVE = {
+    "n_bots": "with_n_bots",
+    "difficulty": "with_difficulty",
+    "max_episode_steps": "with_time_limit",
+    "height_scan": "with_height_scan",
+}
+
+
+def configure(
+    task: TaskSpec,
+    unknown: dict[str, Any],
+    options: dict[str, Any],
+    action_mode: str,
+    render_mode: str | None,
+    render_modes: list[str],
+) -> TaskSpec:
+    """The task an env's keyword arguments ask for, or the error that says what is wrong.
+
+    `options` maps each keyword the env takes beyond action_mode and render_mode to the
+    value given (None: not given): `difficulty`, `height_scan`, `n_bots`,
+    `max_episode_steps`; each given one derives the spec (`TaskSpec.with_...`).
+    `unknown` holds the keywords the env does not take.
+    """
+    terrain = task.difficulty is not None
+    accepted = [f"action_mode={ACTION_MODES}", f"render_mode={(None, *render_modes)}"]
+    accepted += [name for name in options if name != "difficulty" or terrain]
+    wrong = sorted(unknown)
+    if options.get("difficulty") is not None and not terrain:
+        wrong.append("difficulty")
+    if wrong:
+        raise TypeError(
+            f"unknown keyword argument(s) {wrong} for {task.id}: accepted keyword "
+            f"arguments are {', '.join(accepted)}"
+            + (" (difficulty: a number in [0, 1])" if terrain else "")
+        )
+    for name, value in options.items():
+        if value is not None:
+            task = getattr(task, _DERIVE[name])(value)
+    if action_mode not in ACTION_MODES:
+        raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+    if render_mode is not None and render_mode not in render_modes:
+        raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
+    return task
+
+
+def render_ready(env) -> bool:
+    """The start of both envs' `render()`: False (with gymnasium's warning) without a
+    render mode; a clear error before the first reset; else True."""
+    if env.render_mode is None:
+        logger.warn(
+            "render() was called without a render_mode; make the env with "
+            f"render_mode={' or '.join(repr(mode) for mode in env.metadata['render_modes'])}."
+        )
+        return False
+    if not env.scene.built:
+        raise RuntimeError(f"{env.task.id}: call reset() before render()")
+    return True
