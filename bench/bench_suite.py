@@ -1,12 +1,15 @@
 """Suite benchmark: every single-bot task's step rate against FlatBalance-v0's.
 
     python bench/bench_suite.py [--steps 30000] [--chunk 250] [--tasks ID ...] [--height-scan]
+                                [--policy pd|random]
 
-Each task is driven by the same policy (the PD baseline) on its evaluation
-seeds, resetting when an episode ends. Only the env's own time is counted
-(`step` and `reset`, policy excluded; also `step` alone), and the tasks run alternately in
-chunks so they share the machine's slow and fast phases. Also reports the
-mean time of a reset, which on terrain tasks draws and loads a new terrain.
+Each task is driven by the same policy on its evaluation seeds, resetting when an
+episode ends: the PD baseline (default), or random actions (`--policy random`), the
+start of training, where episodes last some 100 steps and resets weigh most. Only the
+env's own time is counted (`step` and `reset`, policy excluded; also `step` alone), and
+the tasks run alternately in chunks so they share the machine's slow and fast phases.
+Also reports the mean time of a reset, which on terrain tasks draws and loads a new
+terrain.
 With `--height-scan`, each task is also timed with `height_scan=True` (a row
 "ID +scan") in the same alternation, and the scan's cost per step is printed:
 its step time over the same task's without it, less 1.
@@ -18,18 +21,34 @@ import argparse
 import statistics
 import time
 
+import numpy as np
+
 import bbbench
 from bbbench.policies import PDController
 
 REFERENCE = "bbbench/FlatBalance-v0"
 
 
-class TaskLoop:
-    """One task under the PD baseline, timing only the env's calls."""
+class RandomActions:
+    """Uniform discrete actions from a seeded generator (the same sequence in every run)."""
 
-    def __init__(self, task_id: str, height_scan: bool = False) -> None:
+    def __init__(self, seed: int = 0) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.actions: list[int] = []
+
+    def __call__(self, observation) -> int:
+        if not self.actions:
+            self.actions = self.rng.integers(0, 9, size=4096).tolist()
+        return self.actions.pop()
+
+
+class TaskLoop:
+    """One task under a policy (the PD baseline, or random actions), timing only the env's
+    calls."""
+
+    def __init__(self, task_id: str, height_scan: bool = False, policy: str = "pd") -> None:
         self.env = bbbench.make(task_id, height_scan=height_scan)
-        self.policy = PDController()
+        self.policy = PDController() if policy == "pd" else RandomActions()
         self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
         self.elapsed = 0.0  # step and reset
         self.stepping = 0.0  # step only
@@ -74,20 +93,24 @@ def main() -> None:
     parser.add_argument(
         "--height-scan", action="store_true", help="also time each task with height_scan=True"
     )
+    parser.add_argument("--policy", choices=("pd", "random"), default="pd")
     args = parser.parse_args()
 
     task_ids = list(dict.fromkeys([REFERENCE, *(args.tasks or bbbench.list_tasks(False))]))
-    loops = {task_id: TaskLoop(task_id) for task_id in task_ids}
+    loops = {task_id: TaskLoop(task_id, policy=args.policy) for task_id in task_ids}
     if args.height_scan:
-        loops.update({f"{task_id} +scan": TaskLoop(task_id, True) for task_id in task_ids})
+        loops.update(
+            {f"{task_id} +scan": TaskLoop(task_id, True, args.policy) for task_id in task_ids}
+        )
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
             loop.run(args.chunk)
     reference = loops[REFERENCE].steps / loops[REFERENCE].elapsed
     step_reference = loops[REFERENCE].steps / loops[REFERENCE].stepping
 
+    who = "PD-baseline" if args.policy == "pd" else "random-action"
     print(
-        f"Suite benchmark: {args.steps} PD-baseline steps per task on its eval seeds, "
+        f"Suite benchmark: {args.steps} {who} steps per task on its eval seeds, "
         f"alternating every {args.chunk} steps; env time only (step + reset)"
     )
     print(

@@ -13,7 +13,7 @@ constructors (`configure`) and the start of their `render()`.
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 from typing import Any
 
 import numpy as np
@@ -37,20 +37,39 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return array
 
 
-@dataclasses.dataclass(frozen=True)
 class Episode:
-    """What an episode's seed drew, read-only (`scene.episode`)."""
+    """What an episode's seed drew, read-only (`scene.episode`).
 
-    seed: int
-    # (bots, max_episode_steps + 1): bot i's target forward velocity (m/s) after reset
-    # (column 0) and after each step.
-    targets: np.ndarray
-    # (max_episode_steps + 1, 3): the error added to (pitch, pitch rate, wheel speed) at
-    # each step, bias included; None for perfect sensors.
-    sensor_errors: np.ndarray | None
-    heightmap: Heightmap | None  # the terrain; None for flat ground
-    poses: tuple[tuple[tuple[float, float], float], ...]  # per bot: (x, y) m, yaw rad
-    pitches: tuple[float, ...]  # per bot: the initial lean, rad
+    The arrays are built on first use: a reset on the hot path of training pays for the
+    values it draws, not for their copies.
+    """
+
+    def __init__(
+        self,
+        seed: int,
+        targets: list[list[float]],
+        sensor_errors: list[tuple[float, float, float]] | None,
+        heightmap: Heightmap | None,
+        poses: list[tuple[tuple[float, float], float]],
+        pitches,
+    ) -> None:
+        self.seed = seed
+        self.heightmap = heightmap  # the terrain; None for flat ground
+        self.poses = tuple(poses)  # per bot: (x, y) m, yaw rad
+        self.pitches = tuple(float(p) for p in pitches)  # per bot: the initial lean, rad
+        self._rows, self._errors = targets, sensor_errors
+
+    @functools.cached_property
+    def targets(self) -> np.ndarray:
+        """(bots, max_episode_steps + 1): bot i's target forward velocity (m/s) after reset
+        (column 0) and after each step."""
+        return _read_only(np.array(self._rows, dtype=np.float64))
+
+    @functools.cached_property
+    def sensor_errors(self) -> np.ndarray | None:
+        """(max_episode_steps + 1, 3): the error added to (pitch, pitch rate, wheel speed)
+        at each step, bias included; None for perfect sensors."""
+        return None if self._errors is None else _read_only(np.array(self._errors))
 
 
 class Scene:
@@ -136,16 +155,14 @@ class Scene:
             for _ in range(n)
         ]
         errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
-        self._targets = rows[0] if n == 1 else rows  # floats, for the hot path
-        self._targets_by_step = [list(column) for column in zip(*rows, strict=True)]
+        self._targets = rows[0]  # floats, for the hot path
+        # [step][bot], for several bots
+        self._targets_by_step = (
+            [list(column) for column in zip(*rows, strict=True)] if n > 1 else None
+        )
         self._errors = errors
         self._episode = Episode(
-            seed=seed,
-            targets=_read_only(np.array(rows, dtype=np.float64)),
-            sensor_errors=None if errors is None else _read_only(np.array(errors)),
-            heightmap=getattr(ground, "heightmap", None),
-            poses=tuple(poses),
-            pitches=tuple(float(p) for p in pitches),
+            seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches
         )
         # Bullet keeps contact points from step to step and warm-starts its solver from
         # them: drop the last episode's, with every bot clear of everything at once
@@ -205,7 +222,10 @@ class Scene:
 
     def live_targets(self, step: int) -> list[float]:
         """The live bots' target velocities (m/s) at `step`, in order."""
-        every = self._targets_by_step[min(step, len(self._targets_by_step) - 1)]
+        by_step = self._targets_by_step
+        if by_step is None:  # one bot
+            return [self.target(step)] if self.live else []
+        every = by_step[min(step, len(by_step) - 1)]
         return [every[i] for i in self.live]
 
     def reading(self, state: BotState, step: int) -> tuple[float, float, float]:
