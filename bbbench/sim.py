@@ -10,6 +10,7 @@ the next time it is used, so two copies never share bodies.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 
@@ -96,6 +97,7 @@ class World:
         if self._client is None:
             self._client = self._connect()
             self._client_id = bullet_client_id(self._client)
+            self.step = functools.partial(pybullet.stepSimulation, self._client_id)
         return self._client
 
     @property
@@ -104,12 +106,17 @@ class World:
         return bullet_client_id(self.client)
 
     def step(self) -> None:
-        """Advance the world by `time_step` (one `stepSimulation`, of `substeps` sub-steps)."""
-        pybullet.stepSimulation(self._client_id)
+        """Advance the world by `time_step` (one `stepSimulation`, of `substeps` sub-steps).
+
+        Once connected, `world.step` is `pybullet.stepSimulation` bound to the world's
+        client (a partial: no Python frame on the hot path); before, it connects first.
+        """
+        self.client  # noqa: B018 (connects, and binds `step`)
+        self.step()
 
     def detect_collisions(self) -> None:
         """Run collision detection alone, without stepping: contact points refreshed."""
-        pybullet.performCollisionDetection(self._client_id)
+        pybullet.performCollisionDetection(self.client_id)
 
     def _connect(self) -> BulletClient:
         if not self.gui:
@@ -183,6 +190,7 @@ class World:
                 self._client.disconnect()
             self._client = None
             self._client_id = -1
+            self.__dict__.pop("step", None)
             if self.gui:
                 World._gui_world_open = False
 
@@ -191,6 +199,7 @@ class World:
         state = self.__dict__.copy()
         state["_client"] = None
         state["_client_id"] = -1
+        state.pop("step", None)
         return state
 
     def __del__(self) -> None:

@@ -117,6 +117,11 @@ class RawLoop:
         start = episode_streams(episode_seed).start
         pitch = float(start.uniform(-self.initial_pitch, self.initial_pitch))
         com, orientation = spawn_pose(pitch)  # the pose BalanceBot.reset gives the same lean
+        # As BalanceBot.reset: drop the last episode's contact points (clear of everything,
+        # collision detection), so the episode does not depend on the one before.
+        far = (-1000.0, 10.0 * (1 + body), 10.0)
+        pybullet.resetBasePositionAndOrientation(body, far, (0, 0, 0, 1), physicsClientId=cid)
+        pybullet.performCollisionDetection(cid)
         pybullet.resetBasePositionAndOrientation(body, com, orientation, physicsClientId=cid)
         pybullet.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
         for joint in self.joints:

@@ -216,6 +216,9 @@ class BalanceEnv(Env):
         self.observation_space = observation_space(task.height_scan)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
         self._scene = Scene(task, action_mode, gui=self._human)
+        self._reward_weights = task.reward
+        # Decided by the task, not per step: perfect sensors and no scan take the hot path.
+        self._plain = self._scene.perfect_sensors and not task.height_scan
         self._last_frame_time = 0.0
 
     @property
@@ -243,16 +246,9 @@ class BalanceEnv(Env):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         scene = self._scene
-        if not scene.built:
-            raise RuntimeError(
-                f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
-            )
-        command = scene.act(action)
-        state = scene.advance()
-        steps = scene.steps
-        target = scene.target(steps)
+        command, state, target = scene.step_one(action)
         velocity_error = abs(state.forward_velocity - target)
-        upright, velocity = reward_terms(state.pitch, velocity_error, self.task.reward)
+        upright, velocity = reward_terms(state.pitch, velocity_error, self._reward_weights)
         info = {
             "reward_upright": upright,
             "reward_velocity": velocity,
@@ -260,10 +256,10 @@ class BalanceEnv(Env):
         }
         if self._human:
             self._render_human()
-        if scene.perfect_sensors and not self.task.height_scan:  # the hot path
+        if self._plain:  # perfect sensors, no height scan: the hot path
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
-            observation = self._observe(state, command, target, steps)
+            observation = self._observe(state, command, target, scene.steps)
         return observation, upright + velocity, state.tilt > FALL_TILT, False, info
 
     def _observe(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:

@@ -107,6 +107,8 @@ class Scene:
         """Forget the world's bodies (closed, or never built: a new or unpickled scene)."""
         self._ground = None
         self._bots: tuple[BalanceBot, ...] = ()
+        self._first: BalanceBot | None = None  # bots[0], for the single-bot hot path
+        self._world_step = None
         self._episode: Episode | None = None
         self._follow = None
         self.live, self.live_bots = [], []
@@ -186,11 +188,6 @@ class Scene:
         self._last_reading = (first.pitch, first.pitch_rate, first.wheel_speed)
         return states
 
-    def act(self, action: Any) -> float:
-        """Apply one action to the first bot (a single-bot task); return its wheel command."""
-        bot = self._bots[0]
-        return bot.command_wheel_speed(bot.wheel_command + self.change(action))
-
     def act_live(self, actions) -> None:
         """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
         change = self.change
@@ -200,18 +197,29 @@ class Scene:
             except ValueError as error:
                 raise ActionError(k, error) from None
 
-    def advance(self) -> BotState:
-        """Step the world once and read the first bot (a single-bot task)."""
-        self.world.step()
-        self.steps += 1
-        state = self._bots[0].read()
+    def step_one(self, action: Any) -> tuple[float, BotState, float]:
+        """A single-bot task's step: apply `action` to the bot, step the world, read the
+        bot; return its wheel command, its state and its target velocity now.
+
+        One call for the whole hot path of `BalanceEnv.step` (bench/bench_core.py).
+        """
+        bot = self._first
+        if bot is None:
+            raise RuntimeError(
+                f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
+            )
+        command = bot.command_wheel_speed(bot.wheel_command + self.change(action))
+        self._world_step()
+        self.steps = steps = self.steps + 1
+        state = bot.read()
         if self._follow is not None:
             self._follow(state.axle[0])
-        return state
+        targets = self._targets
+        return command, state, targets[steps] if steps < len(targets) else targets[-1]
 
     def advance_live(self) -> list[BotState]:
         """Step the world once and read the live bots, in order."""
-        self.world.step()
+        self._world_step()
         self.steps += 1
         return [bot.read() for bot in self.live_bots]
 
@@ -263,6 +271,8 @@ class Scene:
         client = self.world.client
         self._ground = load_ground(client, self.task.terrain)
         self._bots = tuple(BalanceBot(client) for _ in range(self.n_bots))
+        self._first = self._bots[0]
+        self._world_step = self.world.step
         # Terrain with no side edge moves with its one bot (`HeightfieldGround.follow`).
         if self._ground.period is not None:
             if self.n_bots != 1:
@@ -272,7 +282,8 @@ class Scene:
     def __getstate__(self) -> dict[str, Any]:
         # The world pickles as a description; bodies belong to the old connection.
         state = self.__dict__.copy()
-        state.update(_ground=None, _bots=(), _episode=None, _follow=None, live=[], live_bots=[])
+        state.update(_ground=None, _bots=(), _first=None, _world_step=None, _episode=None)
+        state.update(_follow=None, live=[], live_bots=[])
         for key in ("_targets", "_targets_by_step", "_errors", "_last_reading"):
             state.pop(key, None)
         return state
