@@ -168,6 +168,7 @@ class MultiBalanceEnv(ParallelEnv):
         self._observation_space = agent_observation_space(group)
         self._observation_size = self._observation_space.shape[0]
         self._scene = Scene(task, action_mode)
+        self._reward_weights, self._time_limit = task.reward, task.max_episode_steps
         self._np_random: np.random.Generator | None = None
         self._ended_at: dict[str, int] = {}  # agent -> step its episode ended
         self._states: list[BotState] = []  # of the live bots, in order
@@ -234,21 +235,20 @@ class MultiBalanceEnv(ParallelEnv):
         steps = scene.steps
         targets = scene.live_targets(steps)
         observations = self._observe(states, targets)
-        pitches = np.array([state.pitch for state in states])
-        errors = np.abs(np.array([state.forward_velocity for state in states]) - targets)
-        upright, velocity = reward_terms(pitches, errors, self.task.reward)
-        upright, velocity = upright.tolist(), velocity.tolist()
-        truncated = steps >= self.task.max_episode_steps
-        rewards, terminations, truncations, infos = {}, {}, {}, {}
-        for k, (agent, state) in enumerate(zip(agents, states, strict=True)):
-            rewards[agent] = upright[k] + velocity[k]
+        weights = self._reward_weights
+        truncated = steps >= self._time_limit
+        rewards, terminations, infos = {}, {}, {}
+        for agent, state, target in zip(agents, states, targets, strict=True):
+            error = abs(state.forward_velocity - target)
+            upright, velocity = reward_terms(state.pitch, error, weights)
+            rewards[agent] = upright + velocity
             infos[agent] = {
-                "reward_upright": upright[k],
-                "reward_velocity": velocity[k],
-                "velocity_error": float(errors[k]),
+                "reward_upright": upright,
+                "reward_velocity": velocity,
+                "velocity_error": error,
             }
-            truncations[agent] = truncated
             terminations[agent] = state.tilt > FALL_TILT
+        truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
         ended = agents if truncated else [agent for agent in agents if terminations[agent]]
         if ended:
