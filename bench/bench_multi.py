@@ -1,12 +1,17 @@
 """Multi-bot benchmark: bot-steps per second in one world against FlatBalance-v0's steps.
 
-    python bench/bench_multi.py [--bots 8] [--steps 6000] [--chunk 250] [--adapters]
+    python bench/bench_multi.py [--bots 8] [--steps 6000] [--chunk 250] [--adapters] [--ceiling]
 
 Every bot is driven by the PD baseline (on its first five observations) on the
 tasks' evaluation seeds, a world resetting when its episode ends. Only the
 env's own calls are timed (`step`, and `reset` in the "with resets" column),
 and the tasks run alternately in chunks so they share the machine's slow and
 fast phases. A multi-bot world-step counts one bot-step per live bot.
+
+`--ceiling` also times, in the same alternation, what pybullet alone charges per
+bot-step in one world (`RawWorldLoop`: every bot's motor command, one
+`stepSimulation`, the three reads of every bot and its rotation matrix, with no
+other Python), the most a multi-bot env could reach against FlatBalance-v0.
 
 `--adapters` also times the SB3 route: bbbench's `BotSlotsVecEnv` against
 SuperSuit 3.11.0's `black_death_v3` + `pettingzoo_env_to_vec_env_v1` +
@@ -19,10 +24,12 @@ import argparse
 import time
 
 import numpy as np
+import pybullet
 from bench_suite import REFERENCE, TaskLoop  # the same single-bot loop as the suite's bench
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.robots import MODEL
 
 MULTI_TASKS = ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
 
@@ -60,6 +67,54 @@ class MultiLoop:
                 observations = self._reset()
         self.observation = observations
         self.steps += steps
+
+
+class RawWorldLoop:
+    """The pybullet calls of a multi-bot world-step and nothing else: the ceiling.
+
+    The bots start as the env starts them (MultiBalance-v0's evaluation seeds) and
+    hold a small constant wheel command; the world restarts every 500 steps.
+    """
+
+    def __init__(self, n_bots: int) -> None:
+        self.name = f"pybullet alone x{n_bots}"
+        self.env = bbbench.make_parallel(MULTI_TASKS[0], n_bots=n_bots)
+        self.seeds = iter(bbbench.spec(MULTI_TASKS[0]).eval_seeds * 100)
+        self.env.reset(seed=next(self.seeds))
+        scene = self.env.scene
+        self.bots = [(bot.body, bot.wheel_joints) for bot in scene.bots]
+        self.client_id = scene.world.client_id
+        self.forces = (MODEL.motor_torque_limit,) * 2
+        self.elapsed = self.stepping = 0.0
+        self.steps = self.bot_steps = self.episodes = 0
+
+    def run(self, steps: int) -> None:
+        bots, cid, forces = self.bots, self.client_id, self.forces
+        for _ in range(steps):
+            began = time.perf_counter()
+            for body, joints in bots:
+                pybullet.setJointMotorControlArray(
+                    body,
+                    joints,
+                    pybullet.VELOCITY_CONTROL,
+                    targetVelocities=(0.5, -0.5),
+                    forces=forces,
+                    physicsClientId=cid,
+                )
+            pybullet.stepSimulation(cid)
+            for body, joints in bots:
+                _, orientation = pybullet.getBasePositionAndOrientation(body, cid)
+                pybullet.getBaseVelocity(body, cid)
+                pybullet.getJointStates(body, joints, cid)
+                pybullet.getMatrixFromQuaternion(orientation)
+            took = time.perf_counter() - began
+            self.elapsed += took
+            self.stepping += took
+            self.bot_steps += len(bots)
+            self.steps += 1
+            if self.steps % 500 == 0:
+                self.env.reset(seed=next(self.seeds))
+                self.episodes += 1
 
 
 def measure(loops, steps: int, chunk: int) -> None:
@@ -131,8 +186,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=6000, help="world-steps per task")
     parser.add_argument("--chunk", type=int, default=250)
     parser.add_argument("--adapters", action="store_true")
+    parser.add_argument("--ceiling", action="store_true", help="also time pybullet alone")
     args = parser.parse_args()
     loops = [TaskLoop(REFERENCE), *(MultiLoop(task, args.bots) for task in MULTI_TASKS)]
+    if args.ceiling:
+        loops.append(RawWorldLoop(args.bots))
     measure(loops, args.steps, args.chunk)
     if args.adapters:
         compare_adapters(args.bots, 1500)

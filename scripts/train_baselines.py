@@ -43,6 +43,8 @@ def runs() -> list[dict]:
         for task in ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
     ]
     generalist = {"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True}
+    # TD3 where standing still precisely pays (FlatBalance: ShortfallScale, td3.yml).
+    td3 = {"tasks": ["bbbench/FlatBalance-v0"], "algo": "td3", "seed": 0}
     plan = [
         *({**run, "seed": 0} for run in ppo),
         *multi,
@@ -50,6 +52,7 @@ def runs() -> list[dict]:
         generalist,
         *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
         *sac[3:],
+        td3,
     ]
     for run in plan:
         name = "generalist" if run.get("generalist") else _short(run["tasks"][0])

@@ -171,3 +171,25 @@ def test_a_terrain_recipe_pays_for_staying_up_and_charges_falls_in_training_only
 def test_a_recipe_names_only_bbbench_wrappers():
     with pytest.raises(ValueError, match=r"only bbbench\.training\.wrappers\.\* wrappers"):
         parse_env_wrapper(["os.system"], "ppo.yml, x")
+
+
+def test_td3_flat_recipe_scales_the_shortfall_in_training_only(tmp_path):
+    plan = recipe("td3", FLAT)
+    assert plan.wrappers[0] == ("bbbench.training.wrappers.ShortfallScale", {"scale": 10.0})
+    env = plan.wrap(bbbench.make(FLAT, action_mode="continuous"))
+    plain = bbbench.make(FLAT, action_mode="continuous")
+    env.reset(seed=5)
+    plain.reset(seed=5)
+    while True:  # a constant push falls
+        _, shaped, terminated, *_ = env.step([0.3])
+        _, reward, *_ = plain.step([0.3])
+        if terminated:
+            break
+        assert shaped == pytest.approx(0.1 - 10.0 * (0.1 - reward))
+        assert shaped < reward < 0.1  # a worse step is worse still, the order is kept
+    assert shaped == pytest.approx(0.1 - 10.0 * (0.1 - reward) - 3.0)  # and the fall penalty
+    trained = training.train(
+        [FLAT], "td3", out=tmp_path / "p.zip", steps=600, final_episodes=1, eval_freq=300
+    )
+    # The final table plays the task's own reward: at most 0.1 a step.
+    assert trained.results["tasks"][0]["aggregate"]["mean"] <= 150.0

@@ -106,7 +106,7 @@ class TaskSpec:
     random_return: float | None = None
 
     def __post_init__(self) -> None:
-        if not self.id.startswith("bbbench/") or "-v" not in self.id:
+        if _TASK_ID.fullmatch(self.id) is None or not self.id.startswith("bbbench/"):
             raise ValueError(f"task IDs look like 'bbbench/Name-vN', got {self.id!r}")
         if not 0.0 <= self.initial_pitch < FALL_TILT:
             raise ValueError(
