@@ -45,8 +45,14 @@ def _style():
 def _colors(count: int) -> list:
     import matplotlib
 
-    palette = matplotlib.colormaps["tab10"]
-    return [palette(i % 10) for i in range(count)]
+    palette = matplotlib.colormaps["tab10" if count <= 10 else "tab20"]
+    size = 10 if count <= 10 else 20
+    return [palette(i % size) for i in range(count)]
+
+
+def _legend_height(count: int) -> float:
+    """Inches a one-column legend of `count` entries takes at the figures' font size."""
+    return 0.6 + 0.19 * count
 
 
 def interval_estimates(entries: Sequence[dict[str, Any]]) -> str:
@@ -71,22 +77,24 @@ def interval_estimates(entries: Sequence[dict[str, Any]]) -> str:
 def performance_profiles(profiles: Sequence[tuple[str, np.ndarray]]) -> str:
     """One curve per entry: the fraction of episodes scoring above each threshold."""
     with _style():
-        figure = _figure(6.0, 3.4)
+        figure = _figure(7.5, max(3.4, _legend_height(len(profiles))))
         axes = figure.add_subplot()
-        for (name, fractions), color in zip(profiles, _colors(len(profiles)), strict=True):
-            axes.plot(THRESHOLDS, fractions, color=color, label=name, linewidth=1.6)
+        colors = _colors(len(profiles))
+        for i, ((name, fractions), color) in enumerate(zip(profiles, colors, strict=True)):
+            style = ("-", "--")[i // 20 % 2]  # past 20 entries, colours come back dashed
+            axes.plot(THRESHOLDS, fractions, style, color=color, label=name, linewidth=1.6)
         axes.set_xlabel("normalized score threshold \N{GREEK SMALL LETTER TAU}")
         axes.set_ylabel("fraction of episodes > \N{GREEK SMALL LETTER TAU}")
         axes.set_ylim(-0.02, 1.02)
         axes.grid(alpha=0.3)
-        axes.legend(loc="lower left", frameon=False)
+        axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
         return _svg(figure)
 
 
 def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) -> str:
     """Each task's normalized score (mean return, normalized) per entry, with its interval."""
     with _style():
-        figure = _figure(7.0, 3.6)
+        figure = _figure(8.0, max(3.6, _legend_height(len(entries))))
         axes = figure.add_subplot()
         width = 0.8 / max(len(entries), 1)
         positions = np.arange(len(task_ids))
