@@ -16,6 +16,7 @@ action or at an action the env refuses (`EpisodeResult.failure` says which).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NamedTuple
 
@@ -78,6 +79,10 @@ class Step(NamedTuple):
     ended: list[int]  # lanes whose episode ended with this step (fall, limit or failure)
 
 
+_new_step = functools.partial(tuple.__new__, Step)
+_NO_LANES: list[int] = []  # `Step.ended` of a step that ended no lane (never mutated)
+
+
 class Lockstep:
     """Single-bot episodes side by side, lane i playing `seeds[i]` in `envs[i]`: one
     batched policy call per step for every lane still playing. Iterate it to play
@@ -104,7 +109,7 @@ class Lockstep:
         first = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
         batch = np.stack(first)  # row j: the observation of lane lanes[j]
         lanes = list(range(n))
-        yield Step(0, lanes, batch, None, [])
+        yield Step(0, lanes, batch, None, _NO_LANES)
         steps = [env.step for env in envs]
         totals, errors, lengths = [0.0] * n, [0.0] * n, [limit] * n
         fell, failures = [False] * n, [None] * n
@@ -133,7 +138,9 @@ class Lockstep:
                     ended.append(j)
             if step + 1 == limit:
                 ended = list(range(len(lanes)))
-            yield Step(step + 1, lanes, batch, rewards, [lanes[j] for j in ended])
+            # tuple.__new__ skips the namedtuple's Python-level __new__: this runs every step.
+            gone = [lanes[j] for j in ended] if ended else _NO_LANES
+            yield _new_step((step + 1, lanes, batch, rewards, gone))
             if ended:
                 keep = [j for j in range(len(lanes)) if j not in ended]
                 if not keep:
