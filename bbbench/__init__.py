@@ -12,7 +12,8 @@ Importing bbbench registers every task of the suite with gymnasium.
 """
 
 import bbbench.sim  # noqa: F401  (first: it imports pybullet without its banner)
-from bbbench.tasks import TaskSpec, list_tasks, make, make_parallel, register_suite, spec
+from bbbench.envs import make, make_parallel
+from bbbench.tasks import TaskSpec, list_tasks, register_suite, spec
 
 __version__ = "0.1.0"
 __all__ = ["TaskSpec", "__version__", "list_tasks", "make", "make_parallel", "make_vec", "spec"]

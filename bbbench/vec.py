@@ -24,8 +24,8 @@ from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnvStepReturn,
 )
 
-from bbbench.tasks.factory import make_parallel
-from bbbench.tasks.multi import MultiBalanceEnv
+from bbbench.envs.factory import make_parallel
+from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import spec
 
 

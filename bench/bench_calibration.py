@@ -18,8 +18,8 @@ import multiprocessing
 import statistics
 
 import bbbench
+from bbbench.envs.balance import BalanceEnv
 from bbbench.policies import PDController
-from bbbench.tasks.balance import BalanceEnv
 from bbbench.tasks.spec import TaskSpec
 
 DIFFICULTIES = (0.0, 0.25, 0.5, 0.75, 1.0)

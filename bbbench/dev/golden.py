@@ -19,11 +19,11 @@ import json
 
 import numpy as np
 
+from bbbench.envs.balance import BalanceEnv
+from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.envs.scene import Episode
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import write_atomic
-from bbbench.tasks.balance import BalanceEnv
-from bbbench.tasks.multi import MultiBalanceEnv
-from bbbench.tasks.scene import Episode
 from bbbench.tasks.spec import GOLDEN_FILE, TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 

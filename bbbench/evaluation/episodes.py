@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
+from bbbench.envs.factory import make, make_parallel
 from bbbench.evaluation.play import EpisodeResult, Lockstep, MultiEpisode
 from bbbench.policies.base import Actor
-from bbbench.tasks.factory import make, make_parallel
 from bbbench.tasks.suite import spec
 
 # Tags the episode's action generator, so it never equals a generator the env draws from.

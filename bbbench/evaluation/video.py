@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bbbench.envs.factory import make, make_parallel
 from bbbench.evaluation.episodes import action_generator
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import check_output_path, replacing
 from bbbench.policies.base import Policy
-from bbbench.tasks.factory import make, make_parallel
 from bbbench.tasks.suite import spec
 
 VIDEO_FORMATS = (".gif", ".mp4")

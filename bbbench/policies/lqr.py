@@ -113,8 +113,8 @@ def identify(
     episodes: int = 20, noise: float = 0.3, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """A and B fitted by least squares to FlatBalance-v0's steps (see the module docstring)."""
+    from bbbench.envs.factory import make
     from bbbench.policies.pd import PDController
-    from bbbench.tasks.factory import make
 
     env = make("bbbench/FlatBalance-v0", action_mode="continuous").unwrapped
     pd = PDController(action_mode="continuous")

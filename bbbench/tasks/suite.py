@@ -163,11 +163,11 @@ SUITE: dict[str, TaskSpec] = {
 
 
 def entry_point(task_id: str) -> str:
-    """The class that plays a task: one per single-bot task name (`bbbench/tasks/envs.py`),
-    one for every multi-bot task (`bbbench/tasks/multi.py`)."""
+    """The class that plays a task: one per single-bot task name (`bbbench/envs/tasks.py`),
+    one for every multi-bot task (`bbbench/envs/multi.py`)."""
     if SUITE[task_id].multi_agent:
-        return "bbbench.tasks.multi:MultiBalanceEnv"
-    return f"bbbench.tasks.envs:{SUITE[task_id].name}Env"
+        return "bbbench.envs.multi:MultiBalanceEnv"
+    return f"bbbench.envs.tasks:{SUITE[task_id].name}Env"
 
 
 def register_suite() -> None:

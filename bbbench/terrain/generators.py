@@ -11,8 +11,6 @@ about robots or bullet.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from bbbench.parameters import parameters
@@ -55,14 +53,20 @@ def exp_same_everywhere(x: np.ndarray) -> np.ndarray:
     return np.ldexp(result, k.astype(np.int64))
 
 
-@functools.lru_cache(maxsize=16)
+_KERNELS: dict[tuple, np.ndarray] = {}  # (padded shape, cell size, feature size) -> kernel
+
+
 def _gaussian_kernel(padded: tuple[int, int], cell_size: float, feature_size: float) -> np.ndarray:
     """The Gaussian low-pass in frequency space: the same for every episode of a terrain,
     so computed once (a tenth of a Bumps-v0 reset), and read-only."""
-    fx = np.fft.fftfreq(padded[0], d=cell_size)[:, None]
-    fy = np.fft.rfftfreq(padded[1], d=cell_size)[None, :]
-    kernel = exp_same_everywhere(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
-    kernel.flags.writeable = False
+    key = (padded, cell_size, feature_size)
+    kernel = _KERNELS.get(key)
+    if kernel is None:
+        fx = np.fft.fftfreq(padded[0], d=cell_size)[:, None]
+        fy = np.fft.rfftfreq(padded[1], d=cell_size)[None, :]
+        kernel = exp_same_everywhere(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
+        kernel.flags.writeable = False
+        _KERNELS[key] = kernel
     return kernel
 
 

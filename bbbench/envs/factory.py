@@ -7,7 +7,7 @@ from typing import Any
 
 import gymnasium
 
-from bbbench.tasks.multi import MultiBalanceEnv
+from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import list_tasks, multi_bot_hint, spec
 
 

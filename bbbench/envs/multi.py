@@ -1,0 +1,362 @@
+"""`MultiBalanceEnv`: several balancing bots in one pybullet world, a PettingZoo ParallelEnv."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from bbbench.envs.scene import ActionError, Scene, configure, render_ready
+from bbbench.robots import FALL_TILT, BotState
+from bbbench.tasks.actions import action_space
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, nearest_others
+from bbbench.tasks.observation import OBSERVATION_DTYPE, agent_observation_space, sensed
+from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.sensors import PerfectSensors
+from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
+from bbbench.tasks.suite import SUITE, spec
+
+RENDER_WIDTH, RENDER_HEIGHT = 480, 360  # pixels of an "rgb_array" frame of the group
+CAMERA_YAW, CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole group in view
+
+
+class MultiBalanceEnv(ParallelEnv):
+    """Several balancing bots in one world: each keeps its balance and its target.
+
+    ## Description
+
+    `n_bots` copies of the suite's bot (see `bbbench.envs.balance.BalanceEnv`
+    for the robot) share one pybullet world. They start spread around a circle
+    of radius 2.5 m, each heading for its centre (give or take 0.3 rad), so
+    their paths cross: each must keep upright and follow its own target
+    velocity without knocking the others over. The bots cannot steer; a bot
+    avoids another by slowing down, stopping or backing off, at a cost in
+    velocity tracking. A bot that falls leaves the world at once (as its
+    agent leaves `env.agents`): it is no obstacle, and no neighbour, to the
+    others.
+
+    | Task            | Ground                   | Target velocity (m/s), per bot | Bots        |
+    |-----------------|--------------------------|--------------------------------|-------------|
+    | MultiBalance-v0 | flat                     | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
+    | MultiBumps-v0   | smooth hills, difficulty | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
+
+    MultiBumps' ground is a 12 x 12 m square of Bumps-v0's hills centred on
+    the start circle, level within 0.5 m of the circle, flat ground around it.
+
+    Agents are named `bot_0` ... `bot_{n-1}`. One `step()` sets every live
+    bot's motors, advances the world once (one `stepSimulation`) and reads
+    every bot.
+
+    ## Action Space
+
+    Per agent, the single-bot action space (`action_mode="discrete"`:
+    `Discrete(9)`, `"continuous"`: `Box(-1, 1, (1,))`), a change of the
+    commanded wheel speed, documented in `BalanceEnv`. `step()` takes a dict
+    with one action for every agent in `env.agents`, and no other key.
+
+    ## Observation Space
+
+    Per agent, `Box(5 + 4K,)` of float32 (K = 3 nearest neighbours: 17
+    values). The first 5 are the single-bot layout, unchanged (`BalanceEnv`):
+
+    | Num    | Observation      | Min | Max | Unit | Meaning                            |
+    |--------|------------------|-----|-----|------|------------------------------------|
+    | 0-4    | single-bot       |     |     |      | `BalanceEnv`'s five, unchanged     |
+    | 5 + 4k | right            | -5  | 5   | m    | neighbour k's distance to the right|
+    | 6 + 4k | forward          | -5  | 5   | m    | its distance ahead                 |
+    | 7 + 4k | right_velocity   | -10 | 10  | m/s  | its velocity minus this bot's, right|
+    | 8 + 4k | forward_velocity | -10 | 10  | m/s  | the same, ahead                    |
+
+    for k = 0 (nearest) to K - 1, measured horizontally in this bot's own frame
+    (forward along its heading, right along its axle) between the bots' torso
+    centres, with the axles' velocities. Neighbours are the other bots in the
+    world (fallen ones have left it) within 5 m; slots beyond the bots in
+    range are zeros. Relative velocities saturate at 10 m/s.
+
+    ## Rewards
+
+    Per agent, the suite's base reward (`bbbench.tasks.reward`):
+    `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|`, at most
+    0.1 per step. There is no collision penalty: a collision costs what it
+    costs, a fall ends that bot's episode. `infos[agent]` carries the two
+    terms, `"reward_upright"` and `"reward_velocity"`, and `"velocity_error"`,
+    |forward_velocity - target_velocity| in m/s.
+
+    ## Starting State
+
+    An episode is decided by one integer seed, as in the single-bot tasks: the
+    spawn circle's turn, each bot's place on it (spaced evenly, each moved by
+    up to a quarter of the spacing), heading, initial lean U(-0.1, 0.1) rad
+    and target schedule, and the terrain. `reset(seed=s)` plays episode s;
+    `reset()` a training seed drawn from the env's generator (seeded by the
+    last `reset(seed=...)`); `infos[agent]["episode_seed"]` says which.
+    `bbbench.spec(id).eval_seeds` are the evaluation seeds.
+
+    ## Episode End
+
+    - Termination, per agent: its torso tilts more than 1 rad from vertical (a
+      fall). It is terminated in that step's dicts, leaves `env.agents`, and
+      its bot leaves the world; it is never revived.
+    - Truncation: after 1500 steps (15 s) every agent left is truncated.
+    - `step({})` once no agent is left returns empty dicts.
+
+    ## Arguments
+
+    ```python
+    import bbbench
+
+    env = bbbench.make_parallel("bbbench/MultiBalance-v0", n_bots=4, action_mode="discrete")
+    ```
+
+    - `n_bots`: 2 to 16 (default 4); changes the task's fingerprint.
+    - `action_mode`: `"discrete"` (default) or `"continuous"`.
+    - `render_mode`: `None` or `"rgb_array"` (480 x 360 frames showing the
+      whole group, headless).
+    - `difficulty` (MultiBumps only): in [0, 1], default 0.3.
+    - `max_episode_steps`: the time limit, default 1500.
+
+    ## Version History
+
+    (appended from the suite's spec table)
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "bbbench_multibalance",
+        "render_modes": ["rgb_array"],
+        "render_fps": 100,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        task: str | TaskSpec = "bbbench/MultiBalance-v0",
+        n_bots: int | None = None,
+        action_mode: str = "discrete",
+        render_mode: str | None = None,
+        difficulty: float | None = None,
+        max_episode_steps: int | None = None,
+        **unknown: Any,
+    ) -> None:
+        task = task if isinstance(task, TaskSpec) else spec(task)
+        if task.group is None:
+            raise ValueError(
+                f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
+            )
+        options = {"n_bots": n_bots, "max_episode_steps": max_episode_steps}
+        options["difficulty"] = difficulty
+        task = configure(
+            task, unknown, options, action_mode, render_mode, self.metadata["render_modes"]
+        )
+        if not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps:
+            raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
+        self.task = task
+        self.group = group = task.group
+        self.action_mode = action_mode
+        self.render_mode = render_mode
+        self.metadata = {
+            **self.metadata,
+            "name": f"bbbench_{task.name.lower()}",  # bbbench_multibumps, ...
+            "render_fps": round(1.0 / task.control_dt),
+        }
+        self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
+        self.agents: list[str] = []
+        self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
+        self._action_space = action_space(action_mode)
+        self._observation_space = agent_observation_space(group)
+        self._observation_size = self._observation_space.shape[0]
+        self._scene = Scene(task, action_mode)
+        self._reward_weights, self._time_limit = task.reward, task.max_episode_steps
+        self._np_random: np.random.Generator | None = None
+        self._ended_at: dict[str, int] = {}  # agent -> step its episode ended
+        self._states: list[BotState] = []  # of the live bots, in order
+
+    @property
+    def scene(self) -> Scene:
+        """The episode's world, ground and bots, and what its seed drew (`scene.episode`)."""
+        return self._scene
+
+    # -- spaces -----------------------------------------------------------------
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        self._check_agent(agent)
+        return self._observation_space
+
+    def action_space(self, agent: str) -> spaces.Space:
+        self._check_agent(agent)
+        return self._action_space
+
+    def _check_agent(self, agent: str) -> None:
+        if agent not in self.agent_index:
+            raise ValueError(
+                f"unknown agent {agent!r}: {self.task.id} with {self.group.n_bots} bots has "
+                f"agents {self.possible_agents[0]!r} to {self.possible_agents[-1]!r}"
+            )
+
+    # -- the PettingZoo parallel API ----------------------------------------------
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        # No options are defined; PettingZoo's API test passes some, and expects them ignored.
+        if seed is not None:
+            self._np_random, _ = seeding.np_random(seed)
+            episode_seed = int(seed)
+        else:
+            if self._np_random is None:
+                self._np_random, _ = seeding.np_random()
+            episode_seed = int(self._np_random.integers(TRAINING_SEEDS.stop))
+        self._states = self._scene.reset(episode_seed)
+        self.agents = self.possible_agents[:]
+        self._ended_at = {}
+        observations = self._observe(self._states, self._scene.live_targets(0))
+        infos = {agent: {"episode_seed": episode_seed} for agent in self.agents}
+        return dict(zip(self.agents, observations, strict=True)), infos
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        agents, scene = self.agents, self._scene
+        if not isinstance(actions, dict):
+            raise TypeError(
+                f"step() takes a dict of actions, one for each agent in env.agents, got "
+                f"{type(actions).__name__} {actions!r:.60}"
+            )
+        if len(actions) != len(agents) or not all(agent in actions for agent in agents):
+            self._refuse(actions)
+        if not agents:
+            return {}, {}, {}, {}, {}
+        try:
+            scene.act_live([actions[agent] for agent in agents])
+        except ActionError as error:
+            raise ValueError(f"action for {agents[error.index]!r}: {error}") from None
+        # Only the bots still in the world: a fallen one was set aside.
+        self._states = states = scene.advance_live()
+        steps = scene.steps
+        targets = scene.live_targets(steps)
+        observations = self._observe(states, targets)
+        weights = self._reward_weights
+        truncated = steps >= self._time_limit
+        rewards, terminations, infos = {}, {}, {}
+        for agent, state, target in zip(agents, states, targets, strict=True):
+            error = abs(state.forward_velocity - target)
+            upright, velocity = reward_terms(state.pitch, error, weights)
+            rewards[agent] = upright + velocity
+            infos[agent] = {
+                "reward_upright": upright,
+                "reward_velocity": velocity,
+                "velocity_error": error,
+            }
+            terminations[agent] = state.tilt > FALL_TILT
+        truncations = dict.fromkeys(agents, truncated)
+        returned = dict(zip(agents, observations, strict=True))
+        ended = agents if truncated else [agent for agent in agents if terminations[agent]]
+        if ended:
+            self._end(ended, steps)
+        return returned, rewards, terminations, truncations, infos
+
+    def _end(self, ended: list[str], steps: int) -> None:
+        """Take the agents whose episodes ended out of `agents`, and their bots out of the world."""
+        gone = set(ended)
+        for agent in ended:
+            self._ended_at[agent] = steps
+        kept = [k for k, agent in enumerate(self.agents) if agent not in gone]
+        self._scene.take_out([self.agent_index[agent] for agent in ended])
+        self.agents = [self.agents[k] for k in kept]
+        self._states = [self._states[k] for k in kept] or self._states
+
+    def _refuse(self, actions: dict[str, Any]) -> None:
+        """Raise the error that says what is wrong with the keys of `actions`."""
+        for agent in actions:
+            if agent not in self.agent_index:
+                self._check_agent(agent)
+            if agent not in self.agents:
+                ended = self._ended_at.get(agent)
+                when = (
+                    f"its episode ended at step {ended}"
+                    if ended is not None
+                    else "the episode has not been reset"
+                )
+                raise ValueError(
+                    f"action for {agent!r}, which is not in env.agents ({when}): step() takes "
+                    f"one action for each agent in env.agents and no other"
+                )
+        missing = [agent for agent in self.agents if agent not in actions]
+        raise ValueError(
+            f"no action for live agent(s) {', '.join(map(repr, missing))}: step() takes one "
+            f"action for each agent in env.agents ({len(self.agents)} now)"
+        )
+
+    def _observe(self, states: list[BotState], targets: list[float]) -> np.ndarray:
+        """Observations of the bots in `states` (the live ones), one row each.
+
+        Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call
+        cost would outweigh its arithmetic (bench/bench_multi.py).
+        """
+        group = self.group
+        k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
+        fill = [0.0] * self._observation_size
+        positions = [complex(state.position[0], state.position[1]) for state in states]
+        velocities = [complex(*state.velocity) for state in states]
+        nearest = nearest_others(positions, k)
+        live_bots = self._scene.live_bots
+        rows = []
+        for i, state in enumerate(states):
+            row = [
+                *sensed(state.pitch, state.pitch_rate, state.wheel_speed),
+                live_bots[i].wheel_command,
+                targets[i],
+            ]
+            here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
+            turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
+            for j in nearest[i]:
+                offset = (positions[j] - here) * turn
+                if abs(offset) > reach:
+                    break  # the rest are farther
+                moving = (velocities[j] - velocity) * turn
+                right, ahead = moving.real, moving.imag  # saturated at the sensor's range:
+                right = top if right > top else -top if right < -top else right
+                ahead = top if ahead > top else -top if ahead < -top else ahead
+                row += (offset.real, offset.imag, right, ahead)
+            row += fill[len(row) :]
+            rows.append(row)
+        return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)
+
+    def render(self) -> np.ndarray | None:
+        if not render_ready(self):
+            return None
+        self._scene.ground.paint()
+        target, distance = self.camera()
+        return self._scene.world.camera_image(
+            target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
+        )
+
+    def camera(self) -> tuple[tuple[float, float, float], float]:
+        """Where the camera looks, and from how far, to frame every bot."""
+        positions = np.array([state.position for state in self._states])
+        low, high = positions.min(axis=0), positions.max(axis=0)
+        center = (low + high) / 2.0
+        spread = float(np.hypot(*(high - low)[:2]))
+        return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
+
+    def close(self) -> None:
+        self._scene.close()
+        self.agents = []
+
+    def __getstate__(self) -> dict[str, Any]:
+        # A copy has no world (the scene pickles without one) and no episode.
+        return {**self.__dict__, "agents": [], "_states": []}
+
+
+def _version_history() -> str:
+    return "\n".join(
+        f"    - {task.name}: {entry}"
+        for task in SUITE.values()
+        if task.multi_agent
+        for entry in task.version_history
+    )
+
+
+MultiBalanceEnv.__doc__ = MultiBalanceEnv.__doc__.replace(
+    "    (appended from the suite's spec table)\n", _version_history() + "\n"
+)
