@@ -12,10 +12,8 @@ from pettingzoo import ParallelEnv
 from bbbench.envs.scene import ActionError, Scene, configure, render_ready
 from bbbench.robots import FALL_TILT, BotState
 from bbbench.tasks.actions import action_space
-from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, nearest_others
-from bbbench.tasks.observation import OBSERVATION_DTYPE, agent_observation_space, sensed
+from bbbench.tasks.observation import agent_observation_space, group_observations
 from bbbench.tasks.reward import reward_terms
-from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import SUITE, spec
 
@@ -140,18 +138,11 @@ class MultiBalanceEnv(ParallelEnv):
         max_episode_steps: int | None = None,
         **unknown: Any,
     ) -> None:
-        task = task if isinstance(task, TaskSpec) else spec(task)
-        if task.group is None:
-            raise ValueError(
-                f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
-            )
         options = {"n_bots": n_bots, "max_episode_steps": max_episode_steps}
         options["difficulty"] = difficulty
-        task = configure(
-            task, unknown, options, action_mode, render_mode, self.metadata["render_modes"]
-        )
-        if not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps:
-            raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
+        task = task if isinstance(task, TaskSpec) else spec(task)
+        modes = self.metadata["render_modes"]
+        task = configure(task, unknown, options, action_mode, render_mode, modes, several_bots=True)
         self.task = task
         self.group = group = task.group
         self.action_mode = action_mode
@@ -170,7 +161,7 @@ class MultiBalanceEnv(ParallelEnv):
         self._scene = Scene(task, action_mode)
         self._reward_weights, self._time_limit = task.reward, task.max_episode_steps
         self._np_random: np.random.Generator | None = None
-        self._ended_at: dict[str, int] = {}  # agent -> step its episode ended
+        self.ended_at: dict[str, int] = {}  # agent -> step its episode ended
         self._states: list[BotState] = []  # of the live bots, in order
 
     @property
@@ -210,7 +201,7 @@ class MultiBalanceEnv(ParallelEnv):
             episode_seed = int(self._np_random.integers(TRAINING_SEEDS.stop))
         self._states = self._scene.reset(episode_seed)
         self.agents = self.possible_agents[:]
-        self._ended_at = {}
+        self.ended_at = {}
         observations = self._observe(self._states, self._scene.live_targets(0))
         infos = {agent: {"episode_seed": episode_seed} for agent in self.agents}
         return dict(zip(self.agents, observations, strict=True)), infos
@@ -223,7 +214,7 @@ class MultiBalanceEnv(ParallelEnv):
                 f"{type(actions).__name__} {actions!r:.60}"
             )
         if len(actions) != len(agents) or not all(agent in actions for agent in agents):
-            self._refuse(actions)
+            raise refusal(actions, self)
         if not agents:
             return {}, {}, {}, {}, {}
         try:
@@ -235,19 +226,8 @@ class MultiBalanceEnv(ParallelEnv):
         steps = scene.steps
         targets = scene.live_targets(steps)
         observations = self._observe(states, targets)
-        weights = self._reward_weights
+        rewards, terminations, infos = _outcomes(agents, states, targets, self._reward_weights)
         truncated = steps >= self._time_limit
-        rewards, terminations, infos = {}, {}, {}
-        for agent, state, target in zip(agents, states, targets, strict=True):
-            error = abs(state.forward_velocity - target)
-            upright, velocity = reward_terms(state.pitch, error, weights)
-            rewards[agent] = upright + velocity
-            infos[agent] = {
-                "reward_upright": upright,
-                "reward_velocity": velocity,
-                "velocity_error": error,
-            }
-            terminations[agent] = state.tilt > FALL_TILT
         truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
         ended = agents if truncated else [agent for agent in agents if terminations[agent]]
@@ -259,68 +239,15 @@ class MultiBalanceEnv(ParallelEnv):
         """Take the agents whose episodes ended out of `agents`, and their bots out of the world."""
         gone = set(ended)
         for agent in ended:
-            self._ended_at[agent] = steps
+            self.ended_at[agent] = steps
         kept = [k for k, agent in enumerate(self.agents) if agent not in gone]
         self._scene.take_out([self.agent_index[agent] for agent in ended])
         self.agents = [self.agents[k] for k in kept]
         self._states = [self._states[k] for k in kept] or self._states
 
-    def _refuse(self, actions: dict[str, Any]) -> None:
-        """Raise the error that says what is wrong with the keys of `actions`."""
-        for agent in actions:
-            if agent not in self.agent_index:
-                self._check_agent(agent)
-            if agent not in self.agents:
-                ended = self._ended_at.get(agent)
-                when = (
-                    f"its episode ended at step {ended}"
-                    if ended is not None
-                    else "the episode has not been reset"
-                )
-                raise ValueError(
-                    f"action for {agent!r}, which is not in env.agents ({when}): step() takes "
-                    f"one action for each agent in env.agents and no other"
-                )
-        missing = [agent for agent in self.agents if agent not in actions]
-        raise ValueError(
-            f"no action for live agent(s) {', '.join(map(repr, missing))}: step() takes one "
-            f"action for each agent in env.agents ({len(self.agents)} now)"
-        )
-
     def _observe(self, states: list[BotState], targets: list[float]) -> np.ndarray:
-        """Observations of the bots in `states` (the live ones), one row each.
-
-        Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call
-        cost would outweigh its arithmetic (bench/bench_multi.py).
-        """
-        group = self.group
-        k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
-        fill = [0.0] * self._observation_size
-        positions = [complex(state.position[0], state.position[1]) for state in states]
-        velocities = [complex(*state.velocity) for state in states]
-        nearest = nearest_others(positions, k)
-        live_bots = self._scene.live_bots
-        rows = []
-        for i, state in enumerate(states):
-            row = [
-                *sensed(state.pitch, state.pitch_rate, state.wheel_speed),
-                live_bots[i].wheel_command,
-                targets[i],
-            ]
-            here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
-            turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
-            for j in nearest[i]:
-                offset = (positions[j] - here) * turn
-                if abs(offset) > reach:
-                    break  # the rest are farther
-                moving = (velocities[j] - velocity) * turn
-                right, ahead = moving.real, moving.imag  # saturated at the sensor's range:
-                right = top if right > top else -top if right < -top else right
-                ahead = top if ahead > top else -top if ahead < -top else ahead
-                row += (offset.real, offset.imag, right, ahead)
-            row += fill[len(row) :]
-            rows.append(row)
-        return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)
+        commands = [bot.wheel_command for bot in self._scene.live_bots]
+        return group_observations(states, commands, targets, self.group, self._observation_size)
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):
@@ -333,11 +260,7 @@ class MultiBalanceEnv(ParallelEnv):
 
     def camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks, and from how far, to frame every bot."""
-        positions = np.array([state.position for state in self._states])
-        low, high = positions.min(axis=0), positions.max(axis=0)
-        center = (low + high) / 2.0
-        spread = float(np.hypot(*(high - low)[:2]))
-        return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
+        return framing(self._states)
 
     def close(self) -> None:
         self._scene.close()
@@ -346,6 +269,55 @@ class MultiBalanceEnv(ParallelEnv):
     def __getstate__(self) -> dict[str, Any]:
         # A copy has no world (the scene pickles without one) and no episode.
         return {**self.__dict__, "agents": [], "_states": []}
+
+
+def _outcomes(agents, states, targets, weights) -> tuple[dict, dict, dict]:
+    """Each agent's reward (`reward_terms`), whether it fell, and its info (the two terms
+    and the velocity error), from its bot's state and target."""
+    rewards, terminations, infos = {}, {}, {}
+    for agent, state, target in zip(agents, states, targets, strict=True):
+        error = abs(state.forward_velocity - target)
+        upright, velocity = reward_terms(state.pitch, error, weights)
+        rewards[agent] = upright + velocity
+        infos[agent] = {
+            "reward_upright": upright,
+            "reward_velocity": velocity,
+            "velocity_error": error,
+        }
+        terminations[agent] = state.tilt > FALL_TILT
+    return rewards, terminations, infos
+
+
+def framing(states: list[BotState]) -> tuple[tuple[float, float, float], float]:
+    """Where a camera looks, and from how far, to frame every bot of `states`."""
+    positions = np.array([state.position for state in states])
+    low, high = positions.min(axis=0), positions.max(axis=0)
+    center = (low + high) / 2.0
+    spread = float(np.hypot(*(high - low)[:2]))
+    return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
+
+
+def refusal(actions: dict[str, Any], env: MultiBalanceEnv) -> ValueError:
+    """The error that says what is wrong with the keys of `actions` (`env.step`'s dict)."""
+    for agent in actions:
+        if agent not in env.agent_index:
+            env.observation_space(agent)  # raises: the unknown agent's own error
+        if agent not in env.agents:
+            ended = env.ended_at.get(agent)
+            when = (
+                f"its episode ended at step {ended}"
+                if ended is not None
+                else "the episode has not been reset"
+            )
+            return ValueError(
+                f"action for {agent!r}, which is not in env.agents ({when}): step() takes "
+                f"one action for each agent in env.agents and no other"
+            )
+    missing = [agent for agent in env.agents if agent not in actions]
+    return ValueError(
+        f"no action for live agent(s) {', '.join(map(repr, missing))}: step() takes one "
+        f"action for each agent in env.agents ({len(env.agents)} now)"
+    )
 
 
 def _version_history() -> str:

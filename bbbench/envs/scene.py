@@ -313,14 +313,20 @@ def configure(
     action_mode: str,
     render_mode: str | None,
     render_modes: list[str],
+    several_bots: bool = False,
 ) -> TaskSpec:
     """The task an env's keyword arguments ask for, or the error that says what is wrong.
 
     `options` maps each keyword the env takes beyond action_mode and render_mode to the
     value given (None: not given): `difficulty`, `height_scan`, `n_bots`,
     `max_episode_steps`; each given one derives the spec (`TaskSpec.with_...`).
-    `unknown` holds the keywords the env does not take.
+    `unknown` holds the keywords the env does not take. `several_bots`: the env is the
+    multi-bot one, which plays `Group` tasks through perfect sensors only.
     """
+    if several_bots and task.group is None:
+        raise ValueError(
+            f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
+        )
     terrain = task.difficulty is not None
     accepted = [f"action_mode={ACTION_MODES}", f"render_mode={(None, *render_modes)}"]
     accepted += [name for name in options if name != "difficulty" or terrain]
@@ -340,6 +346,8 @@ def configure(
         raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
     if render_mode is not None and render_mode not in render_modes:
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
+    if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):
+        raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
     return task
 
 

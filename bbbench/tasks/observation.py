@@ -20,7 +20,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.robots import MODEL
-from bbbench.tasks.group import Group
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others
 
 OBSERVATION_DTYPE = np.float32
 
@@ -172,3 +172,38 @@ def agent_observation_space(group: Group) -> spaces.Box:
         high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
         dtype=OBSERVATION_DTYPE,
     )
+
+
+def group_observations(
+    states, commands: list[float], targets: list[float], group: Group, size: int
+) -> np.ndarray:
+    """The observations of a group's live bots, one row of `size` values each: the
+    single-bot layout (from each bot's state, wheel command and target), then its
+    `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
+    (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
+
+    Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
+    outweigh its arithmetic (bench/bench_multi.py).
+    """
+    k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
+    fill = [0.0] * size
+    positions = [complex(state.position[0], state.position[1]) for state in states]
+    velocities = [complex(*state.velocity) for state in states]
+    nearest = nearest_others(positions, k)
+    rows = []
+    for i, state in enumerate(states):
+        row = [*sensed(state.pitch, state.pitch_rate, state.wheel_speed), commands[i], targets[i]]
+        here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
+        turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
+        for j in nearest[i]:
+            offset = (positions[j] - here) * turn
+            if abs(offset) > reach:
+                break  # the rest are farther
+            moving = (velocities[j] - velocity) * turn
+            right, ahead = moving.real, moving.imag  # saturated at the sensor's range:
+            right = top if right > top else -top if right < -top else right
+            ahead = top if ahead > top else -top if ahead < -top else ahead
+            row += (offset.real, offset.imag, right, ahead)
+        row += fill[len(row) :]
+        rows.append(row)
+    return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)
