@@ -71,7 +71,7 @@ def command(run: dict, folder: Path) -> list[str]:
     ]  # fmt: skip
 
 
-def _add(run: dict, folder: Path, board: Path, minutes: float) -> str:
+def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int) -> str:
     """`bbbench leaderboard add` of a finished run, with what it took."""
     argv = command(run, folder)
     record = json.loads((folder / "train.json").read_text())
@@ -85,7 +85,7 @@ def _add(run: dict, folder: Path, board: Path, minutes: float) -> str:
         "--env-steps", str(record["steps"]),
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
-        "two trainings side by side",
+        + (f"{side_by_side} trainings side by side" if side_by_side > 1 else "one training"),
         "--seeds", str(run["seed"]),
         "--command", " ".join([*argv[:-2], "--out", "policy.zip"]),
         "--licence", "MIT",
@@ -114,6 +114,7 @@ def main() -> None:
     args = parser.parse_args()
     plan = [run for run in runs() if not args.only or run["slug"] in args.only]
     missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
+    args.plan = missing
     if args.list:
         for run in plan:
             print(run["slug"], "" if run in missing else "(on the board)")
@@ -135,7 +136,8 @@ def _train_and_add(run: dict, args: argparse.Namespace) -> str:
     if done.returncode:
         return f"{run['slug']}: training failed (exit {done.returncode}), see {folder}/train.log"
     with _BOARD:
-        return _add(run, folder, args.board, (time.perf_counter() - began) / 60)
+        minutes = (time.perf_counter() - began) / 60
+        return _add(run, folder, args.board, minutes, min(args.parallel, len(args.plan)))
 
 
 if __name__ == "__main__":
