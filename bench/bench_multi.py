@@ -11,7 +11,9 @@ fast phases. A multi-bot world-step counts one bot-step per live bot.
 `--ceiling` also times, in the same alternation, what pybullet alone charges per
 bot-step in one world (`RawWorldLoop`: every bot's motor command, one
 `stepSimulation`, the three reads of every bot and its rotation matrix, with no
-other Python), the most a multi-bot env could reach against FlatBalance-v0.
+other Python), the most a multi-bot env could reach against FlatBalance-v0, and
+(`ApiFloorLoop`) the same plus the least a PettingZoo step must build and return
+(an observation row per bot from its raw reads, the array, the five dicts).
 
 `--adapters` also times the SB3 route: bbbench's `BotSlotsVecEnv` against
 SuperSuit 3.11.0's `black_death_v3` + `pettingzoo_env_to_vec_env_v1` +
@@ -117,6 +119,57 @@ class RawWorldLoop:
                 self.episodes += 1
 
 
+class ApiFloorLoop(RawWorldLoop):
+    """`RawWorldLoop` plus the least a PettingZoo step must hand back: the pybullet
+    calls, then an observation row per bot from its raw reads (no arithmetic), the
+    rows as one array, and the five per-agent dicts (an info of three terms each).
+
+    What any multi-bot env in Python pays per bot-step before it computes anything.
+    """
+
+    def __init__(self, n_bots: int) -> None:
+        super().__init__(n_bots)
+        self.name = f"API floor x{n_bots}"
+        self.agents = list(self.env.possible_agents)
+
+    def run(self, steps: int) -> None:
+        bots, cid, forces, agents = self.bots, self.client_id, self.forces, self.agents
+        pad = [0.0] * 12
+        for _ in range(steps):
+            began = time.perf_counter()
+            for body, joints in bots:
+                pybullet.setJointMotorControlArray(
+                    body,
+                    joints,
+                    pybullet.VELOCITY_CONTROL,
+                    targetVelocities=(0.5, -0.5),
+                    forces=forces,
+                    physicsClientId=cid,
+                )
+            pybullet.stepSimulation(cid)
+            rows, rewards, terminations, infos = [], {}, {}, {}
+            for agent, (body, joints) in zip(agents, bots, strict=True):
+                position, orientation = pybullet.getBasePositionAndOrientation(body, cid)
+                velocity, spin = pybullet.getBaseVelocity(body, cid)
+                left, right = pybullet.getJointStates(body, joints, cid)
+                pybullet.getMatrixFromQuaternion(orientation)
+                rows.append([orientation[0], spin[0], left[1], right[1], velocity[0], *pad])
+                rewards[agent] = position[2]
+                terminations[agent] = False
+                infos[agent] = {"a": position[0], "b": position[1], "c": velocity[1]}
+            observations = np.array(rows, dtype=np.float32)
+            dict(zip(agents, observations, strict=True))
+            dict.fromkeys(agents, False)
+            took = time.perf_counter() - began
+            self.elapsed += took
+            self.stepping += took
+            self.bot_steps += len(bots)
+            self.steps += 1
+            if self.steps % 500 == 0:
+                self.env.reset(seed=next(self.seeds))
+                self.episodes += 1
+
+
 def measure(loops, steps: int, chunk: int) -> None:
     for loop in loops:
         loop.run(chunk)  # warm up: worlds built, first terrains drawn
@@ -190,7 +243,7 @@ def main() -> None:
     args = parser.parse_args()
     loops = [TaskLoop(REFERENCE), *(MultiLoop(task, args.bots) for task in MULTI_TASKS)]
     if args.ceiling:
-        loops.append(RawWorldLoop(args.bots))
+        loops += [RawWorldLoop(args.bots), ApiFloorLoop(args.bots)]
     measure(loops, args.steps, args.chunk)
     if args.adapters:
         compare_adapters(args.bots, 1500)

@@ -77,7 +77,12 @@ def lqr_gains(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: float) -> np.ndarr
     return gain.ravel()
 
 
-GAINS = lqr_gains(MODEL_A, MODEL_B, COST_STATE, COST_INPUT)
+# lqr_gains(MODEL_A, MODEL_B, COST_STATE, COST_INPUT), written out: BLAS and LAPACK round
+# differently on different CPUs, and the regulator must act the same on every machine
+# (tests/test_baselines.py checks that the iteration still gives these).
+GAINS = np.array(
+    [-11.655270756516067, -2.1241769606962126, -0.6632380069273113, 0.41685225973135015]
+)
 
 
 class LQRController:
@@ -99,7 +104,9 @@ class LQRController:
         wheel_target = float(observation[INDEX["target_velocity"]]) / ROBOT.wheel_radius
         state = np.asarray(observation, dtype=float)[_STATE_INDEX]
         error = state - (0.0, 0.0, wheel_target, wheel_target)
-        return -float(self.gains @ error)
+        g0, g1, g2, g3 = self.gains.tolist()  # summed in this order on every CPU (no BLAS)
+        e0, e1, e2, e3 = error.tolist()
+        return -(g0 * e0 + g1 * e1 + g2 * e2 + g3 * e3)
 
     def __call__(self, observation: np.ndarray) -> int | np.ndarray:
         """The action for one observation."""

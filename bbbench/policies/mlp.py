@@ -2,7 +2,9 @@
 
 For one observation at a time, numpy runs a 64 x 64 MLP several times faster
 than torch (bench/bench_eval.py measures both; docs/performance.md records it),
-and its actions match torch's to within 1e-6 (tests/test_policies.py).
+and its actions match torch's to within 1e-6 (tests/test_policies.py). Its
+arithmetic is `bbbench.portable`'s: the same bits on every CPU, so an episode
+replays byte for byte wherever the leaderboard is checked.
 `MlpActor` holds only numpy arrays: it pickles into worker processes and Ray
 tasks without torch.
 """
@@ -14,6 +16,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from bbbench import portable
+from bbbench.portable import matmul
+
 
 def _relu(x: np.ndarray) -> np.ndarray:
     return np.maximum(x, 0.0, out=x)
@@ -24,24 +29,20 @@ def _leaky_relu(x: np.ndarray) -> np.ndarray:  # torch's default slope, 0.01
 
 
 def _elu(x: np.ndarray) -> np.ndarray:  # alpha = 1
-    return np.where(x > 0.0, x, np.expm1(x))
-
-
-def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-x))
+    return np.where(x > 0.0, x, portable.expm1(x))
 
 
 def _silu(x: np.ndarray) -> np.ndarray:
-    return x * _sigmoid(x)
+    return x * portable.sigmoid(x)
 
 
 # torch.nn activation class names -> the same function in numpy (float32 in, float32 out).
 ACTIVATIONS = {
-    "Tanh": np.tanh,
+    "Tanh": portable.tanh,
     "ReLU": _relu,
     "LeakyReLU": _leaky_relu,
     "ELU": _elu,
-    "Sigmoid": _sigmoid,
+    "Sigmoid": portable.sigmoid,
     "SiLU": _silu,
 }
 
@@ -101,7 +102,7 @@ class MlpActor:
         activate = ACTIVATIONS[self.activation]
         x = np.asarray(observation, dtype=np.float32)
         for weight_t, bias in self.hidden:
-            x = activate(x @ weight_t + bias)
+            x = activate(matmul(x, weight_t) + bias)
         return x
 
     def __call__(
@@ -112,7 +113,7 @@ class MlpActor:
         (one generator per row) is given."""
         latent = self.latent(observations)
         weight_t, bias = self.head
-        out = latent @ weight_t + bias
+        out = matmul(latent, weight_t) + bias
         if self.quantiles > 1:  # (k, quantiles x actions) -> the mean over quantiles
             out = out.reshape(len(out), self.quantiles, -1).mean(axis=1)
         if self.mean_clip is not None:
@@ -131,12 +132,14 @@ class MlpActor:
                     log_std = self.log_std
                 else:
                     std_weight_t, std_bias = self.log_std
-                    log_std = np.clip(latent @ std_weight_t + std_bias, _LOG_STD_MIN, _LOG_STD_MAX)
-                out = out + np.exp(log_std) * noise
+                    log_std = np.clip(
+                        matmul(latent, std_weight_t) + std_bias, _LOG_STD_MIN, _LOG_STD_MAX
+                    )
+                out = out + portable.exp32(log_std) * noise
             if self.output in ("gaussian", "clip"):
                 action = np.clip(out, self.low, self.high)
             else:
-                action = self.low + np.float32(0.5) * (np.tanh(out) + np.float32(1.0)) * (
+                action = self.low + np.float32(0.5) * (portable.tanh(out) + np.float32(1.0)) * (
                     self.high - self.low
                 )
             actions = list(action)
@@ -150,6 +153,6 @@ class MlpActor:
         n = out.shape[-1]
         if self.epsilon is not None:  # DQN, QR-DQN: epsilon-greedy
             return int(rng.integers(n)) if rng.random() < self.epsilon else best
-        probabilities = np.exp(out - out[best])
+        probabilities = portable.exp32(out - out[best])
         cumulative = np.cumsum(probabilities / probabilities.sum())
         return min(int(np.searchsorted(cumulative, rng.random(), side="right")), n - 1)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bbbench import portable
 from bbbench.parameters import parameters
 
 
@@ -31,26 +32,14 @@ def _fast_fft_length(n: int) -> int:
     return -(-n // 16) * 16
 
 
-_LN2_HIGH, _LN2_LOW = 0.6931471803691238, 1.9082149292705877e-10  # ln 2 = high + low
-_TAYLOR_TERMS = 14  # |r| <= ln(2) / 2: the next term is under 1e-17
-
-
 def exp_same_everywhere(x: np.ndarray) -> np.ndarray:
-    """e**x (float64) computed with +, *, / and ldexp only, so every CPU gives the same bits.
+    """e**x (float64), the same bits on every CPU (`bbbench.portable.exp`).
 
     numpy's `np.exp` takes another SIMD path on AVX-512 machines than on AVX2 ones,
     and the two round differently in the last bit: terrain made with it differed
-    between machines, and so did every episode played on it. This one agrees with
-    `np.exp` to a few units in the last place: x = k ln 2 + r, a Taylor polynomial of
-    r (Horner), scaled by 2**k.
+    between machines, and so did every episode played on it.
     """
-    x = np.clip(np.asarray(x, dtype=np.float64), -746.0, 709.0)
-    k = np.rint(x / (_LN2_HIGH + _LN2_LOW))
-    r = (x - k * _LN2_HIGH) - k * _LN2_LOW
-    result = np.ones_like(r)
-    for n in range(_TAYLOR_TERMS - 1, 0, -1):
-        result = 1.0 + result * r / n
-    return np.ldexp(result, k.astype(np.int64))
+    return portable.exp(x)
 
 
 _KERNELS: dict[tuple, np.ndarray] = {}  # (padded shape, cell size, feature size) -> kernel
