@@ -4,9 +4,16 @@ numpy chooses SIMD code at run time by CPU: `np.exp` and `np.tanh` round
 differently on AVX-512, AVX2 and older machines (no AVX2: libm's functions), and
 `@` calls a BLAS kernel picked per CPU that sums in another order. The
 leaderboard is re-scored on whatever machine CI runs on and compared byte for
-byte, so what decides an episode (the terrain, a policy's network) is built here
-from operations IEEE 754 rounds exactly (+, -, *, /, comparisons, `rint`,
-`ldexp`), in an order that does not depend on the CPU.
+byte, so what decides an episode (the terrain, a policy's network) is defined
+here by its value, not by the machine:
+
+- a network layer (`Layer`) and `tanh` return, for each output, the float32
+  nearest the exact value: fast float64 arithmetic with a bound on its error
+  settles almost every output, and the rare one near a float32 halfway point is
+  computed exactly;
+- `exp` (the terrain's kernel) and the rarer activations (`exp32`, `expm1`,
+  `sigmoid`) use only operations IEEE 754 rounds exactly (+, -, *, /, `rint`,
+  `ldexp`), in a fixed order.
 
 Measured: on a machine without AVX2, a stored SAC episode played from the
 numpy `@` and `np.tanh` of an AVX-512 machine took other actions from the first
@@ -15,13 +22,14 @@ step (docs/tasks.md, "The same episode on every machine").
 
 from __future__ import annotations
 
+import decimal
 import math
 
 import numpy as np
 
 _LN2_HIGH, _LN2_LOW = 0.6931471803691238, 1.9082149292705877e-10  # ln 2 = high + low
 _TAYLOR_TERMS = 14  # |r| <= ln(2) / 2: the next term is under 1e-17
-# 1/n! for n = 10..1, for `_exp_float32`'s Horner steps (|r| <= ln 2 / 2: the r**11
+# 1/n! for n = 10..1, for `_expm1_parts`'s Horner steps (|r| <= ln 2 / 2: the r**11
 # term is under 1e-12, far below float32's resolution).
 _SHORT_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(10, 0, -1))
 
@@ -72,14 +80,6 @@ def expm1(x: np.ndarray) -> np.ndarray:
     return _expm1(x).astype(np.float32)
 
 
-def tanh(x: np.ndarray) -> np.ndarray:
-    """tanh of a float32 array, float32: (e**2x - 1) / (e**2x + 1), exact in sign, tiny
-    values included (correctly rounded on 10**6 samples)."""
-    m = _expm1(np.multiply(x, 2.0, dtype=np.float64))
-    t = m / (m + 2.0)
-    return np.copysign(t, x, dtype=np.float64).astype(np.float32)
-
-
 def sigmoid(x: np.ndarray) -> np.ndarray:
     """1 / (1 + e**-x) of a float32 array, float32."""
     p, k = _expm1_parts(np.negative(x, dtype=np.float64))
@@ -89,13 +89,90 @@ def sigmoid(x: np.ndarray) -> np.ndarray:
     return np.divide(1.0, e).astype(np.float32)
 
 
-def matmul(x: np.ndarray, weight_t: np.ndarray) -> np.ndarray:
-    """`x @ weight_t` for x of shape (k, n) and weight_t (n, m), summed in one fixed order.
+_UNIT = 2.0**-53  # float64's unit roundoff
 
-    Each product is rounded once (an elementwise multiply), and the n products of an
-    output are added in an order fixed by numpy's code, not by the CPU: over a middle
-    axis numpy adds whole slices one after another (in index order), and over the
-    last one (m = 1) it sums pairwise with eight fixed accumulators, whatever the
-    vector width. BLAS kernels split and reorder the sum by the CPU's vector width.
+
+class Layer:
+    """`x @ weight_t + bias` for float32 x of shape (k, n): each output the float32
+    nearest the exact value, which no CPU, BLAS or numpy version can change.
+
+    The fast path multiplies in float64 with BLAS (a product of two float32 is exact
+    in float64, so only the sum rounds, by at most (n + 1) units of roundoff times the
+    sum of the terms' sizes, whatever the order or the FMAs) and keeps an output when
+    both ends of that error interval round to the same float32. The rest (about one
+    output in ten million) is summed exactly (`math.fsum`) and rounded once.
     """
-    return np.add.reduce(x[:, :, None] * weight_t, axis=1)
+
+    def __init__(self, weight_t: np.ndarray, bias: np.ndarray) -> None:
+        self.weight = np.asarray(weight_t, dtype=np.float64)
+        self.size = np.abs(self.weight)
+        self.bias = np.asarray(bias, dtype=np.float64)
+        self.slack = (
+            2.0 * (self.weight.shape[0] + 2) * _UNIT
+        )  # twice the bound, for its own rounding
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        y = x @ self.weight
+        y += self.bias
+        bound = np.abs(x) @ self.size
+        bound += np.abs(self.bias)
+        bound *= self.slack
+        return _settle(y, bound, lambda i, j: _exact_dot(x[i], self.weight[:, j], self.bias[j]))
+
+
+def tanh(x: np.ndarray) -> np.ndarray:
+    """tanh of a float32 array: each value the float32 nearest the exact tanh.
+
+    numpy's float64 `tanh` (within a few units in the last place on any CPU) settles
+    all but about one value in ten million; those are computed to 80 digits.
+    """
+    y = np.tanh(np.asarray(x, dtype=np.float64))
+    bound = np.abs(y)
+    bound *= 2.0**-46  # 64 units in the last place of float64
+    settled = _settle(y, bound, lambda *index: _exact_tanh(float(x[index])))
+    return np.copysign(settled, y, out=settled)  # -0.0 stays -0.0
+
+
+def _settle(y: np.ndarray, bound: np.ndarray, exact) -> np.ndarray:
+    """float32 of y where every value within `bound` of it rounds alike; `exact(*index)`
+    elsewhere (NaN and infinities pass through)."""
+    low = (y - bound).astype(np.float32)
+    result = (y + bound).astype(np.float32)
+    unsettled = low != result
+    if unsettled.any():
+        for index in zip(*np.nonzero(unsettled & np.isfinite(y)), strict=True):
+            result[index] = exact(*index)
+        loose = unsettled & ~np.isfinite(y)
+        result[loose] = y[loose]
+    return result
+
+
+def _nearest_float32(value: float, above) -> np.float32:
+    """The float32 nearest a real number whose float64 rounding is `value`; `above()`
+    tells (by its sign) on which side of `value` the number lies, asked only when
+    `value` is halfway between two float32."""
+    first = np.float32(value)
+    if float(first) == value:
+        return first
+    low = first if float(first) < value else np.nextafter(first, np.float32(-np.inf))
+    high = np.nextafter(low, np.float32(np.inf))
+    middle = (float(low) + float(high)) / 2.0  # exact: float32 halves fit in float64
+    if value != middle:
+        return low if value < middle else high
+    side = above()
+    return first if side == 0 else (high if side > 0 else low)
+
+
+def _exact_dot(x: np.ndarray, weight: np.ndarray, bias: float) -> np.float32:
+    terms = [*(x * weight).tolist(), float(bias)]  # each product exact in float64
+    value = math.fsum(terms)
+    return _nearest_float32(value, lambda: math.fsum([*terms, -value]))
+
+
+def _exact_tanh(value: float) -> np.float32:
+    with decimal.localcontext() as context:
+        context.prec = 80
+        e = (decimal.Decimal(value) * 2).exp()
+        exact = (e - 1) / (e + 1)
+        return _nearest_float32(float(exact), lambda: exact - decimal.Decimal(float(exact)))

@@ -30,17 +30,23 @@ def samples() -> np.ndarray:
     return np.concatenate([spread, tiny, edges])
 
 
-@pytest.mark.parametrize(
-    ("ours", "exact"),
-    [(portable.tanh, np.tanh), (portable.exp32, np.exp), (portable.expm1, np.expm1)],
-)
+@pytest.mark.parametrize(("ours", "exact"), [(portable.exp32, np.exp), (portable.expm1, np.expm1)])
 def test_functions_round_as_float64_rounded_to_float32(samples, ours, exact):
     """Within one unit in the last place of the float64 value rounded to float32 (in
-    practice equal: numpy's own float32 tanh and exp miss it by 1-2 units)."""
+    practice equal: numpy's own float32 exp misses it by 1-2 units)."""
     reference = exact(samples.astype(np.float64)).astype(np.float32)
     result = ours(samples)
     assert result.dtype == np.float32
     assert _ulps(result, reference).max() <= 1
+
+
+def test_tanh_is_the_nearest_float32(samples):
+    """The fast path agrees with 80-digit tanh rounded once, on every sample checked."""
+    result = portable.tanh(samples)
+    assert result.dtype == np.float32
+    picks = np.random.default_rng(0).choice(len(samples), 3000, replace=False)
+    for i in [*picks, *range(len(samples) - 9, len(samples))]:
+        assert result[i] == portable._exact_tanh(float(samples[i])), samples[i]
 
 
 def test_tanh_keeps_the_sign_of_zero():
@@ -50,32 +56,48 @@ def test_tanh_keeps_the_sign_of_zero():
 
 @pytest.mark.parametrize("outputs", [1, 9, 64])
 @pytest.mark.parametrize("batch", [1, 8])
-def test_matmul_adds_the_products_in_a_fixed_order(batch, outputs):
-    """Every product rounded once, then summed as numpy's code fixes it: in index order over
-    a middle axis, pairwise (eight accumulators) when there is one output."""
+def test_layer_gives_the_float32_nearest_the_exact_value(batch, outputs):
     rng = np.random.default_rng(batch * 100 + outputs)
     x = rng.standard_normal((batch, 64)).astype(np.float32)
     weight_t = rng.standard_normal((64, outputs)).astype(np.float32)
-    result = portable.matmul(x, weight_t)
+    bias = rng.standard_normal(outputs).astype(np.float32)
+    result = portable.Layer(weight_t, bias)(x)
     assert result.dtype == np.float32
     assert result.shape == (batch, outputs)
-    products = x[:, :, None] * weight_t
-    if outputs > 1:  # one slice after another
-        expected = products[:, 0, :].copy()
-        for k in range(1, 64):
-            expected = expected + products[:, k, :]
-        np.testing.assert_array_equal(result, expected)
-    np.testing.assert_allclose(result, x.astype(np.float64) @ weight_t, rtol=1e-4, atol=1e-4)
+    x64, w64 = x.astype(np.float64), weight_t.astype(np.float64)
+    for i in range(batch):
+        for j in range(outputs):
+            assert result[i, j] == portable._exact_dot(x64[i], w64[:, j], float(bias[j]))
 
 
-def test_matmul_does_not_depend_on_the_batch():
+def test_halfway_values_round_by_what_lies_beyond_them():
+    """Sums whose float64 rounding falls exactly halfway between two float32: the exact
+    remainder decides, ties go to even."""
+    one, step = 1.0, 2.0**-24  # halfway between 1 and the next float32
+    assert portable._exact_dot(np.array([one, step]), np.ones(2), 0.0) == np.float32(1.0)
+    beyond = portable._exact_dot(np.array([one, step, 2.0**-80]), np.ones(3), 0.0)
+    assert beyond == np.nextafter(np.float32(1.0), np.float32(2.0))
+    below = portable._exact_dot(np.array([one, step, -(2.0**-80)]), np.ones(3), 0.0)
+    assert below == np.float32(1.0)
+
+
+def test_layer_settles_unsure_outputs_exactly():
+    """An output next to a float32 halfway point leaves the fast path and is summed
+    exactly (the bound is wide enough to send it there)."""
+    x = np.array([[1.0, 2.0**-24, 2.0**-60]], dtype=np.float32)
+    weight_t = np.ones((3, 2), dtype=np.float32)
+    out = portable.Layer(weight_t, np.zeros(2, dtype=np.float32))(x)
+    np.testing.assert_array_equal(out, np.nextafter(np.float32(1.0), np.float32(2.0)))
+
+
+def test_layer_does_not_depend_on_the_batch():
     """A row's output is the same alone or among others (lockstep groups of any size)."""
     rng = np.random.default_rng(3)
     x = rng.standard_normal((8, 17)).astype(np.float32)
-    weight_t = rng.standard_normal((17, 64)).astype(np.float32)
-    together = portable.matmul(x, weight_t)
+    layer = portable.Layer(rng.standard_normal((17, 64)).astype(np.float32), np.zeros(64))
+    together = layer(x)
     for i in range(8):
-        np.testing.assert_array_equal(portable.matmul(x[i : i + 1], weight_t)[0], together[i])
+        np.testing.assert_array_equal(layer(x[i : i + 1])[0], together[i])
 
 
 _ACT = """

@@ -22,8 +22,9 @@ SCHEMA = "bbbench-results/1"
 # The version of the code that plays episodes (seeding, lockstep groups, actors): bump it
 # when the same policy on the same task spec and seeds would play differently. The
 # leaderboard reuses a stored task result only when it matches (with the policy's hash,
-# the task's fingerprint and the seeds). 2: networks computed with `bbbench.portable` (the
-# same bits on every CPU), where 1 used numpy's `@` and `tanh`.
+# the task's fingerprint and the seeds). 2: networks computed with `bbbench.portable` (each
+# layer's output the float32 nearest the exact value, on every CPU), where 1 used numpy's
+# `@` and `tanh` (which round by CPU).
 HARNESS_VERSION = 2
 
 

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from bbbench import portable
-from bbbench.portable import matmul
+from bbbench.portable import Layer
 
 
 def _relu(x: np.ndarray) -> np.ndarray:
@@ -96,13 +96,18 @@ class MlpActor:
             raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}")
         if self.output not in OUTPUTS:
             raise ValueError(f"output must be one of {OUTPUTS}, got {self.output!r}")
+        # The layers as `bbbench.portable` computes them: the same bits on every CPU.
+        object.__setattr__(self, "_layers", tuple(Layer(*layer) for layer in self.hidden))
+        object.__setattr__(self, "_head", Layer(*self.head))
+        if self.output == "squashed_gaussian" and self.log_std is not None:
+            object.__setattr__(self, "_log_std_layer", Layer(*self.log_std))
 
     def latent(self, observation: np.ndarray) -> np.ndarray:
         """The last hidden layer's output."""
         activate = ACTIVATIONS[self.activation]
         x = np.asarray(observation, dtype=np.float32)
-        for weight_t, bias in self.hidden:
-            x = activate(matmul(x, weight_t) + bias)
+        for layer in self._layers:
+            x = activate(layer(x))
         return x
 
     def __call__(
@@ -112,8 +117,7 @@ class MlpActor:
         None where the network's output is NaN. Deterministic, or sampled when `rngs`
         (one generator per row) is given."""
         latent = self.latent(observations)
-        weight_t, bias = self.head
-        out = matmul(latent, weight_t) + bias
+        out = self._head(latent)
         if self.quantiles > 1:  # (k, quantiles x actions) -> the mean over quantiles
             out = out.reshape(len(out), self.quantiles, -1).mean(axis=1)
         if self.mean_clip is not None:
@@ -131,10 +135,7 @@ class MlpActor:
                 if self.output == "gaussian":  # as stable-baselines3 does
                     log_std = self.log_std
                 else:
-                    std_weight_t, std_bias = self.log_std
-                    log_std = np.clip(
-                        matmul(latent, std_weight_t) + std_bias, _LOG_STD_MIN, _LOG_STD_MAX
-                    )
+                    log_std = np.clip(self._log_std_layer(latent), _LOG_STD_MIN, _LOG_STD_MAX)
                 out = out + portable.exp32(log_std) * noise
             if self.output in ("gaussian", "clip"):
                 action = np.clip(out, self.low, self.high)
