@@ -91,32 +91,41 @@ class RawWorldLoop:
         self.steps = self.bot_steps = self.episodes = 0
 
     def run(self, steps: int) -> None:
-        bots, cid, forces = self.bots, self.client_id, self.forces
         for _ in range(steps):
             began = time.perf_counter()
-            for body, joints in bots:
-                pybullet.setJointMotorControlArray(
-                    body,
-                    joints,
-                    pybullet.VELOCITY_CONTROL,
-                    targetVelocities=(0.5, -0.5),
-                    forces=forces,
-                    physicsClientId=cid,
-                )
-            pybullet.stepSimulation(cid)
-            for body, joints in bots:
-                _, orientation = pybullet.getBasePositionAndOrientation(body, cid)
-                pybullet.getBaseVelocity(body, cid)
-                pybullet.getJointStates(body, joints, cid)
-                pybullet.getMatrixFromQuaternion(orientation)
+            self._drive()
+            self._read()
             took = time.perf_counter() - began
             self.elapsed += took
             self.stepping += took
-            self.bot_steps += len(bots)
+            self.bot_steps += len(self.bots)
             self.steps += 1
             if self.steps % 500 == 0:
                 self.env.reset(seed=next(self.seeds))
                 self.episodes += 1
+
+    def _drive(self) -> None:
+        """Every bot's motor command, then one world step."""
+        cid, forces = self.client_id, self.forces
+        for body, joints in self.bots:
+            pybullet.setJointMotorControlArray(
+                body,
+                joints,
+                pybullet.VELOCITY_CONTROL,
+                targetVelocities=(0.5, -0.5),
+                forces=forces,
+                physicsClientId=cid,
+            )
+        pybullet.stepSimulation(cid)
+
+    def _read(self) -> None:
+        """Every bot's three reads and its rotation matrix."""
+        cid = self.client_id
+        for body, joints in self.bots:
+            _, orientation = pybullet.getBasePositionAndOrientation(body, cid)
+            pybullet.getBaseVelocity(body, cid)
+            pybullet.getJointStates(body, joints, cid)
+            pybullet.getMatrixFromQuaternion(orientation)
 
 
 class ApiFloorLoop(RawWorldLoop):
@@ -131,43 +140,23 @@ class ApiFloorLoop(RawWorldLoop):
         super().__init__(n_bots)
         self.name = f"API floor x{n_bots}"
         self.agents = list(self.env.possible_agents)
+        self.pad = [0.0] * 12  # the neighbour part of a row
 
-    def run(self, steps: int) -> None:
-        bots, cid, forces, agents = self.bots, self.client_id, self.forces, self.agents
-        pad = [0.0] * 12
-        for _ in range(steps):
-            began = time.perf_counter()
-            for body, joints in bots:
-                pybullet.setJointMotorControlArray(
-                    body,
-                    joints,
-                    pybullet.VELOCITY_CONTROL,
-                    targetVelocities=(0.5, -0.5),
-                    forces=forces,
-                    physicsClientId=cid,
-                )
-            pybullet.stepSimulation(cid)
-            rows, rewards, terminations, infos = [], {}, {}, {}
-            for agent, (body, joints) in zip(agents, bots, strict=True):
-                position, orientation = pybullet.getBasePositionAndOrientation(body, cid)
-                velocity, spin = pybullet.getBaseVelocity(body, cid)
-                left, right = pybullet.getJointStates(body, joints, cid)
-                pybullet.getMatrixFromQuaternion(orientation)
-                rows.append([orientation[0], spin[0], left[1], right[1], velocity[0], *pad])
-                rewards[agent] = position[2]
-                terminations[agent] = False
-                infos[agent] = {"a": position[0], "b": position[1], "c": velocity[1]}
-            observations = np.array(rows, dtype=np.float32)
-            dict(zip(agents, observations, strict=True))
-            dict.fromkeys(agents, False)
-            took = time.perf_counter() - began
-            self.elapsed += took
-            self.stepping += took
-            self.bot_steps += len(bots)
-            self.steps += 1
-            if self.steps % 500 == 0:
-                self.env.reset(seed=next(self.seeds))
-                self.episodes += 1
+    def _read(self) -> None:
+        cid, agents, pad = self.client_id, self.agents, self.pad
+        rows, rewards, terminations, infos = [], {}, {}, {}
+        for agent, (body, joints) in zip(agents, self.bots, strict=True):
+            position, orientation = pybullet.getBasePositionAndOrientation(body, cid)
+            velocity, spin = pybullet.getBaseVelocity(body, cid)
+            left, right = pybullet.getJointStates(body, joints, cid)
+            pybullet.getMatrixFromQuaternion(orientation)
+            rows.append([orientation[0], spin[0], left[1], right[1], velocity[0], *pad])
+            rewards[agent] = position[2]
+            terminations[agent] = False
+            infos[agent] = {"a": position[0], "b": position[1], "c": velocity[1]}
+        observations = np.array(rows, dtype=np.float32)
+        dict(zip(agents, observations, strict=True))
+        dict.fromkeys(agents, False)
 
 
 def measure(loops, steps: int, chunk: int) -> None:

@@ -98,13 +98,14 @@ class LQRController:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         self.action_mode = action_mode
         self.gains = GAINS if gains is None else np.asarray(gains, dtype=float)
+        self._gains = tuple(self.gains.tolist())
 
     def wheel_speed_change(self, observation: np.ndarray) -> float:
         """The change of wheel command (rad/s) the regulator wants."""
         wheel_target = float(observation[INDEX["target_velocity"]]) / ROBOT.wheel_radius
         state = np.asarray(observation, dtype=float)[_STATE_INDEX]
         error = state - (0.0, 0.0, wheel_target, wheel_target)
-        g0, g1, g2, g3 = self.gains.tolist()  # summed in this order on every CPU (no BLAS)
+        g0, g1, g2, g3 = self._gains  # summed in this order on every CPU (no BLAS)
         e0, e1, e2, e3 = error.tolist()
         return -(g0 * e0 + g1 * e1 + g2 * e2 + g3 * e3)
 

@@ -1,10 +1,10 @@
 """A small MLP policy evaluated in plain numpy: the fast path of `bbbench eval`.
 
-For one observation at a time, numpy runs a 64 x 64 MLP several times faster
-than torch (bench/bench_eval.py measures both; docs/performance.md records it),
-and its actions match torch's to within 1e-6 (tests/test_policies.py). Its
-arithmetic is `bbbench.portable`'s: the same bits on every CPU, so an episode
-replays byte for byte wherever the leaderboard is checked.
+Its arithmetic is `bbbench.portable`'s: each layer's output the float32 nearest
+the exact value, the same bits on every CPU, so an episode replays byte for byte
+wherever the leaderboard is checked (torch's kernels, like numpy's `@`, round by
+CPU). Its actions match torch's to within 1e-6 (tests/test_policies.py);
+bench/bench_eval.py times both (docs/performance.md).
 `MlpActor` holds only numpy arrays: it pickles into worker processes and Ray
 tasks without torch.
 """
@@ -17,7 +17,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from bbbench import portable
-from bbbench.portable import Layer
 
 
 def _relu(x: np.ndarray) -> np.ndarray:
@@ -97,10 +96,10 @@ class MlpActor:
         if self.output not in OUTPUTS:
             raise ValueError(f"output must be one of {OUTPUTS}, got {self.output!r}")
         # The layers as `bbbench.portable` computes them: the same bits on every CPU.
-        object.__setattr__(self, "_layers", tuple(Layer(*layer) for layer in self.hidden))
-        object.__setattr__(self, "_head", Layer(*self.head))
+        object.__setattr__(self, "_layers", tuple(portable.Layer(*layer) for layer in self.hidden))
+        object.__setattr__(self, "_head", portable.Layer(*self.head))
         if self.output == "squashed_gaussian" and self.log_std is not None:
-            object.__setattr__(self, "_log_std_layer", Layer(*self.log_std))
+            object.__setattr__(self, "_log_std_layer", portable.Layer(*self.log_std))
 
     def latent(self, observation: np.ndarray) -> np.ndarray:
         """The last hidden layer's output."""

@@ -32,14 +32,10 @@ def _fast_fft_length(n: int) -> int:
     return -(-n // 16) * 16
 
 
-def exp_same_everywhere(x: np.ndarray) -> np.ndarray:
-    """e**x (float64), the same bits on every CPU (`bbbench.portable.exp`).
-
-    numpy's `np.exp` takes another SIMD path on AVX-512 machines than on AVX2 ones,
-    and the two round differently in the last bit: terrain made with it differed
-    between machines, and so did every episode played on it.
-    """
-    return portable.exp(x)
+# e**x with the same bits on every CPU: numpy's `np.exp` takes another SIMD path on
+# AVX-512 machines than on AVX2 ones, and terrain made with it differed between
+# machines, and so did every episode played on it.
+exp_same_everywhere = portable.exp
 
 
 _KERNELS: dict[tuple, np.ndarray] = {}  # (padded shape, cell size, feature size) -> kernel
