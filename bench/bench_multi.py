@@ -1,6 +1,7 @@
 """Multi-bot benchmark: bot-steps per second in one world against FlatBalance-v0's steps.
 
     python bench/bench_multi.py [--bots 8] [--steps 6000] [--chunk 250] [--adapters] [--ceiling]
+                                [--vectorized]
 
 Every bot is driven by the PD baseline (on its first five observations) on the
 tasks' evaluation seeds, a world resetting when its episode ends. Only the
@@ -15,6 +16,12 @@ other Python), the most a multi-bot env could reach against FlatBalance-v0, and
 (`ApiFloorLoop`) the same plus the least a PettingZoo step must build and return
 (an observation row per bot from its raw reads, the array, the five dicts).
 
+`--vectorized` times the neighbour part of the observation two ways on the same
+recorded world-steps (the bots' states, commands and targets of MultiBalance-v0
+episodes under PD): the shipped plain-Python `group_observations`, and one
+vectorised numpy pass over every bot (`numpy_group_observations`, limited to
+exactly rounded operations so that it gives the same bytes, which is checked).
+
 `--adapters` also times the SB3 route: bbbench's `BotSlotsVecEnv` against
 SuperSuit 3.11.0's `black_death_v3` + `pettingzoo_env_to_vec_env_v1` +
 `concat_vec_envs_v1` (if SuperSuit is installed), on the same worlds.
@@ -23,6 +30,7 @@ SuperSuit 3.11.0's `black_death_v3` + `pettingzoo_env_to_vec_env_v1` +
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import numpy as np
@@ -32,6 +40,8 @@ from bench_suite import REFERENCE, TaskLoop  # the same single-bot loop as the s
 import bbbench
 from bbbench.policies import PDController
 from bbbench.robots import MODEL
+from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
+from bbbench.tasks.observation import group_observations, sensed
 
 MULTI_TASKS = ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
 
@@ -173,7 +183,7 @@ def measure(loops, steps: int, chunk: int) -> None:
     rate_reset = bot_steps[0] / loops[0].elapsed
     print(
         f"{'task':34s} {'world-steps/s':>13s} {'bots/step':>9s} {'bot-steps/s':>11s} "
-        f"{'ratio':>6s} {'with resets':>11s} {'episodes':>8s}"
+        f"{'ratio':>6s} {'with resets':>11s} {'episodes':>8s} {'us/bot-step':>11s}"
     )
     for loop, bots in zip(loops, bot_steps, strict=True):
         name = getattr(loop, "name", REFERENCE)
@@ -181,8 +191,95 @@ def measure(loops, steps: int, chunk: int) -> None:
         print(
             f"{name:34s} {loop.steps / loop.stepping:13.0f} {bots / loop.steps:9.2f} "
             f"{bot_rate:11.0f} {bot_rate / rate:6.3f} "
-            f"{bots / loop.elapsed / rate_reset:11.3f} {loop.episodes:8d}"
+            f"{bots / loop.elapsed / rate_reset:11.3f} {loop.episodes:8d} "
+            f"{1e6 / bot_rate:11.2f}"
         )
+
+
+def record_steps(n_bots: int, steps: int) -> list[tuple]:
+    """`steps` world-steps of MultiBalance-v0 under PD: each one's live states, wheel
+    commands, targets and the observations the env returned."""
+    env = bbbench.make_parallel(MULTI_TASKS[0], n_bots=n_bots)
+    policy, seeds = PDController(), iter(bbbench.spec(MULTI_TASKS[0]).eval_seeds)
+    scene, recorded = env.scene, []
+    observations, _ = env.reset(seed=next(seeds))
+    while len(recorded) < steps:
+        live = len(env.agents)
+        observations, *_ = env.step({a: policy(observations[a][:5]) for a in env.agents})
+        bots = scene.live_bots
+        if len(bots) == live:  # none left: the bots the env observed are still in the world
+            states = [bot.read() for bot in bots]  # a read is a query: the step's own state
+            commands = [bot.wheel_command for bot in bots]
+            returned = np.array([observations[a] for a in env.agents])
+            recorded.append((states, commands, scene.live_targets(scene.steps), returned))
+        if not env.agents:
+            observations, _ = env.reset(seed=next(seeds))
+    env.close()
+    return recorded
+
+
+def numpy_group_observations(states, commands, targets, group, size) -> np.ndarray:
+    """`group_observations` as one vectorised numpy pass over every bot and neighbour.
+
+    The same bytes: only exactly rounded operations (+ - * and comparisons) on float64
+    columns, the nearest-neighbour order from the same numpy distances, and Python's
+    `abs` for the range test of the rare offset within 1e-12 of the range.
+    """
+    n, k, reach, top = len(states), group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
+    points = np.array([complex(s.position[0], s.position[1]) for s in states])
+    moving = np.array([complex(*s.velocity) for s in states])
+    heading = np.array([s.heading for s in states])
+    pairs = points[None, :] - points[:, None]
+    distance = np.abs(pairs)
+    distance.flat[:: n + 1] = np.inf
+    nearest = np.argsort(distance, axis=1, kind="stable")[:, : min(k, n - 1)]
+    both = np.stack([np.take_along_axis(pairs, nearest, 1), moving[nearest] - moving[:, None]])
+    forward_x, forward_y = heading[:, 0:1], heading[:, 1:2]
+    right = both.real * forward_y - both.imag * forward_x  # (x + iy) * (fy + i fx)
+    ahead = both.real * forward_x + both.imag * forward_y
+    squared = right[0] * right[0] + ahead[0] * ahead[0]
+    near = squared < reach * reach * (1 - 1e-12)
+    for i, j in zip(*np.nonzero(~near & (squared <= reach * reach * (1 + 1e-12))), strict=True):
+        near[i, j] = abs(complex(right[0, i, j], ahead[0, i, j])) <= reach
+    near = np.logical_and.accumulate(near, axis=1)  # the rest are farther
+    block = np.stack([right[0], ahead[0], *np.clip((right[1], ahead[1]), -top, top)], axis=-1)
+    block[~near] = 0.0
+    rows = np.zeros((n, size), dtype=np.float32)
+    rows[:, :5] = [
+        (*sensed(s.pitch, s.pitch_rate, s.wheel_speed), c, t)
+        for s, c, t in zip(states, commands, targets, strict=True)
+    ]
+    rows[:, 5 : 5 + block.shape[1] * 4] = block.reshape(n, -1)
+    return rows
+
+
+def compare_neighbour_passes(n_bots: int, steps: int, rounds: int = 5) -> None:
+    recorded = record_steps(n_bots, steps)
+    env = bbbench.make_parallel(MULTI_TASKS[0], n_bots=n_bots)
+    group, size = env.task.group, env.observation_space(env.possible_agents[0]).shape[0]
+    passes = {
+        "plain Python (shipped)": group_observations,
+        "numpy, one pass": numpy_group_observations,
+    }
+    elapsed = dict.fromkeys(passes, 0.0)
+    bots = sum(len(states) for states, *_ in recorded)
+    for states, commands, targets, returned in recorded:
+        for name, build in passes.items():
+            if build(states, commands, targets, group, size).tobytes() != returned.tobytes():
+                raise SystemExit(f"{name}: not the observations the env returned")
+    for _, (name, build) in itertools.product(range(rounds), passes.items()):
+        began = time.perf_counter()
+        for states, commands, targets, _ in recorded:
+            build(states, commands, targets, group, size)
+        elapsed[name] += time.perf_counter() - began
+    print(
+        f"\nObservations with neighbours, {len(recorded)} recorded world-steps x {rounds}, "
+        f"{bots / len(recorded):.2f} bots a step (bytes equal to the env's):"
+    )
+    for name, took in elapsed.items():
+        per_step = took / (rounds * len(recorded)) * 1e6
+        per_bot = took / (rounds * bots) * 1e6
+        print(f"  {name:24s} {per_step:7.2f} us a world-step {per_bot:6.2f} us a bot")
 
 
 def adapter_rate(vec, steps: int, seed: int = 0) -> float:
@@ -229,11 +326,14 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=250)
     parser.add_argument("--adapters", action="store_true")
     parser.add_argument("--ceiling", action="store_true", help="also time pybullet alone")
+    parser.add_argument("--vectorized", action="store_true", help="time a numpy neighbour pass")
     args = parser.parse_args()
     loops = [TaskLoop(REFERENCE), *(MultiLoop(task, args.bots) for task in MULTI_TASKS)]
     if args.ceiling:
         loops += [RawWorldLoop(args.bots), ApiFloorLoop(args.bots)]
     measure(loops, args.steps, args.chunk)
+    if args.vectorized:
+        compare_neighbour_passes(args.bots, min(args.steps, 2000))
     if args.adapters:
         compare_adapters(args.bots, 1500)
 
