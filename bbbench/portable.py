@@ -109,6 +109,10 @@ class Layer:
         slack = 2.0 * (self.weight.shape[0] + 2) * _UNIT
         self.size = np.abs(self.weight) * slack
         self.bias_size = np.abs(self.bias) * slack
+        self._slack = slack
+        # For `error`: the largest sum of |weights| into one output, and the largest |bias|.
+        self._gain = float(np.abs(self.weight).sum(axis=0).max(initial=0.0))
+        self._bias_max = float(np.abs(self.bias).max(initial=0.0))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
@@ -117,6 +121,36 @@ class Layer:
         bound = np.abs(x) @ self.size
         bound += self.bias_size
         return _settle(y, bound, lambda i, j: _exact_dot(x[i], self.weight[:, j], self.bias[j]))
+
+    def error(self, input_max: float, input_error: float, output_max: float | None = None) -> float:
+        """A bound on how far `x @ weight + bias`, computed in float64 with no rounding to
+        float32, can be from this layer's output (`self(X)`) for every output, when the
+        float32 input X the layer is defined on is within `input_error` of x and
+        |x| <= `input_max`.
+
+        The sum's rounding (at most `slack` times the terms' sizes), what the input's
+        error can move (at most the largest sum of |weights| into one output, times it),
+        and the last rounding to float32 (2**-24 of the exact value: at most
+        `output_max`, the largest |output| of the float64 pass, plus the two above, or
+        else the largest sum of |weights| times |X| plus the largest |bias|; 2**-150
+        near zero); and 2**-20 of it, for the rounding of this bound itself.
+        """
+        gain, bias_max = self._gain, self._bias_max
+        moved = self._slack * (gain * input_max + bias_max) + gain * input_error
+        if output_max is None:
+            reach = gain * (input_max + input_error) + bias_max
+        else:
+            reach = output_max + moved
+        return (1.0 + 2.0**-20) * (moved + 2.0**-24 * reach + 2.0**-149)
+
+
+def tanh_error(input_error: float) -> float:
+    """A bound on |np.tanh(y) - `tanh`(Y)| (float64 estimate against the float32 defined
+    value) when |y - Y| <= `input_error`: tanh moves by no more than its argument, numpy's
+    float64 tanh is within 2**-46 of the exact one (as `tanh` assumes), and the result
+    rounds to float32 (|tanh| <= 1)."""
+    moved = input_error + 2.0**-46
+    return (1.0 + 2.0**-20) * (moved + 2.0**-24 * (1.0 + moved) + 2.0**-149)
 
 
 def tanh(x: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import subprocess
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from bbbench import portable
+from bbbench.policies.mlp import MlpActor
 
 ROOT = Path(__file__).resolve().parents[1]
 SUBMISSIONS = ROOT / "leaderboards" / "submissions"
@@ -133,3 +135,66 @@ def test_networks_act_the_same_whatever_simd_and_blas_numpy_picks():
         )
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
     assert runs[0] == runs[1]
+
+
+def _network(rng, activation: str, widths=(5, 64, 64, 9), scale: float = 1.0) -> MlpActor:
+    layers = [
+        (
+            (rng.standard_normal((n, m)) * scale / np.sqrt(n)).astype(np.float32),
+            (rng.standard_normal(m) * 0.1).astype(np.float32),
+        )
+        for n, m in itertools.pairwise(widths)
+    ]
+    return MlpActor(tuple(layers[:-1]), activation, layers[-1], "argmax")
+
+
+@pytest.mark.parametrize("activation", ["Tanh", "ReLU"])
+@pytest.mark.parametrize(("scale", "tight"), [(0.5, 1e-4), (3.0, 1e-2)])
+def test_the_float64_estimate_is_within_its_bound_of_the_defined_network(activation, scale, tight):
+    """The fast argmax path rests on this bound: every head output of the float64 pass
+    within `error` of the network as defined (each layer's float32 nearest the exact)."""
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        actor = _network(rng, activation, scale=scale)
+        observations = (rng.standard_normal((16, 5)) * [0.3, 3.0, 20.0, 10.0, 1.0]).astype(
+            np.float32
+        )
+        estimate, error = actor.estimate(observations)
+        defined = actor._head(actor.latent(observations)).astype(np.float64)
+        assert np.abs(estimate - defined).max() <= error
+        # A bound, not a blow-up (larger weights amplify the worst case more).
+        assert error < tight * max(1.0, np.abs(defined).max())
+
+
+def test_greedy_actions_are_the_defined_networks_argmax():
+    rng = np.random.default_rng(3)
+    for activation in ("Tanh", "ReLU"):
+        actor = _network(rng, activation)
+        observations = (rng.standard_normal((4000, 5)) * 3.0).astype(np.float32)
+        defined = actor._head(actor.latent(observations)).argmax(axis=1).tolist()
+        assert [actor(row[None])[0] for row in observations] == defined
+        fast = [actor._greedy(row[None]) for row in observations]
+        assert all(row == [action] for row, action in zip(fast, defined, strict=True) if row)
+        assert fast.count(None) < 40  # nearly every step decided by the estimate
+
+
+def test_a_tie_is_left_to_the_defined_network():
+    """Two identical head rows tie exactly: the estimate cannot tell them apart, and the
+    defined network's argmax (the first) decides."""
+    rng = np.random.default_rng(5)
+    actor = _network(rng, "Tanh")
+    weight, bias = actor.head
+    weight, bias = weight.copy(), bias.copy()
+    weight[:, 6], bias[6] = weight[:, 2], bias[2] + 100.0
+    weight[:, 3], bias[3] = weight[:, 2], bias[2] + 100.0
+    tied = MlpActor(actor.hidden, "Tanh", (weight, bias), "argmax")
+    observation = np.zeros((1, 5), dtype=np.float32)
+    assert tied._greedy(observation) is None
+    assert tied(observation) == [3]
+
+
+def test_a_nan_observation_is_left_to_the_defined_network():
+    actor = _network(np.random.default_rng(9), "ReLU")
+    observation = np.array([[0.1, np.nan, 0.0, 0.0, 0.0]], dtype=np.float32)
+    assert actor._greedy(observation) is None
+    assert actor(observation) == [None]

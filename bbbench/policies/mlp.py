@@ -3,8 +3,12 @@
 Its arithmetic is `bbbench.portable`'s: each layer's output the float32 nearest
 the exact value, the same bits on every CPU, so an episode replays byte for byte
 wherever the leaderboard is checked (torch's kernels, like numpy's `@`, round by
-CPU). Its actions match torch's to within 1e-6 (tests/test_policies.py);
-bench/bench_eval.py times both (docs/performance.md).
+CPU). A greedy argmax policy (PPO, A2C, DQN acting deterministically) takes a
+shortcut to the same actions: a float64 pass with a bound on its distance to that
+network decides every step where the best output wins by more than the bound
+(`MlpActor.estimate`; the rare closer call goes the long way). Its actions match
+torch's to within 1e-6 (tests/test_policies.py); bench/bench_eval.py times both
+(docs/performance.md).
 `MlpActor` holds only numpy arrays: it pickles into worker processes and Ray
 tasks without torch.
 """
@@ -100,6 +104,10 @@ class MlpActor:
         object.__setattr__(self, "_head", portable.Layer(*self.head))
         if self.output == "squashed_gaussian" and self.log_std is not None:
             object.__setattr__(self, "_log_std_layer", portable.Layer(*self.log_std))
+        # Greedy argmax actions can come from float64 estimates with a bound on their
+        # error (`_greedy`): with tanh or ReLU, one output per action.
+        greedy = self.output == "argmax" and self.quantiles == 1 and self.mean_clip is None
+        object.__setattr__(self, "_estimable", greedy and self.activation in ("Tanh", "ReLU"))
 
     def latent(self, observation: np.ndarray) -> np.ndarray:
         """The last hidden layer's output."""
@@ -115,6 +123,10 @@ class MlpActor:
         """Actions for a batch of observations, shape (k, n): a list of k actions, with
         None where the network's output is NaN. Deterministic, or sampled when `rngs`
         (one generator per row) is given."""
+        if rngs is None and self._estimable:
+            actions = self._greedy(observations)
+            if actions is not None:
+                return actions
         latent = self.latent(observations)
         out = self._head(latent)
         if self.quantiles > 1:  # (k, quantiles x actions) -> the mean over quantiles
@@ -148,6 +160,46 @@ class MlpActor:
             broken = np.isnan(out).any(axis=1)
             actions = [None if nan else action for action, nan in zip(actions, broken, strict=True)]
         return actions
+
+    def _greedy(self, observations: np.ndarray) -> list[int] | None:
+        """The argmax actions of the network `__call__` defines, from `estimate`: each
+        row's argmax, when in every row the largest output beats the next by more than
+        twice the bound. None when a row is that close (or NaN): the defined network
+        then decides every row.
+
+        The same actions at a third of the cost (docs/performance.md).
+        """
+        out, error = self.estimate(observations)
+        if out.shape[1] > 1:
+            ordered = np.sort(out, axis=1)  # NaN last: its gap is NaN, which fails
+            if not (ordered[:, -1] - ordered[:, -2]).min() > 2.0 * error:
+                return None
+        return out.argmax(axis=1).tolist()
+
+    def estimate(self, observations: np.ndarray) -> tuple[np.ndarray, float]:
+        """The head's outputs from a float64 pass with no rounding to float32, and a bound
+        on how far each can be from the head's output as the network is defined (every
+        layer's output the float32 nearest its exact value): `portable.Layer.error`
+        through the layers. Tanh and ReLU networks only."""
+        if self.activation not in ("Tanh", "ReLU"):
+            raise ValueError(f"no error bound for {self.activation} layers")
+        x = np.asarray(observations, dtype=np.float64)
+        size, error = float(np.abs(x).max(initial=0.0)), 0.0  # the input is exact
+        tanh = self.activation == "Tanh"
+        for layer in self._layers:
+            y = x @ layer.weight
+            y += layer.bias
+            # The bound from the outputs' actual size: for the first layer (the widest
+            # inputs) and every ReLU layer (unbounded); tanh's inputs are within 1.
+            top = float(np.abs(y).max(initial=0.0)) if not (tanh and error) else None
+            error = layer.error(size, error, top)
+            if tanh:  # tanh moves no value by more than its argument moved
+                x, size, error = np.tanh(y), 1.0, portable.tanh_error(error)
+            else:  # ReLU: max(y, 0) is no farther from max(Y, 0) than y from Y
+                x, size = np.maximum(y, 0.0, out=y), top
+        out = x @ self._head.weight
+        out += self._head.bias
+        return out, self._head.error(size, error)
 
     def _sample(self, out: np.ndarray, best: int, rng: np.random.Generator) -> int:
         n = out.shape[-1]
