@@ -160,7 +160,7 @@ def test_the_float64_estimate_is_within_its_bound_of_the_defined_network(activat
             np.float32
         )
         estimate, error = actor.estimate(observations)
-        defined = actor._head(actor.latent(observations)).astype(np.float64)
+        defined = actor.outputs(observations).astype(np.float64)
         assert np.abs(estimate - defined).max() <= error
         # A bound, not a blow-up (larger weights amplify the worst case more).
         assert error < tight * max(1.0, np.abs(defined).max())
@@ -171,9 +171,9 @@ def test_greedy_actions_are_the_defined_networks_argmax():
     for activation in ("Tanh", "ReLU"):
         actor = _network(rng, activation)
         observations = (rng.standard_normal((4000, 5)) * 3.0).astype(np.float32)
-        defined = actor._head(actor.latent(observations)).argmax(axis=1).tolist()
+        defined = actor.outputs(observations).argmax(axis=1).tolist()
         assert [actor(row[None])[0] for row in observations] == defined
-        fast = [actor._greedy(row[None]) for row in observations]
+        fast = [actor.greedy(row[None]) for row in observations]
         assert all(row == [action] for row, action in zip(fast, defined, strict=True) if row)
         assert fast.count(None) < 40  # nearly every step decided by the estimate
 
@@ -189,12 +189,12 @@ def test_a_tie_is_left_to_the_defined_network():
     weight[:, 3], bias[3] = weight[:, 2], bias[2] + 100.0
     tied = MlpActor(actor.hidden, "Tanh", (weight, bias), "argmax")
     observation = np.zeros((1, 5), dtype=np.float32)
-    assert tied._greedy(observation) is None
+    assert tied.greedy(observation) is None
     assert tied(observation) == [3]
 
 
 def test_a_nan_observation_is_left_to_the_defined_network():
     actor = _network(np.random.default_rng(9), "ReLU")
     observation = np.array([[0.1, np.nan, 0.0, 0.0, 0.0]], dtype=np.float32)
-    assert actor._greedy(observation) is None
+    assert actor.greedy(observation) is None
     assert actor(observation) == [None]

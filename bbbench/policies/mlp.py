@@ -105,7 +105,7 @@ class MlpActor:
         if self.output == "squashed_gaussian" and self.log_std is not None:
             object.__setattr__(self, "_log_std_layer", portable.Layer(*self.log_std))
         # Greedy argmax actions can come from float64 estimates with a bound on their
-        # error (`_greedy`): with tanh or ReLU, one output per action.
+        # error (`greedy`): with tanh or ReLU, one output per action.
         greedy = self.output == "argmax" and self.quantiles == 1 and self.mean_clip is None
         object.__setattr__(self, "_estimable", greedy and self.activation in ("Tanh", "ReLU"))
 
@@ -124,7 +124,7 @@ class MlpActor:
         None where the network's output is NaN. Deterministic, or sampled when `rngs`
         (one generator per row) is given."""
         if rngs is None and self._estimable:
-            actions = self._greedy(observations)
+            actions = self.greedy(observations)
             if actions is not None:
                 return actions
         latent = self.latent(observations)
@@ -161,7 +161,12 @@ class MlpActor:
             actions = [None if nan else action for action, nan in zip(actions, broken, strict=True)]
         return actions
 
-    def _greedy(self, observations: np.ndarray) -> list[int] | None:
+    def outputs(self, observations: np.ndarray) -> np.ndarray:
+        """The head's outputs, float32, as the network defines them (every layer's output
+        the float32 nearest its exact value): what `__call__` acts on."""
+        return self._head(self.latent(observations))
+
+    def greedy(self, observations: np.ndarray) -> list[int] | None:
         """The argmax actions of the network `__call__` defines, from `estimate`: each
         row's argmax, when in every row the largest output beats the next by more than
         twice the bound. None when a row is that close (or NaN): the defined network
