@@ -207,7 +207,7 @@ def record_steps(n_bots: int, steps: int) -> list[tuple]:
         live = len(env.agents)
         observations, *_ = env.step({a: policy(observations[a][:5]) for a in env.agents})
         bots = scene.live_bots
-        if len(bots) == live:  # none left: the bots the env observed are still in the world
+        if len(bots) == live:  # no bot left this step: the ones it observed are still here
             states = [bot.read() for bot in bots]  # a read is a query: the step's own state
             commands = [bot.wheel_command for bot in bots]
             returned = np.array([observations[a] for a in env.agents])
