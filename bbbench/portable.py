@@ -88,6 +88,9 @@ def sigmoid(x: np.ndarray) -> np.ndarray:
 
 
 _UNIT = 2.0**-53  # float64's unit roundoff
+# How far numpy's float64 tanh may be from the exact one, relative (64 units in the
+# last place of float64; within a few on any CPU).
+_TANH_ERROR = 2.0**-46
 
 
 class Layer:
@@ -116,11 +119,17 @@ class Layer:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
-        y = x @ self.weight
-        y += self.bias
+        y = self.float64(x)
         bound = np.abs(x) @ self.size
         bound += self.bias_size
         return _settle(y, bound, lambda i, j: _exact_dot(x[i], self.weight[:, j], self.bias[j]))
+
+    def float64(self, x: np.ndarray) -> np.ndarray:
+        """`x @ weight + bias` for float64 x, in float64 (BLAS, no rounding to float32):
+        the fast pass that `__call__` settles and `error` bounds."""
+        y = x @ self.weight
+        y += self.bias
+        return y
 
     def error(self, input_max: float, input_error: float, output_max: float | None = None) -> float:
         """A bound on how far `x @ weight + bias`, computed in float64 with no rounding to
@@ -147,9 +156,9 @@ class Layer:
 def tanh_error(input_error: float) -> float:
     """A bound on |np.tanh(y) - `tanh`(Y)| (float64 estimate against the float32 defined
     value) when |y - Y| <= `input_error`: tanh moves by no more than its argument, numpy's
-    float64 tanh is within 2**-46 of the exact one (as `tanh` assumes), and the result
+    float64 tanh is within `_TANH_ERROR` of the exact one (as `tanh`), and the result
     rounds to float32 (|tanh| <= 1)."""
-    moved = input_error + 2.0**-46
+    moved = input_error + _TANH_ERROR
     return (1.0 + 2.0**-20) * (moved + 2.0**-24 * (1.0 + moved) + 2.0**-149)
 
 
@@ -161,7 +170,7 @@ def tanh(x: np.ndarray) -> np.ndarray:
     """
     y = np.tanh(np.asarray(x, dtype=np.float64))
     bound = np.abs(y)
-    bound *= 2.0**-46  # 64 units in the last place of float64
+    bound *= _TANH_ERROR
     settled = _settle(y, bound, lambda *index: _exact_tanh(float(x[index])))
     return np.copysign(settled, y, out=settled)  # -0.0 stays -0.0
 

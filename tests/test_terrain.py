@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import trimesh
 
+from bbbench.portable import exp as exp_same_everywhere
 from bbbench.sim import World
 from bbbench.terrain.bullet import HeightfieldBody, HeightfieldGround
-from bbbench.terrain.generators import GENERATORS, Bumps, exp_same_everywhere
+from bbbench.terrain.generators import GENERATORS, Bumps
 from bbbench.terrain.heightmap import HeightfieldTerrain
 from bbbench.terrain.mesh import export, to_trimesh
 

@@ -49,6 +49,9 @@ ACTIVATIONS = {
     "SiLU": _silu,
 }
 
+# The activations `MlpActor.estimate` can bound the float64 pass through.
+BOUNDED_ACTIVATIONS = ("Tanh", "ReLU")
+
 # How the last layer's output becomes an action.
 OUTPUTS = ("argmax", "gaussian", "squashed_gaussian", "tanh", "clip")
 # SAC's clamp of its log standard deviation (stable_baselines3.sac.policies).
@@ -107,7 +110,8 @@ class MlpActor:
         # Greedy argmax actions can come from float64 estimates with a bound on their
         # error (`greedy`): with tanh or ReLU, one output per action.
         greedy = self.output == "argmax" and self.quantiles == 1 and self.mean_clip is None
-        object.__setattr__(self, "_estimable", greedy and self.activation in ("Tanh", "ReLU"))
+        estimable = greedy and self.activation in BOUNDED_ACTIVATIONS
+        object.__setattr__(self, "_estimable", estimable)
 
     def latent(self, observation: np.ndarray) -> np.ndarray:
         """The last hidden layer's output."""
@@ -186,14 +190,13 @@ class MlpActor:
         on how far each can be from the head's output as the network is defined (every
         layer's output the float32 nearest its exact value): `portable.Layer.error`
         through the layers. Tanh and ReLU networks only."""
-        if self.activation not in ("Tanh", "ReLU"):
+        if self.activation not in BOUNDED_ACTIVATIONS:
             raise ValueError(f"no error bound for {self.activation} layers")
         x = np.asarray(observations, dtype=np.float64)
         size, error = float(np.abs(x).max(initial=0.0)), 0.0  # the input is exact
         tanh = self.activation == "Tanh"
         for layer in self._layers:
-            y = x @ layer.weight
-            y += layer.bias
+            y = layer.float64(x)
             # The bound from the outputs' actual size: for the first layer (the widest
             # inputs) and every ReLU layer (unbounded); tanh's inputs are within 1.
             top = float(np.abs(y).max(initial=0.0)) if not (tanh and error) else None
@@ -202,9 +205,7 @@ class MlpActor:
                 x, size, error = np.tanh(y), 1.0, portable.tanh_error(error)
             else:  # ReLU: max(y, 0) is no farther from max(Y, 0) than y from Y
                 x, size = np.maximum(y, 0.0, out=y), top
-        out = x @ self._head.weight
-        out += self._head.bias
-        return out, self._head.error(size, error)
+        return self._head.float64(x), self._head.error(size, error)
 
     def _sample(self, out: np.ndarray, best: int, rng: np.random.Generator) -> int:
         n = out.shape[-1]

@@ -32,12 +32,6 @@ def _fast_fft_length(n: int) -> int:
     return -(-n // 16) * 16
 
 
-# e**x with the same bits on every CPU: numpy's `np.exp` takes another SIMD path on
-# AVX-512 machines than on AVX2 ones, and terrain made with it differed between
-# machines, and so did every episode played on it.
-exp_same_everywhere = portable.exp
-
-
 _KERNELS: dict[tuple, np.ndarray] = {}  # (padded shape, cell size, feature size) -> kernel
 
 
@@ -49,7 +43,9 @@ def _gaussian_kernel(padded: tuple[int, int], cell_size: float, feature_size: fl
     if kernel is None:
         fx = np.fft.fftfreq(padded[0], d=cell_size)[:, None]
         fy = np.fft.rfftfreq(padded[1], d=cell_size)[None, :]
-        kernel = exp_same_everywhere(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
+        # e**x with the same bits on every CPU: numpy's `np.exp` rounds by SIMD path,
+        # and terrain made with it differed between machines (docs/tasks.md).
+        kernel = portable.exp(-2.0 * (np.pi * feature_size) ** 2 * (fx**2 + fy**2))
         kernel.flags.writeable = False
         _KERNELS[key] = kernel
     return kernel
