@@ -3,10 +3,10 @@
     import gymnasium as gym
     import bbbench
 
-    env = gym.make("bbbench/FlatBalance-v0")
-    parallel_env = bbbench.make_parallel("bbbench/MultiBalance-v0", n_bots=8)
-    vec_env = bbbench.make_vec("bbbench/MultiBalance-v0", n_envs=2)  # for stable-baselines3
-    bbbench.spec("bbbench/FlatBalance-v0").eval_seeds
+    env = gym.make("bbbench/FlatBalance-v1")
+    parallel_env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=8)
+    vec_env = bbbench.make_vec("bbbench/MultiBalance-v1", n_envs=2)  # for stable-baselines3
+    bbbench.spec("bbbench/FlatBalance-v1").eval_seeds
 
 Importing bbbench registers every task of the suite with gymnasium.
 """

@@ -185,7 +185,7 @@ def make_vec(task_id: str, n_envs: int = 1, **kwargs: Any) -> VecEnv:
     (`n_envs * n_bots` slots), for one policy shared by every bot. Keyword
     arguments go to each env (`n_bots=8`, `action_mode="continuous"`, ...).
 
-        model = PPO("MlpPolicy", bbbench.make_vec("bbbench/MultiBalance-v0", n_envs=2))
+        model = PPO("MlpPolicy", bbbench.make_vec("bbbench/MultiBalance-v1", n_envs=2))
     """
     if isinstance(n_envs, bool) or not isinstance(n_envs, int) or n_envs < 1:
         raise ValueError(f"n_envs must be a whole number >= 1, got {n_envs!r}")

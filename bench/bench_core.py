@@ -11,6 +11,10 @@ ratios between loops measured side by side mean anything):
   stepSimulation, base pose, base velocity, joint states) and repositions the
   bot where the env resets it. The run checks that both loops end in the same
   physical state, so the ratio compares equal physics work.
+- what the shared reward in which staying up never costs adds to a step: FlatBalance-v1
+  (`StayUpReward`) against FlatBalance-v0 (the first reward) on the same episodes,
+  interleaved with the others (target: at most 2% of a FlatBalance step), and the two
+  rewards' own cost per call, timed alone, as a share of that step;
 - mean `env.reset()` time on flat ground (reposition, no reload);
 - Gymnasium's InvertedPendulum-v5 (MuJoCo) step rate, as an outside reference
   (needs the `bench` extra: pip install -c constraints.txt ".[bench]").
@@ -35,10 +39,12 @@ from bbbench.robots.balancebot import (
 )
 from bbbench.sim import GRAVITY, physics_parameters
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
+from bbbench.tasks.reward import RewardWeights, StayUpReward, step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, episode_streams
 from bbbench.terrain import GROUND_FRICTION
 
 TASK = "bbbench/FlatBalance-v0"
+NEW_REWARD_TASK = "bbbench/FlatBalance-v1"  # the same episodes, the new shared reward
 SEED = 0
 
 
@@ -48,10 +54,11 @@ def random_actions(steps: int) -> list[int]:
 
 
 class EnvLoop:
-    """FlatBalance-v0 through gym.make (all default wrappers), resetting as episodes end."""
+    """A task (FlatBalance-v0) through gym.make (all default wrappers), resetting as
+    episodes end."""
 
-    def __init__(self) -> None:
-        self.env = gym.make(TASK)
+    def __init__(self, task: str = TASK) -> None:
+        self.env = gym.make(task)
         self.env.reset(seed=SEED)
         self.episodes = 1
 
@@ -185,6 +192,21 @@ def interleaved(loops: dict, actions: list[int], chunk: int) -> dict[str, float]
     return totals
 
 
+def reward_call_time(reward, calls: int = 200_000) -> float:
+    """Seconds per `step_outcome` call with `reward`, on a recorded state (min of 5)."""
+    env = gym.make(TASK)
+    env.reset(seed=SEED)
+    state = env.unwrapped.scene.bots[0].read()
+    env.close()
+    best = float("inf")
+    for _ in range(5):
+        began = time.perf_counter()
+        for _ in range(calls):
+            step_outcome(state, 0.3, reward)
+        best = min(best, time.perf_counter() - began)
+    return best / calls
+
+
 def reset_time(resets: int) -> float:
     """Mean seconds per env.reset() through gym.make, world already built."""
     env = gym.make(TASK)
@@ -224,7 +246,7 @@ def main() -> None:
     args = parser.parse_args()
 
     actions = random_actions(args.steps)
-    loops = {"raw": RawLoop(), "env": EnvLoop()}
+    loops = {"raw": RawLoop(), "env": EnvLoop(), "env-v1": EnvLoop(NEW_REWARD_TASK)}
     totals = interleaved(loops, actions, args.chunk)
     same = loops["raw"].episodes == loops["env"].episodes and (
         loops["raw"].pose() == loops["env"].pose()
@@ -233,6 +255,10 @@ def main() -> None:
     for loop in loops.values():
         loop.close()
     raw_rate, env_rate = args.steps / totals["raw"], args.steps / totals["env"]
+    step_us = 1e6 * totals["env"] / args.steps
+    first_us, new_us = (
+        1e6 * reward_call_time(reward) for reward in (RewardWeights(), StayUpReward())
+    )
     reset_ms = 1e3 * statistics.median(reset_time(args.resets) for _ in range(3))
     ip_rate = mujoco_rate(min(args.steps, 20_000))
 
@@ -244,6 +270,14 @@ def main() -> None:
     print(f"  raw pybullet loop              {raw_rate:10.0f} steps/s")
     print(f"  env.step via gym.make          {env_rate:10.0f} steps/s")
     print(f"  ratio env / raw                {env_rate / raw_rate:10.3f}   (target >= 0.85)")
+    print(
+        f"  FlatBalance-v1 / -v0 step time {totals['env-v1'] / totals['env']:10.3f}   "
+        f"(the new reward's cost, same episodes; target <= 1.02)"
+    )
+    print(
+        f"  step_outcome per call          {first_us:10.3f} us first reward, {new_us:.3f} us "
+        f"StayUpReward: +{(new_us - first_us) / step_us:.1%} of a {step_us:.1f} us step"
+    )
     print(f"  env.reset() on flat ground     {reset_ms:10.3f} ms mean  (target <= 1 ms)")
     if ip_rate is None:
         print(

@@ -1,7 +1,8 @@
 """Train the leaderboard's reference baselines with `bbbench train`, and add each to the
 leaderboard with `bbbench leaderboard add` as it finishes.
 
-    python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-s0 ...] [--list]
+    python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-v1-s0 ...] [--list]
+                                      [--train-only]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
 the command's output); its policy goes into `leaderboards/submissions/<slug>/` with a
@@ -24,38 +25,31 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 LATEST_SINGLE = (
-    "bbbench/FlatBalance-v0",
-    "bbbench/VelocityTracking-v0",
-    "bbbench/NoisySensors-v0",
-    "bbbench/Bumps-v1",
-    "bbbench/Obstacles-v1",
-    "bbbench/Slopes-v1",
+    "bbbench/FlatBalance-v1",
+    "bbbench/VelocityTracking-v1",
+    "bbbench/NoisySensors-v1",
+    "bbbench/Bumps-v2",
+    "bbbench/Obstacles-v2",
+    "bbbench/Slopes-v2",
 )
+LATEST_MULTI = ("bbbench/MultiBalance-v1", "bbbench/MultiBumps-v1")
 SEEDS = (0, 1, 2)
 
 
 def runs() -> list[dict]:
-    """Every baseline, in the order they are trained: one seed of everything first."""
+    """Every baseline, in the order they are trained: the generalist and one seed of
+    everything first."""
     ppo = [{"tasks": [task], "algo": "ppo"} for task in LATEST_SINGLE]
-    sac = [{"tasks": [task], "algo": "sac", "seed": 0} for task in LATEST_SINGLE]
-    multi = [
-        {"tasks": [task], "algo": "ppo", "seed": 0}
-        for task in ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
-    ]
+    multi = [{"tasks": [task], "algo": "ppo", "seed": 0} for task in LATEST_MULTI]
     generalist = {"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True}
-    # TD3 where standing still precisely pays (FlatBalance: ShortfallScale, td3.yml).
-    td3 = {"tasks": ["bbbench/FlatBalance-v0"], "algo": "td3", "seed": 0}
     plan = [
+        generalist,
         *({**run, "seed": 0} for run in ppo),
         *multi,
-        *sac[:3],
-        generalist,
         *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
-        *sac[3:],
-        td3,
     ]
     for run in plan:
-        name = "generalist" if run.get("generalist") else _short(run["tasks"][0])
+        name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
         run["slug"] = f"{run['algo']}-{name}-s{run['seed']}"
     return plan
 
@@ -109,6 +103,16 @@ def main() -> None:
     parser.add_argument("--parallel", type=int, default=2)
     parser.add_argument("--only", nargs="*", help="slugs to train (default: every missing one)")
     parser.add_argument("--list", action="store_true", help="print the plan and exit")
+    parser.add_argument(
+        "--train-only",
+        action="store_true",
+        help="train, and leave each policy in baselines/<slug>/ for a later --add-trained",
+    )
+    parser.add_argument(
+        "--add-trained",
+        action="store_true",
+        help="add the runs --train-only left in baselines/ to the board, one by one",
+    )
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
     args = parser.parse_args()
@@ -118,6 +122,14 @@ def main() -> None:
     if args.list:
         for run in plan:
             print(run["slug"], "" if run in missing else "(on the board)")
+        return
+    if args.add_trained:
+        for run in missing:
+            folder = args.root / run["slug"]
+            if (folder / "policy.zip").exists():
+                record = json.loads((folder / "train.json").read_text())
+                side_by_side = record.get("side_by_side", 1)
+                print(_add(run, folder, args.board, record["wall_time_s"] / 60, side_by_side))
         return
     with ThreadPoolExecutor(args.parallel) as pool:
         for line in pool.map(lambda run: _train_and_add(run, args), missing):
@@ -135,9 +147,15 @@ def _train_and_add(run: dict, args: argparse.Namespace) -> str:
         done = subprocess.run(command(run, folder), stdout=log, stderr=subprocess.STDOUT)
     if done.returncode:
         return f"{run['slug']}: training failed (exit {done.returncode}), see {folder}/train.log"
+    side_by_side = min(args.parallel, len(args.plan))
+    if args.train_only:
+        record = json.loads((folder / "train.json").read_text())
+        record["side_by_side"] = side_by_side
+        (folder / "train.json").write_text(json.dumps(record, indent=2) + "\n")
+        return f"{run['slug']}: trained in {(time.perf_counter() - began) / 60:.1f} min"
     with _BOARD:
         minutes = (time.perf_counter() - began) / 60
-        return _add(run, folder, args.board, minutes, min(args.parallel, len(args.plan)))
+        return _add(run, folder, args.board, minutes, side_by_side)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,18 @@ from bbbench.policies import load_policy
 from bbbench.policies.base import act_once
 
 FLAT = "bbbench/FlatBalance-v0"
+# Each task whose latest version plays the reward in which staying up never costs, and the
+# version before it: the same episodes under the first reward.
+REWARD_SUCCESSORS = {
+    "bbbench/FlatBalance-v1": "bbbench/FlatBalance-v0",
+    "bbbench/VelocityTracking-v1": "bbbench/VelocityTracking-v0",
+    "bbbench/NoisySensors-v1": "bbbench/NoisySensors-v0",
+    "bbbench/Bumps-v2": "bbbench/Bumps-v1",
+    "bbbench/Obstacles-v2": "bbbench/Obstacles-v1",
+    "bbbench/Slopes-v2": "bbbench/Slopes-v1",
+    "bbbench/MultiBalance-v1": "bbbench/MultiBalance-v0",
+    "bbbench/MultiBumps-v1": "bbbench/MultiBumps-v0",
+}
 
 
 def rollout(env: gym.Env, seed: int, actions) -> tuple[np.ndarray, np.ndarray]:

@@ -21,13 +21,16 @@ def test_list_prints_every_task_with_its_fingerprint(capsys):
     for task_id in bbbench.list_tasks():
         assert task_id in out
         assert bbbench.spec(task_id).fingerprint in out
+    rows = {line.split()[0]: line for line in out.splitlines()[1:]}
+    assert rows["bbbench/Bumps-v1"].endswith("(superseded by bbbench/Bumps-v2)")
+    assert "superseded" not in rows["bbbench/Bumps-v2"]
 
 
 def test_rollout_prints_a_summary(capsys):
     assert main(["rollout", "--episodes", "2", "--policy", "pd"]) == 0
     out = capsys.readouterr().out
     assert "2/2 episodes reached the time limit" in out
-    assert "mean return 149." in out
+    assert "mean return 150.00 of at most 150" in out
 
 
 def test_unknown_task_is_exit_2_with_a_suggestion_and_no_traceback(capsys):

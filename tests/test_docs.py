@@ -8,11 +8,12 @@ import gymnasium as gym
 import pytest
 
 import bbbench
+from bbbench.envs.balance import BalanceEnv
 from bbbench.robots import FALL_TILT
+from bbbench.tasks import reward as reward_module
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
-from bbbench.tasks.balance import BalanceEnv
 from bbbench.tasks.observation import HEIGHT_SCAN_LAYOUT, OBSERVATION_LAYOUT, SCAN_OFFSETS
-from bbbench.tasks.reward import RewardWeights
+from bbbench.tasks.reward import RewardWeights, StayUpReward
 
 DOC = BalanceEnv.__doc__
 
@@ -51,13 +52,29 @@ def test_action_table_matches_the_wheel_speed_changes():
     assert [float(row[1]) for row in rows] == list(WHEEL_SPEED_CHANGES)
 
 
-def test_reward_formula_and_fall_limit_match_the_code():
+def test_reward_formulas_and_fall_limit_match_the_code():
     weights = RewardWeights()
     formula = (
         f"reward = {weights.upright} * (1 - |pitch|) - "
         f"{weights.velocity} * |forward_velocity - target_velocity|"
     )
     assert formula in DOC
+    reward = StayUpReward()
+    share, tail = reward.upright_share, reward.tail_share
+    lines = (
+        f"upright  = tolerance(|pitch|, bound {reward.pitch_bound} rad, "
+        f"width {reward.pitch_width} rad)",
+        f"near     = tolerance(|velocity_error|, bound {reward.velocity_bound} m/s, "
+        f"width {reward.velocity_width} m/s)",
+        f"toward   = ramp(|velocity_error|, bound {reward.velocity_bound} m/s, "
+        f"width {reward.tail_width} m/s)",
+        f"tracking = {1 - tail:g} * near + {tail:g} * toward",
+        f"reward   = {reward.scale} * upright * ({share:g} + {1 - share:g} * tracking)",
+    )
+    for line in lines:
+        assert line in DOC
+        assert line in reward_module.__doc__
+    assert f'"reward_upright"` ({reward.scale * share:g} *' in DOC
     assert re.search(rf"more than {FALL_TILT:g} rad", DOC)
 
 

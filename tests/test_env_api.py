@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import bbbench
-from bbbench.tasks.balance import RENDER_HEIGHT, RENDER_WIDTH
+from bbbench.envs.balance import RENDER_HEIGHT, RENDER_WIDTH
 from conftest import FLAT
 
 
@@ -92,7 +92,7 @@ def test_in_space_actions_of_every_form_are_accepted():
 
 
 def test_step_before_reset_is_a_clear_error():
-    env = bbbench.tasks.balance.BalanceEnv()
+    env = bbbench.envs.balance.BalanceEnv()
     with pytest.raises(RuntimeError, match="call reset"):
         env.step(4)
 

@@ -101,8 +101,7 @@ def test_spec_and_suite_import_no_env_code():
     """The data side (specs, the task table) stands below the envs."""
     graph = import_graph()
     envs = {name for name in graph if name.startswith("bbbench.envs")}
-    envs |= {"bbbench.tasks.balance", "bbbench.tasks.multi", "bbbench.tasks.envs"}  # aliases
-    envs |= {"bbbench.dev.golden", "bbbench.tasks.golden"}
+    envs.add("bbbench.dev.golden")
     assert "bbbench.envs.tasks" in envs
 
     def reachable(start: str) -> set[str]:

@@ -9,6 +9,7 @@ import pytest
 
 from bbbench.robots import FALL_TILT, MODEL, BalanceBot
 from bbbench.sim import World
+from bbbench.tasks.reward import has_fallen
 from bbbench.terrain import FlatGround, load_ground
 
 
@@ -107,15 +108,15 @@ def test_forward_velocity_matches_rolling_without_slip(world_and_bot):
 def test_fall_is_a_tilt_past_the_limit_not_a_height(world_and_bot):
     world, bot, _ = world_and_bot
     bot.reset(pitch=0.3)
-    assert not bot.has_fallen(bot.read())
+    assert not has_fallen(bot.read())
     for _ in range(300):
         world.client.stepSimulation()
     state = bot.read()
     assert state.tilt > FALL_TILT
-    assert bot.has_fallen(state)
+    assert has_fallen(state)
     # Upright on raised ground (a step, a hill) is not a fall.
     bot.reset(ground_height=0.5)
-    assert not bot.has_fallen(bot.read())
+    assert not has_fallen(bot.read())
 
 
 def test_wheel_command_is_clamped_and_nan_refused(world_and_bot):

@@ -9,7 +9,6 @@ import bbbench
 from bbbench.cli import main
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.policies import PDController
-from bbbench.tasks.reward import reward_terms
 
 FLAT, NOISY, BUMPS = "bbbench/FlatBalance-v0", "bbbench/NoisySensors-v0", "bbbench/Bumps-v1"
 MULTI = "bbbench/MultiBumps-v0"
@@ -21,8 +20,8 @@ def test_both_envs_info_carries_the_reward_terms():
     for _ in range(30):
         _, reward, _, _, info = env.step(5)
         state = env.scene.bots[0].read()
-        assert (info["reward_upright"], info["reward_velocity"]) == reward_terms(
-            state.pitch, info["velocity_error"], env.task.reward
+        assert (info["reward_upright"], info["reward_velocity"]) == env.task.reward.terms(
+            state.pitch, info["velocity_error"]
         )
         assert reward == info["reward_upright"] + info["reward_velocity"]
     parallel = bbbench.make_parallel(MULTI)

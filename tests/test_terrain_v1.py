@@ -78,7 +78,7 @@ def test_the_shipped_ppo_policy_finishes_more_episodes_than_pd(task_id):
 def test_the_same_terrain_at_difficulty_0_is_easy_for_pd(task_id):
     """The difficulty knob is what makes it hard: at 0, PD finishes nearly every episode."""
     easy = bbbench.spec(task_id).with_difficulty(0.0)
-    env, policy = bbbench.tasks.balance.BalanceEnv(easy), PDController()
+    env, policy = bbbench.envs.balance.BalanceEnv(easy), PDController()
     finished = 0
     for seed in easy.eval_seeds[:8]:
         observation, _ = env.reset(seed=seed)
@@ -336,7 +336,7 @@ def test_eval_plays_a_height_scan_policy_with_the_scan_on(tmp_path):
     )
     policy = load_policy(tmp_path / "scan.zip")
     assert policy.height_scan
-    assert select_tasks(policy) == bbbench.list_tasks(multi_agent=False)
+    assert select_tasks(policy) == bbbench.list_tasks(multi_agent=False, latest=True)
     document = evaluate(policy, ["bbbench/Slopes-v1"], episodes=1, workers=1).document
     (task,) = document["tasks"]
     assert task["height_scan"] is True

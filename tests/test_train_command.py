@@ -8,22 +8,23 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 from stable_baselines3 import PPO
 
 import bbbench
 from bbbench import training
 from bbbench.cli import main
 from bbbench.policies import load_policy
+from bbbench.training import recipes as recipes_module
 from bbbench.training.recipes import (
     ALGORITHMS,
-    parse_env_wrapper,
     parse_policy_kwargs,
     recipe,
     recipes,
 )
-from conftest import FLAT
 
-MULTI = "bbbench/MultiBalance-v0"
+FLAT = "bbbench/FlatBalance-v1"  # the tasks the recipes train: the latest versions
+MULTI = "bbbench/MultiBalance-v1"
 TINY = ["--steps", "1024", "--eval-episodes", "2"]
 
 
@@ -41,7 +42,7 @@ def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, c
         assert code == 0, err
     first, second = tmp_path / "first", tmp_path / "second"
     assert (first / "policy.zip").read_bytes() == (second / "policy.zip").read_bytes()
-    assert "FlatBalance-v0" in stdout  # the final eval table
+    assert "FlatBalance-v1" in stdout  # the final eval table
     for name in ("curve.json", "curve.png", "train.json", "results.json"):
         assert (first / name).stat().st_size > 0, name
     curve = json.loads((first / "curve.json").read_text())["points"]
@@ -68,7 +69,7 @@ def test_a_multi_bot_task_trains_one_shared_policy(tmp_path, capsys):
 
 
 def test_several_tasks_train_one_generalist(tmp_path):
-    tasks = [FLAT, "bbbench/Bumps-v1"]
+    tasks = [FLAT, "bbbench/Bumps-v2"]
     trained = training.train(
         tasks, "ppo", out=tmp_path / "policy.zip", steps=1024, n_envs=2, final_episodes=2
     )
@@ -88,7 +89,11 @@ def test_sac_trains_in_continuous_mode(tmp_path):
 @pytest.mark.parametrize(
     ("argv", "expected"),
     [
-        (["bbbench/FlatBalanse-v0", "--algo", "ppo"], "Did you mean 'bbbench/FlatBalance-v0'"),
+        (["bbbench/FlatBalanse-v1", "--algo", "ppo"], "Did you mean 'bbbench/FlatBalance-v1'"),
+        (
+            ["bbbench/Bumps-v1", "--algo", "ppo"],
+            "the recipes train the latest version of each task, here bbbench/Bumps-v2",
+        ),
         ([FLAT, "--algo", "pp0"], "unknown algorithm 'pp0'. Did you mean 'ppo'?"),
         ([FLAT, "--algo", "dqn", "--action-mode", "continuous"], "DQN learns discrete actions"),
         ([FLAT, "--algo", "sac", "--action-mode", "discrete"], "SAC learns continuous actions"),
@@ -142,54 +147,31 @@ def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     assert load_policy(saved[0]).mismatch(FLAT) is None
 
 
-def test_a_terrain_recipe_pays_for_staying_up_and_charges_falls_in_training_only(tmp_path):
-    plan = recipe("ppo", "bbbench/Bumps-v1")
-    assert plan.wrappers == (
-        ("bbbench.training.wrappers.AliveBonus", {"bonus": 0.1}),
-        ("bbbench.training.wrappers.FallPenalty", {"penalty": 3.0}),
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_every_shipped_recipe_learns_from_the_task_s_own_reward(algorithm):
+    """No recipe shapes the reward in training: each trains on the latest version of a
+    task, with the env as `gym.make` builds it."""
+    table = recipes(algorithm)
+    latest = set(bbbench.list_tasks(latest=True))
+    for key in table:
+        assert key in latest or key == training.MIX
+        assert "env_wrapper" not in table[key]
+        recipe(algorithm, key)
+
+
+def test_a_recipe_that_would_wrap_the_env_is_refused(tmp_path, monkeypatch):
+    text = (
+        "bbbench/FlatBalance-v1:\n  n_timesteps: 1000\n"
+        "  env_wrapper:\n    - some.module.AliveBonus:\n        bonus: 0.1\n"
     )
-    env = plan.wrap(bbbench.make("bbbench/Bumps-v1"))
-    plain = bbbench.make("bbbench/Bumps-v1")
-    env.reset(seed=3)
-    plain.reset(seed=3)
-    while True:  # the zero action falls
-        _, shaped, terminated, truncated, _ = env.step(4)
-        _, reward, *_ = plain.step(4)
-        if terminated or truncated:
-            break
-        assert shaped == pytest.approx(reward + 0.1)
-    assert terminated
-    assert shaped == pytest.approx(reward + 0.1 - 3.0)
-    trained = training.train(
-        ["bbbench/Bumps-v1"], "ppo", out=tmp_path / "p.zip", steps=1024, n_envs=2,
-        final_episodes=1,
-    )  # fmt: skip
-    assert trained.recipe.wrappers  # and its final table plays the task's own reward
-    assert trained.results["tasks"][0]["aggregate"]["mean"] < 20
+    monkeypatch.setattr(recipes_module, "recipes", lambda algorithm: yaml.safe_load(text))
+    with pytest.raises(ValueError, match="env_wrapper is refused: a recipe learns from the task"):
+        recipe("ppo", "bbbench/FlatBalance-v1")
 
 
-def test_a_recipe_names_only_bbbench_wrappers():
-    with pytest.raises(ValueError, match=r"only bbbench\.training\.wrappers\.\* wrappers"):
-        parse_env_wrapper(["os.system"], "ppo.yml, x")
-
-
-def test_td3_flat_recipe_scales_the_shortfall_in_training_only(tmp_path):
-    plan = recipe("td3", FLAT)
-    assert plan.wrappers[0] == ("bbbench.training.wrappers.ShortfallScale", {"scale": 10.0})
-    env = plan.wrap(bbbench.make(FLAT, action_mode="continuous"))
-    plain = bbbench.make(FLAT, action_mode="continuous")
-    env.reset(seed=5)
-    plain.reset(seed=5)
-    while True:  # a constant push falls
-        _, shaped, terminated, *_ = env.step([0.3])
-        _, reward, *_ = plain.step([0.3])
-        if terminated:
-            break
-        assert shaped == pytest.approx(0.1 - 10.0 * (0.1 - reward))
-        assert shaped < reward < 0.1  # a worse step is worse still, the order is kept
-    assert shaped == pytest.approx(0.1 - 10.0 * (0.1 - reward) - 3.0)  # and the fall penalty
+def test_the_final_table_plays_the_task_s_own_reward(tmp_path):
     trained = training.train(
         [FLAT], "td3", out=tmp_path / "p.zip", steps=600, final_episodes=1, eval_freq=300
     )
-    # The final table plays the task's own reward: at most 0.1 a step.
-    assert trained.results["tasks"][0]["aggregate"]["mean"] <= 150.0
+    # At most 0.1 a step, never below 0 while up.
+    assert 0.0 <= trained.results["tasks"][0]["aggregate"]["mean"] <= 150.0

@@ -14,6 +14,7 @@ def add_parser(commands) -> None:
 
 def run(args: argparse.Namespace) -> None:
     specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
+    latest = {bbbench.spec(task_id).name: task_id for task_id in bbbench.list_tasks(latest=True)}
     rows = [
         ("task", "bots", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")
     ]
@@ -26,7 +27,8 @@ def run(args: argparse.Namespace) -> None:
             f"{spec.max_return:g}",
             f"{len(spec.eval_seeds)}",
             spec.fingerprint,
-            spec.summary,
+            spec.summary
+            + ("" if latest[spec.name] == spec.id else f" (superseded by {latest[spec.name]})"),
         )
         for spec in specs
     ]

@@ -13,7 +13,7 @@ def add_parser(commands) -> None:
     rollout = commands.add_parser(
         "rollout", help="run a policy on a task's episodes and print a summary"
     )
-    rollout.add_argument("--task", default="bbbench/FlatBalance-v0", help="task ID")
+    rollout.add_argument("--task", default="bbbench/FlatBalance-v1", help="task ID")
     rollout.add_argument(
         "--policy",
         default="pd",

@@ -10,7 +10,7 @@ import numpy as np
 from gymnasium import Env
 
 from bbbench.envs.scene import Scene, configure, render_ready
-from bbbench.robots import FALL_TILT, BotState
+from bbbench.robots import BotState
 from bbbench.tasks.actions import action_space
 from bbbench.tasks.observation import (
     SCAN_OFFSETS,
@@ -18,7 +18,7 @@ from bbbench.tasks.observation import (
     observe,
     observe_scanned,
 )
-from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import spec
 
@@ -50,18 +50,20 @@ class BalanceEnv(Env):
 
     | Task                | Ground                     | Target velocity (m/s)   | Sensors        |
     |---------------------|----------------------------|-------------------------|----------------|
-    | FlatBalance-v0      | flat                       | 0                       | perfect        |
-    | VelocityTracking-v0 | flat                       | U(-1, 1), held 2-5 s    | perfect        |
-    | NoisySensors-v0     | flat                       | U(-1, 1), held 2-5 s    | biased, noisy  |
-    | Bumps-v0            | smooth hills, difficulty   | U(0.2, 0.8), held 2-5 s | perfect        |
-    | Obstacles-v0        | boxes and steps, difficulty| U(0.2, 0.8), held 2-5 s | perfect        |
-    | Bumps-v1            | steep short hills          | U(1, 2), held 2-5 s     | perfect        |
-    | Obstacles-v1        | obstacle course, 0.05 m cells | U(1, 2), held 2-5 s  | perfect        |
-    | Slopes-v1           | ramps up and down          | U(1, 2), held 2-5 s     | perfect        |
+    | FlatBalance-v1      | flat                       | 0                       | perfect        |
+    | VelocityTracking-v1 | flat                       | U(-1, 1), held 2-5 s    | perfect        |
+    | NoisySensors-v1     | flat                       | U(-1, 1), held 2-5 s    | biased, noisy  |
+    | Bumps-v2            | steep short hills          | U(1, 2), held 2-5 s     | perfect        |
+    | Obstacles-v2        | obstacle course, 0.05 m cells | U(1, 2), held 2-5 s  | perfect        |
+    | Slopes-v2           | ramps up and down          | U(1, 2), held 2-5 s     | perfect        |
 
-    The -v1 terrain tasks are hard for a hand-written controller (the PD
-    baseline falls in about half their episodes); -v0 is kept for
-    comparability. Their classes (`BumpsEnv`, ...) document the design.
+    These are the latest versions, on the reward in which staying up never costs
+    (Rewards, below). Each earlier version plays the same episodes under the
+    first reward, and stays registered unchanged: FlatBalance-, VelocityTracking-
+    and NoisySensors-v0; Bumps-, Obstacles- and Slopes-v1; and Bumps- and
+    Obstacles-v0, gentler terrain at 0.2-0.8 m/s. The terrain tasks are hard for
+    a hand-written controller (the PD baseline falls in about half their
+    episodes); their classes (`BumpsEnv`, ...) document the design.
 
     NoisySensors: per episode, a pitch bias ~ N(0, 0.1) rad; per step, Gaussian
     noise of 0.05 rad on pitch, 0.01 rad/s on pitch rate, 0.05 rad/s on wheel
@@ -135,15 +137,39 @@ class BalanceEnv(Env):
 
     ## Rewards
 
-    One function for every task (`bbbench.tasks.reward.reward_terms`, the sum of two terms):
+    One reward for every task of a version (`bbbench.tasks.reward`), the sum of two
+    terms, in which staying up never costs. From FlatBalance-v1, VelocityTracking-v1,
+    NoisySensors-v1, Bumps-v2, Obstacles-v2 and Slopes-v2 on (`StayUpReward`):
+
+        upright  = tolerance(|pitch|, bound 0.1 rad, width 0.5 rad)
+        near     = tolerance(|velocity_error|, bound 0.1 m/s, width 0.25 m/s)
+        toward   = ramp(|velocity_error|, bound 0.1 m/s, width 2.0 m/s)
+        tracking = 0.9 * near + 0.1 * toward
+        reward   = 0.1 * upright * (0.1 + 0.9 * tracking)
+
+    where velocity_error = forward_velocity - target_velocity (the axle's true
+    horizontal forward velocity, m/s), pitch is in rad, tolerance(x, bound,
+    width) is 1 up to the bound, 1 - ((x - bound) / width)^2 beyond it and 0
+    from bound + width on (dm_control's `rewards.tolerance`, quadratic), and
+    ramp(x, bound, width) the same with a linear fall, 1 - (x - bound) /
+    width: a long tail that pays a bot far from its target for moving towards
+    it. Each step earns between 0 and 0.1,
+    and 0.1 only upright and on target, so a 1500-step episode scores at most
+    150; a fall forfeits the rest of the episode and never scores more.
+    Standing still earns 0.01 a step far off target; doing the task up to 0.1.
+    `info` after each step carries the two terms, `"reward_upright"` (0.01 *
+    upright) and `"reward_velocity"` (0.09 * upright * tracking), whose sum is
+    the reward, and `"velocity_error"`, |forward_velocity - target_velocity| in
+    m/s (true, not sensed).
+
+    The earlier versions (every -v0, and Bumps-, Obstacles- and Slopes-v1) keep
+    the tutorial's form (`RewardWeights`):
 
         reward = 0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|
 
-    with pitch in rad and the axle's true horizontal forward velocity in m/s.
-    At most 0.1 per step, so a 1500-step episode scores at most 150.
-    `info` after each step carries the two terms, `"reward_upright"` and
-    `"reward_velocity"` (the reward is their sum), and `"velocity_error"`,
-    |forward_velocity - target_velocity| in m/s (true, not sensed).
+    It is negative whenever the bot is 1 m/s or more off its target: on the -v1
+    terrain, whose targets are 1-2 m/s, a bot that never fell but was held back
+    scored less than one that fell at once (docs/tasks.md has the numbers).
 
     ## Starting State
 
@@ -166,8 +192,8 @@ class BalanceEnv(Env):
     import gymnasium as gym
     import bbbench
 
-    env = gym.make("bbbench/FlatBalance-v0", action_mode="discrete", render_mode=None)
-    env = gym.make("bbbench/Slopes-v1", difficulty=0.5, height_scan=True)
+    env = gym.make("bbbench/FlatBalance-v1", action_mode="discrete", render_mode=None)
+    env = gym.make("bbbench/Slopes-v2", difficulty=0.5, height_scan=True)
     ```
 
     - `action_mode`: `"discrete"` (default) or `"continuous"`.
@@ -176,7 +202,7 @@ class BalanceEnv(Env):
       (pybullet's GUI window, real time).
     - `difficulty` (terrain tasks only): a number in [0, 1]; higher hills and
       obstacles. The default is the task's (0.3 for -v0; 0.9, 0.5 and 0.9 for
-      Bumps-, Obstacles- and Slopes-v1), and `env.spec` records it.
+      Bumps-, Obstacles- and Slopes-v1 and -v2), and `env.spec` records it.
     - `height_scan`: False (default) or True, the ground heights ahead of the
       bot appended to the observation (see Height Scan above).
 
@@ -193,7 +219,7 @@ class BalanceEnv(Env):
 
     def __init__(
         self,
-        task: str | TaskSpec = "bbbench/FlatBalance-v0",
+        task: str | TaskSpec = "bbbench/FlatBalance-v1",
         action_mode: str = "discrete",
         render_mode: str | None = None,
         difficulty: float | None = None,
@@ -216,7 +242,7 @@ class BalanceEnv(Env):
         self.observation_space = observation_space(task.height_scan)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
         self._scene = Scene(task, action_mode, gui=self._human)
-        self._reward_weights = task.reward
+        self._reward = task.reward
         # Decided by the task, not per step: perfect sensors and no scan take the hot path.
         self._plain = self._scene.perfect_sensors and not task.height_scan
         self._last_frame_time = 0.0
@@ -247,20 +273,14 @@ class BalanceEnv(Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         scene = self._scene
         command, state, target = scene.step_one(action)
-        velocity_error = abs(state.forward_velocity - target)
-        upright, velocity = reward_terms(state.pitch, velocity_error, self._reward_weights)
-        info = {
-            "reward_upright": upright,
-            "reward_velocity": velocity,
-            "velocity_error": velocity_error,
-        }
+        reward, fell, info = step_outcome(state, target, self._reward)
         if self._human:
             self._render_human()
         if self._plain:  # perfect sensors, no height scan: the hot path
             observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
         else:
             observation = self._observe(state, command, target, scene.steps)
-        return observation, upright + velocity, state.tilt > FALL_TILT, False, info
+        return observation, reward, fell, False, info
 
     def _observe(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
         """The observation through the task's sensors; with the height scan, followed by

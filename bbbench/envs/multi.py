@@ -10,10 +10,10 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from bbbench.envs.scene import ActionError, Scene, configure, render_ready
-from bbbench.robots import FALL_TILT, BotState
+from bbbench.robots import BotState
 from bbbench.tasks.actions import action_space
 from bbbench.tasks.observation import agent_observation_space, group_observations
-from bbbench.tasks.reward import reward_terms
+from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import SUITE, spec
 
@@ -38,8 +38,10 @@ class MultiBalanceEnv(ParallelEnv):
 
     | Task            | Ground                   | Target velocity (m/s), per bot | Bots        |
     |-----------------|--------------------------|--------------------------------|-------------|
-    | MultiBalance-v0 | flat                     | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
-    | MultiBumps-v0   | smooth hills, difficulty | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
+    | MultiBalance-v1 | flat                     | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
+    | MultiBumps-v1   | smooth hills, difficulty | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
+
+    The -v0 versions play the same episodes under the first reward (Rewards, below).
 
     MultiBumps' ground is a 12 x 12 m square of Bumps-v0's hills centred on
     the start circle, level within 0.5 m of the circle, flat ground around it.
@@ -76,12 +78,15 @@ class MultiBalanceEnv(ParallelEnv):
 
     ## Rewards
 
-    Per agent, the suite's base reward (`bbbench.tasks.reward`):
-    `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|`, at most
-    0.1 per step. There is no collision penalty: a collision costs what it
-    costs, a fall ends that bot's episode. `infos[agent]` carries the two
-    terms, `"reward_upright"` and `"reward_velocity"`, and `"velocity_error"`,
-    |forward_velocity - target_velocity| in m/s.
+    Per agent, the single-bot tasks' reward, judged by the same rules
+    (`bbbench.tasks.reward.step_outcome`): on -v1, the reward in which staying up
+    never costs, between 0 and 0.1 a step (0.01 for being upright, up to 0.09
+    more for tracking the bot's own target; `BalanceEnv` has the formula); on -v0
+    the first reward, `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity -
+    target_velocity|`, at most 0.1. There is no collision penalty: a collision
+    costs what it costs, a fall ends that bot's episode. `infos[agent]` carries
+    the two terms, `"reward_upright"` and `"reward_velocity"`, and
+    `"velocity_error"`, |forward_velocity - target_velocity| in m/s.
 
     ## Starting State
 
@@ -106,7 +111,7 @@ class MultiBalanceEnv(ParallelEnv):
     ```python
     import bbbench
 
-    env = bbbench.make_parallel("bbbench/MultiBalance-v0", n_bots=4, action_mode="discrete")
+    env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=4, action_mode="discrete")
     ```
 
     - `n_bots`: 2 to 16 (default 4); changes the task's fingerprint.
@@ -130,7 +135,7 @@ class MultiBalanceEnv(ParallelEnv):
 
     def __init__(
         self,
-        task: str | TaskSpec = "bbbench/MultiBalance-v0",
+        task: str | TaskSpec = "bbbench/MultiBalance-v1",
         n_bots: int | None = None,
         action_mode: str = "discrete",
         render_mode: str | None = None,
@@ -159,7 +164,7 @@ class MultiBalanceEnv(ParallelEnv):
         self._observation_space = agent_observation_space(group)
         self._observation_size = self._observation_space.shape[0]
         self._scene = Scene(task, action_mode)
-        self._reward_weights, self._time_limit = task.reward, task.max_episode_steps
+        self._reward, self._time_limit = task.reward, task.max_episode_steps
         self._np_random: np.random.Generator | None = None
         self.ended_at: dict[str, int] = {}  # agent -> step its episode ended
         self._states: list[BotState] = []  # of the live bots, in order
@@ -226,7 +231,7 @@ class MultiBalanceEnv(ParallelEnv):
         steps = scene.steps
         targets = scene.live_targets(steps)
         observations = self._observe(states, targets)
-        rewards, terminations, infos = _outcomes(agents, states, targets, self._reward_weights)
+        rewards, terminations, infos = _outcomes(agents, states, targets, self._reward)
         truncated = steps >= self._time_limit
         truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
@@ -271,20 +276,12 @@ class MultiBalanceEnv(ParallelEnv):
         return {**self.__dict__, "agents": [], "_states": []}
 
 
-def _outcomes(agents, states, targets, weights) -> tuple[dict, dict, dict]:
-    """Each agent's reward (`reward_terms`), whether it fell, and its info (the two terms
-    and the velocity error), from its bot's state and target."""
+def _outcomes(agents, states, targets, reward) -> tuple[dict, dict, dict]:
+    """Each agent's reward, whether it fell, and its info (`step_outcome`, the single-bot
+    env's rules), from its bot's state and target."""
     rewards, terminations, infos = {}, {}, {}
     for agent, state, target in zip(agents, states, targets, strict=True):
-        error = abs(state.forward_velocity - target)
-        upright, velocity = reward_terms(state.pitch, error, weights)
-        rewards[agent] = upright + velocity
-        infos[agent] = {
-            "reward_upright": upright,
-            "reward_velocity": velocity,
-            "velocity_error": error,
-        }
-        terminations[agent] = state.tilt > FALL_TILT
+        rewards[agent], terminations[agent], infos[agent] = step_outcome(state, target, reward)
     return rewards, terminations, infos
 
 

@@ -41,11 +41,14 @@ class _TaskEnv(BalanceEnv):
 
 @_with_version_history
 class FlatBalanceEnv(_TaskEnv):
-    """`bbbench/FlatBalance-v0`: stay upright and in place on flat ground.
+    """`bbbench/FlatBalance-v1`: stay upright and in place on flat ground.
 
     The tutorial's task. The target velocity is 0 throughout, the sensors are
     perfect, and the ground is an endless plane with the tutorial's friction.
     A policy that stands still scores close to the maximum return, 150.
+
+    `bbbench/FlatBalance-v0` is the same task under the first reward (kept for
+    comparability).
 
     Everything shared by the suite (actions, observations, reward, starting
     state, episode end, keyword arguments) is documented in `BalanceEnv`.
@@ -54,14 +57,17 @@ class FlatBalanceEnv(_TaskEnv):
 
 @_with_version_history
 class VelocityTrackingEnv(_TaskEnv):
-    """`bbbench/VelocityTracking-v0`: follow a target velocity that changes.
+    """`bbbench/VelocityTracking-v1`: follow a target velocity that changes.
 
     Flat ground and perfect sensors, as in FlatBalance. The target forward
     velocity (observation 4) is piecewise constant: a value drawn uniformly
     from [-1, 1] m/s, held for a duration drawn uniformly from 2-5 s, then the
     next, all from the episode's seed. The reward's velocity term scores the
-    axle's true forward velocity against it, so standing still loses up to
-    0.1 per step.
+    axle's true forward velocity against it: standing still earns 0.01 a
+    step (for staying up) where tracking earns up to 0.1.
+
+    `bbbench/VelocityTracking-v0` is the same task under the first reward (kept for
+    comparability: it ranks falling at once above standing off target).
 
     Everything shared by the suite is documented in `BalanceEnv`.
     """
@@ -69,7 +75,7 @@ class VelocityTrackingEnv(_TaskEnv):
 
 @_with_version_history
 class NoisySensorsEnv(_TaskEnv):
-    """`bbbench/NoisySensors-v0`: velocity tracking with a real robot's sensors.
+    """`bbbench/NoisySensors-v1`: velocity tracking with a real robot's sensors.
 
     VelocityTracking's ground and targets, observed through a biased, noisy
     IMU and noisy encoders (the tutorial's noisy variant, now reproducible):
@@ -82,6 +88,9 @@ class NoisySensorsEnv(_TaskEnv):
 
     Bias and noise are drawn from the episode's seed; the wheel command and
     the target are observed exactly. The reward uses the true state.
+
+    `bbbench/NoisySensors-v0` is the same task under the first reward (kept for
+    comparability: it ranks falling at once above standing off target).
 
     Everything shared by the suite is documented in `BalanceEnv`.
     """
@@ -127,7 +136,7 @@ def _terrain_v1(cls: type[BalanceEnv]) -> type[BalanceEnv]:
 @_with_version_history
 @_terrain_v1
 class BumpsEnv(_TaskEnv):
-    """`bbbench/Bumps-v1`: cross short, steep random hills at speed.
+    """`bbbench/Bumps-v2`: cross short, steep random hills at speed.
 
     The ground is a strip of random hills (white noise low-passed by a Gaussian
     of 0.1 m, on 0.05 m cells), a new one from each episode's seed, with flat
@@ -144,7 +153,8 @@ class BumpsEnv(_TaskEnv):
     the ground and turn the bot. The value is recorded in `env.spec.kwargs`
     and changes the task's fingerprint.
 
-    `bbbench/Bumps-v0` (kept for comparability; -v1 is recommended): an 8 x 20 m
+    `bbbench/Bumps-v1` is the same task under the first reward. `bbbench/Bumps-v0`
+    (kept for comparability): an 8 x 20 m
     strip of smooth hills (0.35 m features, 0.2 m cells), 0.02 m high at
     difficulty 0 and 0.08 m at 1 (default 0.3), at 0.2-0.8 m/s.
 
@@ -155,7 +165,7 @@ class BumpsEnv(_TaskEnv):
 @_with_version_history
 @_terrain_v1
 class ObstaclesEnv(_TaskEnv):
-    """`bbbench/Obstacles-v1`: cross an obstacle course of boxes and steps at speed.
+    """`bbbench/Obstacles-v2`: cross an obstacle course of boxes and steps at speed.
 
     Along a strip of level ground on 0.05 m cells, obstacles follow one another,
     a new course from each episode's seed (`ObstacleCourse`): 40% are
@@ -171,7 +181,8 @@ class ObstaclesEnv(_TaskEnv):
     difficulty 1 the next obstacle comes within 0.15-0.3 s at speed, before
     the bot has recovered from the last (no flat run-up).
 
-    `bbbench/Obstacles-v0` (kept for comparability; -v1 is recommended): an
+    `bbbench/Obstacles-v1` is the same task under the first reward.
+    `bbbench/Obstacles-v0` (kept for comparability): an
     8 x 20 m strip on 0.2 m cells with scattered boxes and steps, 0.015-0.05 m
     high (default difficulty 0.3), at 0.2-0.8 m/s.
 
@@ -182,7 +193,7 @@ class ObstaclesEnv(_TaskEnv):
 @_with_version_history
 @_terrain_v1
 class SlopesEnv(_TaskEnv):
-    """`bbbench/Slopes-v1`: climb and descend ramps at speed.
+    """`bbbench/Slopes-v2`: climb and descend ramps at speed.
 
     A strip on 0.1 m cells, level across and ramped along the driving
     direction: ramps 0.3-1.5 m long, each inclined up or down by an angle drawn
@@ -198,6 +209,9 @@ class SlopesEnv(_TaskEnv):
     the crest. On ramps of at most 20 deg (difficulty 0.7) PD finishes about
     two thirds of the episodes, too many for the calibration: the default is
     steeper than that.
+
+    `bbbench/Slopes-v1` is the same task under the first reward (kept for
+    comparability: it ranks falling at once above standing off target).
 
     Everything shared by the suite is documented in `BalanceEnv`.
     """

@@ -3,7 +3,7 @@
 from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
 
-evaluation = evaluate(load_policy("policy.zip"), ["bbbench/FlatBalance-v0"], episodes=10)
+evaluation = evaluate(load_policy("policy.zip"), ["bbbench/FlatBalance-v1"], episodes=10)
 evaluation.document["tasks"][0]["aggregate"]["iqm"]
 """
 
@@ -45,7 +45,8 @@ class Evaluation:
 
 def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list[str]:
     """The tasks to evaluate: those requested (each must fit the policy), else every task
-    of the suite the policy fits. `ValueError` for an unknown ID; `PolicyError` otherwise."""
+    of the suite the policy fits (its latest version; an older one when requested).
+    `ValueError` for an unknown ID; `PolicyError` otherwise."""
     if requested:
         task_ids = list(dict.fromkeys(spec(task_id).id for task_id in requested))
         unfit = [(task_id, policy.mismatch(task_id)) for task_id in task_ids]
@@ -57,7 +58,7 @@ def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list
         return task_ids
     task_ids = fitting_tasks(policy)
     if not task_ids:
-        wants = "; ".join(policy.mismatch(task_id) or "" for task_id in list_tasks())
+        wants = "; ".join(policy.mismatch(task_id) or "" for task_id in list_tasks(latest=True))
         raise PolicyError(
             f"{policy.name} ({policy.spaces_text()}) fits no task of the suite: {wants}"
         )

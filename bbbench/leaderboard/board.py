@@ -42,10 +42,13 @@ class BuildError(RuntimeError):
 
 @dataclasses.dataclass(frozen=True)
 class Board:
-    """What a leaderboard plays: its tasks (default: the whole suite) and the first
-    `episodes` eval seeds of each (default: all of them)."""
+    """What a leaderboard plays: its tasks (default: the latest version of each task of the
+    suite; a superseded version leaves the board, its last numbers stay in git history) and
+    the first `episodes` eval seeds of each (default: all of them)."""
 
-    tasks: tuple[str, ...] = dataclasses.field(default_factory=lambda: tuple(list_tasks()))
+    tasks: tuple[str, ...] = dataclasses.field(
+        default_factory=lambda: tuple(list_tasks(latest=True))
+    )
     episodes: int | None = None
 
     def seeds(self, task_id: str) -> list[int]:

@@ -18,13 +18,13 @@ Every entry is re-scored by CI from the files in `submissions/` (`bbbench leader
 check`), on every evaluation seed of every task, with the shipped harness: nothing
 here is copied from a paper or a log. A score is normalized per task: 0 is the
 random policy's mean return, 1 the task's maximum return. **Overall** is the IQM
-(interquartile mean) of the per-episode normalized scores over the track's ranked
-tasks (the latest version of each task), with its 95% stratified-bootstrap
-interval. **Rank**: entries are ordered by Overall, and neighbours share a rank
-unless the 95% interval of P(upper > lower), rliable's probability of
-improvement, lies above 0.5. Older task versions are extra columns, kept for
-comparability and not ranked. Per task: normalized score of the mean return,
-and in brackets the success rate (episodes with no fall)."""
+(interquartile mean) of the per-episode normalized scores over the track's tasks
+(the latest version of each task), with its 95% stratified-bootstrap interval.
+**Rank**: entries are ordered by Overall, and neighbours share a rank unless the
+95% interval of P(upper > lower), rliable's probability of improvement, lies
+above 0.5. A superseded task version leaves the board; its last numbers stay in
+the repository's history. Per task: normalized score of the mean return, and in
+brackets the success rate (episodes with no fall)."""
 
 
 def _fixed(value: float, digits: int = 3) -> str:

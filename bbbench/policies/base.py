@@ -114,6 +114,19 @@ class PDPolicy(Policy):
         return PDActor(PDController(action_mode=self.action_mode))
 
 
+class StandPolicy(PDPolicy):
+    """The PD baseline holding target velocity 0 whatever the task asks: it stays up and
+    does not drive, so its score is what a task pays for staying up alone. On
+    FlatBalance, whose target is 0, it is the PD baseline itself."""
+
+    name = algorithm = "stand"
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        from bbbench.policies.pd import PDController
+
+        return PDActor(PDController(action_mode=self.action_mode, hold_velocity=0.0))
+
+
 class LQRPolicy(Policy):
     """The LQR baseline (`bbbench.policies.lqr.LQRController`): designed from a model
     identified from the simulator; reads only the shared layout, so it fits every task."""
@@ -301,6 +314,7 @@ TERRAIN_POLICIES = {
 # `register_policy`) and `bbbench eval NAME` scores it.
 BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "pd": PDPolicy,
+    "stand": StandPolicy,
     "lqr": LQRPolicy,
     "random": RandomPolicy,
     "reference": _reference,
@@ -382,5 +396,5 @@ def _attach_normalization(policy: SB3ZipPolicy, path: Path, statistics: str | Pa
 
 
 def fitting_tasks(policy: Policy) -> list[str]:
-    """The suite's tasks the policy can play."""
-    return [task_id for task_id in list_tasks() if policy.mismatch(task_id) is None]
+    """The latest version of each task of the suite that the policy can play."""
+    return [task_id for task_id in list_tasks(latest=True) if policy.mismatch(task_id) is None]

@@ -35,25 +35,38 @@ class PDController:
         kp: command per rad of pitch, (rad/s)/rad.
         kd: command per rad/s of pitch rate, (rad/s)/(rad/s).
         kv: command per m/s of velocity error, (rad/s)/(m/s).
+        hold_velocity: None (default) tracks the observed target velocity; a number, in
+            m/s, is held instead whatever the task asks (0.0: the `stand` policy, which
+            stays up and does not drive).
 
     The default gains keep FlatBalance-v0 up for the full episode on every seed
     tested (tests/test_baselines.py).
     """
 
     def __init__(
-        self, action_mode: str = "discrete", kp: float = 40.0, kd: float = 6.0, kv: float = 20.0
+        self,
+        action_mode: str = "discrete",
+        kp: float = 40.0,
+        kd: float = 6.0,
+        kv: float = 20.0,
+        hold_velocity: float | None = None,
     ) -> None:
         if action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         self.action_mode = action_mode
         self.kp, self.kd, self.kv = kp, kd, kv
+        self.hold_velocity = hold_velocity
 
     def wheel_speed_change(self, observation: np.ndarray) -> float:
         """The change of wheel command (rad/s) the controller wants."""
         pitch = float(observation[INDEX["pitch"]])
         pitch_rate = float(observation[INDEX["pitch_rate"]])
         velocity = MODEL.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
-        target = float(observation[INDEX["target_velocity"]])
+        target = (
+            float(observation[INDEX["target_velocity"]])
+            if self.hold_velocity is None
+            else self.hold_velocity
+        )
         desired = (
             target / MODEL.wheel_radius  # fed forward
             + self.kp * pitch

@@ -1,7 +1,8 @@
 """The balancing bot: one body in a bullet world.
 
-`BalanceBot` applies a wheel-speed command, reads the state with named
-accessors, and says whether the bot has fallen. It knows nothing of rewards,
+`BalanceBot` applies a wheel-speed command and reads the state with named
+accessors; its tilt from vertical is what the task's rules judge a fall by
+(`FALL_TILT`, `bbbench.tasks.reward.has_fallen`). It knows nothing of rewards,
 observations or tasks.
 
 Conventions (the robot's own frame):
@@ -37,8 +38,8 @@ URDF_PATH = Path(__file__).with_name("balancebot.urdf")
 # against gravity, so the test holds on slopes and bumps as on flat ground; a
 # centre-of-mass height would not. Measured with the PD baseline at three gain
 # settings: from rest, the wheels' torque limit brings the torso back from
-# 0.9 rad but not from 1.0 rad. At 1 rad the reward's upright term, 1 - |pitch|,
-# also reaches 0.
+# 0.9 rad but not from 1.0 rad. At 1 rad the first reward's upright term,
+# 1 - |pitch|, also reaches 0.
 FALL_TILT = 1.0
 
 # Only wheel contacts closer than this (m) reach the solver. A rolling wheel leaves
@@ -308,11 +309,6 @@ class BalanceBot:
                 (px - d * r02, py - d * r12, pz - d * r22),  # axle
             )
         )
-
-    @staticmethod
-    def has_fallen(state: BotState) -> bool:
-        """Whether the torso has tilted past `FALL_TILT` from vertical."""
-        return state.tilt > FALL_TILT
 
     # Named readings for interactive use; each queries the world. In a loop, call
     # `read()` once and use its fields.

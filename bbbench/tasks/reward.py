@@ -1,22 +1,129 @@
-"""The shared base reward: one function, used by every task.
+"""The shared reward: one component per version of it, each used by every task of its
+generation, and the step's outcome (reward, fall, info) computed once for both env APIs.
 
-    reward = upright * (1 - |pitch|) - velocity * |forward_velocity - target_velocity|
+`StayUpReward` (FlatBalance-v1, VelocityTracking-v1, NoisySensors-v1, Bumps-v2,
+Obstacles-v2, Slopes-v2, MultiBalance-v1, MultiBumps-v1), in dm_control's
+`rewards.tolerance` style: each step earns between 0 and 0.1,
 
-with pitch in rad and velocities in m/s. It keeps the tutorial's form (an
-upright term and a velocity-error term); the tutorial's 0.01 per rad/s of
-wheel-speed error is 0.1 per m/s of forward-velocity error on 0.1 m wheels.
-With the default weights a step earns at most 0.1 (upright, on target), so a
-1500-step episode scores at most 150.
+    upright  = tolerance(|pitch|, bound 0.1 rad, width 0.5 rad)
+    near     = tolerance(|velocity_error|, bound 0.1 m/s, width 0.25 m/s)
+    toward   = ramp(|velocity_error|, bound 0.1 m/s, width 2.0 m/s)
+    tracking = 0.9 * near + 0.1 * toward
+    reward   = 0.1 * upright * (0.1 + 0.9 * tracking)
+
+where velocity_error = forward_velocity - target_velocity, tolerance(x, bound, width) is 1
+for x <= bound, falls as 1 - ((x - bound) / width)^2 and is 0 from x = bound + width on,
+and ramp(x, bound, width) is the same with a linear fall, 1 - (x - bound) / width: a long
+tail. The two terms `info`
+reports are 0.01 * upright (staying up) and 0.09 * upright * tracking (doing the task).
+Staying up never costs: no step of a bot that is up earns less than 0, so a fall only
+forfeits the rest of the episode. The tail pays a bot far from its target for moving
+towards it (1 m/s short of a 1.5 m/s target earns more than standing), so the way from
+standing to driving is uphill. The numbers were chosen by measurement (docs/tasks.md,
+"The shared reward": random < stand < PD on every task).
+
+`RewardWeights` (every v0 task and the -v1 terrain), the tutorial's form:
+
+    reward = 0.1 * (1 - |pitch|) - 0.1 * |forward_velocity - target_velocity|
+
+at most 0.1 per step, but negative whenever the bot is 1 m/s or more off its target:
+there a bot held back by terrain scored less for staying up than for falling at once.
+It stays, unchanged, for the versions that published it.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 from bbbench.parameters import parameters
+from bbbench.robots import FALL_TILT, BotState
+
+
+def tolerance(x: float, bound: float, width: float) -> float:
+    """1 for |x| <= bound, 1 - ((|x| - bound) / width)^2 beyond it, 0 from bound + width on.
+
+    Plain float arithmetic (no transcendental function), so the same bits on every CPU.
+    """
+    excess = abs(x) - bound
+    if excess <= 0.0:
+        return 1.0
+    if excess >= width:
+        return 0.0
+    ratio = excess / width
+    return 1.0 - ratio * ratio
+
+
+def ramp(x: float, bound: float, width: float) -> float:
+    """1 for |x| <= bound, 1 - (|x| - bound) / width beyond it, 0 from bound + width on:
+    `tolerance` with a linear fall, for a long tail."""
+    excess = abs(x) - bound
+    if excess <= 0.0:
+        return 1.0
+    if excess >= width:
+        return 0.0
+    return 1.0 - excess / width
+
+
+@parameters
+class StayUpReward:
+    """The shared reward from FlatBalance-v1 on: in [0, scale] every step, so staying up
+    never costs (the module's docstring has the formula)."""
+
+    scale: float = 0.1  # the most one step earns: upright and on target
+    upright_share: float = 0.1  # of `scale`, earned for being upright whatever the velocity
+    pitch_bound: float = 0.1  # rad: upright up to this lean
+    pitch_width: float = 0.5  # rad: the upright credit is 0 from pitch_bound + this on
+    velocity_bound: float = 0.1  # m/s: on target up to this velocity error
+    velocity_width: float = 0.25  # m/s: the narrow credit is 0 from velocity_bound + this on
+    # Of the tracking credit, the share paid by a linear tail that reaches 0 only at
+    # velocity_bound + tail_width m/s off target: a bot standing far from its target
+    # gains by moving towards it, long before it is near enough for the narrow credit.
+    tail_share: float = 0.1
+    tail_width: float = 2.0  # m/s: the tail is 0 from velocity_bound + this on
+
+    def __post_init__(self) -> None:
+        for name in ("scale", "pitch_bound", "velocity_bound"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("pitch_width", "velocity_width", "tail_width"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        for name in ("upright_share", "tail_share"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+        # Read once per step: one attribute, not six (bench/bench_core.py times the cost).
+        constants = (
+            self.scale,
+            self.upright_share,
+            self.pitch_bound,
+            self.pitch_width,
+            self.velocity_bound,
+            self.velocity_width,
+            self.tail_share,
+            self.tail_width,
+        )
+        object.__setattr__(self, "_constants", constants)
+
+    @property
+    def max_step(self) -> float:
+        """The most one step earns."""
+        return self.scale
+
+    def terms(self, pitch: float, velocity_error: float) -> tuple[float, float]:
+        """(upright, velocity): the credit for staying up, and for tracking the target
+        while up. Both lie in [0, scale]; their sum is the step's reward."""
+        scale, share, pitch_bound, pitch_width, bound, width, tail, tail_width = self._constants
+        upright = scale * tolerance(pitch, pitch_bound, pitch_width)
+        tracking = (1.0 - tail) * tolerance(velocity_error, bound, width) + tail * ramp(
+            velocity_error, bound, tail_width
+        )
+        return upright * share, upright * (1.0 - share) * tracking
 
 
 @parameters
 class RewardWeights:
-    """Weights of the base reward's two terms."""
+    """The first shared reward (v0 tasks, -v1 terrain): the weights of its two terms. Its
+    class name is part of those tasks' fingerprints."""
 
     upright: float = 0.1  # reward per step when perfectly upright; also the per-step maximum
     velocity: float = 0.1  # penalty per m/s of forward-velocity error
@@ -27,12 +134,39 @@ class RewardWeights:
             if not value >= 0:
                 raise ValueError(f"reward weight {name!r} must be >= 0, got {value!r}")
 
+    @property
+    def max_step(self) -> float:
+        """The most one step earns."""
+        return self.upright
 
-def reward_terms(pitch, velocity_error, weights: RewardWeights):
-    """The base reward's two terms, (upright, velocity); the reward is their sum, at most
-    `weights.upright`. `velocity_error` is |forward_velocity - target_velocity| in m/s
-    (the envs report it in their info, with the two terms).
+    def terms(self, pitch: float, velocity_error: float) -> tuple[float, float]:
+        """(upright, velocity): 0.1 * (1 - |pitch|) and -0.1 * |velocity error|."""
+        return self.upright * (1.0 - abs(pitch)), -self.velocity * velocity_error
 
-    Floats give floats; numpy arrays (one value per bot) give arrays.
+
+Reward = StayUpReward | RewardWeights
+
+
+def has_fallen(state: BotState) -> bool:
+    """Whether the torso has tilted past `FALL_TILT` (1 rad) from vertical: the episode's
+    termination, on every task."""
+    return state.tilt > FALL_TILT
+
+
+def step_outcome(
+    state: BotState, target: float, reward: Reward
+) -> tuple[float, bool, dict[str, Any]]:
+    """One bot's step, judged by the task's rules: its reward, whether it fell, and its
+    `info` (the reward's two terms, `reward_upright` and `reward_velocity`, and
+    `velocity_error`, |forward_velocity - target_velocity| in m/s, true, not sensed).
+
+    Both env APIs call this, so the rules are written once.
     """
-    return weights.upright * (1.0 - abs(pitch)), -weights.velocity * velocity_error
+    velocity_error = abs(state.forward_velocity - target)
+    upright, velocity = reward.terms(state.pitch, velocity_error)
+    info = {
+        "reward_upright": upright,
+        "reward_velocity": velocity,
+        "velocity_error": velocity_error,
+    }
+    return upright + velocity, has_fallen(state), info

@@ -17,7 +17,7 @@ from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.group import Group
-from bbbench.tasks.reward import RewardWeights
+from bbbench.tasks.reward import Reward, RewardWeights
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
 
@@ -91,7 +91,7 @@ class TaskSpec:
     terrain: FlatGround | HeightfieldTerrain = field(default_factory=FlatGround)
     command: CommandSchedule = field(default_factory=ConstantVelocity)
     sensors: SensorModel = field(default_factory=PerfectSensors)
-    reward: RewardWeights = field(default_factory=RewardWeights)
+    reward: Reward = field(default_factory=RewardWeights)
     initial_pitch: float = 0.1  # rad: reset leans the bot by U(-initial_pitch, initial_pitch)
     control_dt: float = 0.01  # s per env step
     physics_substeps: int = 1  # pybullet sub-steps per env step
@@ -164,7 +164,7 @@ class TaskSpec:
     @property
     def max_return(self) -> float:
         """The best possible episode return (per bot): every step upright and on target."""
-        return self.reward.upright * self.max_episode_steps
+        return self.reward.max_step * self.max_episode_steps
 
     @property
     def spec_hash(self) -> str:

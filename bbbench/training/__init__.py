@@ -1,7 +1,7 @@
 """`bbbench train`: train a policy on a task with the recipe shipped for it.
 
     from bbbench.training import train
-    result = train(["bbbench/FlatBalance-v0"], "ppo", out="policy.zip", seed=0)
+    result = train(["bbbench/FlatBalance-v1"], "ppo", out="policy.zip", seed=0)
 
 Hyperparameters come from the rl-zoo3 files in `bbbench/training/recipes/`.
 Training is seeded and single-threaded (torch on the CPU, one thread), so the same
@@ -92,7 +92,9 @@ def check_request(
         )
     if steps is not None and steps < 1:
         raise ValueError(f"--steps must be at least 1, got {steps}")
-    return tasks, (MIX if len(tasks) > 1 else tasks[0]), mode
+    key = MIX if len(tasks) > 1 else tasks[0]
+    recipe(algorithm, key)  # a task without a recipe (an older version) is refused here
+    return tasks, key, mode
 
 
 def train(
@@ -187,17 +189,12 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
 
     from bbbench.vec import make_vec
 
-    if len(tasks) == 1 and not plan.wrappers:
+    if len(tasks) == 1:
         env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
-    elif spec(tasks[0]).multi_agent:
-        raise ValueError(f"{plan.key}: env_wrapper is for single-bot tasks")
-    else:  # sub-env i plays task i mod len(tasks), each (Monitor first) in the wrappers
+    else:  # sub-env i plays task i mod len(tasks), each in a Monitor
         plays = [tasks[i % len(tasks)] for i in range(n_envs)]
         env = DummyVecEnv(
-            [
-                lambda task=task: plan.wrap(Monitor(gym.make(task, action_mode=mode)))
-                for task in plays
-            ]
+            [lambda task=task: Monitor(gym.make(task, action_mode=mode)) for task in plays]
         )
     env.seed(seed)
     return env

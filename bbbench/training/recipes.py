@@ -5,7 +5,9 @@ The same file drives `bbbench train` and rl-zoo3's own `python -m rl_zoo3.train 
 ppo --env bbbench/Bumps-v1 --gym-packages bbbench -conf <file>`. The keys rl-zoo3
 reads besides the algorithm's own arguments are understood here too: `n_envs`,
 `n_timesteps`, `policy`, `policy_kwargs` (a `dict(...)` string, read without `eval`),
-`noise_type` and `noise_std` (TD3's action noise).
+`noise_type` and `noise_std` (TD3's action noise). rl-zoo3's `env_wrapper` is refused:
+a shipped recipe learns from the task's own reward, and if a task cannot be learned from
+it, the task is wrong.
 """
 
 from __future__ import annotations
@@ -35,9 +37,7 @@ _ZOO_KEYS = (
     "policy_kwargs",
     "noise_type",
     "noise_std",
-    "env_wrapper",
 )
-_WRAPPERS = "bbbench.training.wrappers."  # the only wrappers a recipe may name
 _ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "SiLU", "Sigmoid")
 
 
@@ -53,8 +53,6 @@ class Recipe:
     hyperparameters: dict[str, Any]  # keyword arguments of the algorithm's class
     policy_kwargs: dict[str, Any]
     noise_std: float | None = None  # Gaussian action noise (TD3)
-    # rl-zoo3's env_wrapper: (class path, keyword arguments), applied to each training env
-    wrappers: tuple[tuple[str, dict[str, Any]], ...] = ()
 
     def record(self) -> dict[str, Any]:
         """As `train.json` records it."""
@@ -67,17 +65,7 @@ class Recipe:
             "hyperparameters": self.hyperparameters,
             "policy_kwargs": _show_policy_kwargs(self.policy_kwargs),
             **({"noise_std": self.noise_std} if self.noise_std is not None else {}),
-            **({"env_wrapper": [{p: k} for p, k in self.wrappers]} if self.wrappers else {}),
         }
-
-    def wrap(self, env):
-        """`env` inside the recipe's wrappers, in order."""
-        import importlib
-
-        for path, kwargs in self.wrappers:
-            module, _, name = path.rpartition(".")
-            env = getattr(importlib.import_module(module), name)(env, **kwargs)
-        return env
 
 
 def recipe_file(algorithm: str):
@@ -95,10 +83,21 @@ def recipe(algorithm: str, key: str) -> Recipe:
     """`algorithm`'s recipe for `key`; `ValueError` naming the ones there are."""
     table = recipes(algorithm)
     if key not in table:
+        newer = _newer_version(key)
+        if newer is not None:
+            raise ValueError(
+                f"no {algorithm} recipe for {key}: the recipes train the latest version of "
+                f"each task, here {newer} (the reward in which staying up never costs)"
+            )
         raise ValueError(
             f"no {algorithm} recipe for {key}; {algorithm}.yml has recipes for {', '.join(table)}"
         )
     entry = dict(table[key])
+    if "env_wrapper" in entry:
+        raise ValueError(
+            f"{algorithm}.yml, {key}: env_wrapper is refused: a recipe learns from the task's "
+            f"own reward (normalizing observations or rewards in the algorithm is fine)"
+        )
     noise_type = entry.get("noise_type")
     if noise_type not in (None, "normal"):
         raise ValueError(f"{algorithm}.yml, {key}: noise_type {noise_type!r}: only 'normal'")
@@ -111,22 +110,18 @@ def recipe(algorithm: str, key: str) -> Recipe:
         hyperparameters={k: v for k, v in entry.items() if k not in _ZOO_KEYS},
         policy_kwargs=parse_policy_kwargs(entry.get("policy_kwargs", "dict()")),
         noise_std=float(entry["noise_std"]) if noise_type else None,
-        wrappers=parse_env_wrapper(entry.get("env_wrapper"), f"{algorithm}.yml, {key}"),
     )
 
 
-def parse_env_wrapper(value: Any, where: str) -> tuple[tuple[str, dict[str, Any]], ...]:
-    """rl-zoo3's env_wrapper: a class path, or a list of them or of {class path: kwargs}."""
-    if value is None:
-        return ()
-    items = value if isinstance(value, list) else [value]
-    wrappers = []
-    for item in items:
-        path, kwargs = (item, {}) if isinstance(item, str) else next(iter(item.items()))
-        if not path.startswith(_WRAPPERS):
-            raise ValueError(f"{where}: env_wrapper {path!r}: only {_WRAPPERS}* wrappers")
-        wrappers.append((path, dict(kwargs or {})))
-    return tuple(wrappers)
+def _newer_version(key: str) -> str | None:
+    """The latest version of `key`'s task, if `key` is an older version of it."""
+    from bbbench.tasks.suite import SUITE, list_tasks
+
+    if key not in SUITE:
+        return None
+    name = SUITE[key].name
+    latest = next(task for task in list_tasks(latest=True) if SUITE[task].name == name)
+    return latest if latest != key else None
 
 
 def parse_policy_kwargs(text: str) -> dict[str, Any]:
