@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 import bbbench
+from bbbench.tasks.suite import latest_version
 
 
 def add_parser(commands) -> None:
@@ -14,7 +15,6 @@ def add_parser(commands) -> None:
 
 def run(args: argparse.Namespace) -> None:
     specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
-    latest = {bbbench.spec(task_id).name: task_id for task_id in bbbench.list_tasks(latest=True)}
     rows = [
         ("task", "bots", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")
     ]
@@ -28,7 +28,11 @@ def run(args: argparse.Namespace) -> None:
             f"{len(spec.eval_seeds)}",
             spec.fingerprint,
             spec.summary
-            + ("" if latest[spec.name] == spec.id else f" (superseded by {latest[spec.name]})"),
+            + (
+                ""
+                if latest_version(spec.id) == spec.id
+                else f" (superseded by {latest_version(spec.id)})"
+            ),
         )
         for spec in specs
     ]

@@ -104,6 +104,7 @@ class PDPolicy(Policy):
     it fits every task."""
 
     name = algorithm = "pd"
+    hold_velocity: float | None = None  # m/s held instead of the task's target; None tracks it
 
     def __init__(self, action_mode: str = "discrete") -> None:
         self.action_mode = action_mode
@@ -111,7 +112,7 @@ class PDPolicy(Policy):
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         from bbbench.policies.pd import PDController
 
-        return PDActor(PDController(action_mode=self.action_mode))
+        return PDActor(PDController(action_mode=self.action_mode, hold_velocity=self.hold_velocity))
 
 
 class StandPolicy(PDPolicy):
@@ -120,11 +121,7 @@ class StandPolicy(PDPolicy):
     FlatBalance, whose target is 0, it is the PD baseline itself."""
 
     name = algorithm = "stand"
-
-    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        from bbbench.policies.pd import PDController
-
-        return PDActor(PDController(action_mode=self.action_mode, hold_velocity=0.0))
+    hold_velocity = 0.0
 
 
 class LQRPolicy(Policy):

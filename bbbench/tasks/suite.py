@@ -253,16 +253,22 @@ def list_tasks(multi_agent: bool | None = None, latest: bool = False) -> list[st
     """The IDs of the suite's tasks, sorted: all, or only multi-bot (True) or single-bot
     (False); with `latest`, only the newest version of each task (what the leaderboard
     ranks and `bbbench eval` plays unless told otherwise)."""
-    chosen = [
-        task for task in SUITE.values() if multi_agent is None or task.multi_agent == multi_agent
-    ]
-    if latest:
-        newest: dict[str, TaskSpec] = {}
-        for task in chosen:
-            if task.name not in newest or task.version > newest[task.name].version:
-                newest[task.name] = task
-        chosen = list(newest.values())
-    return sorted(task.id for task in chosen)
+    return sorted(
+        task_id
+        for task_id, task in SUITE.items()
+        if (multi_agent is None or task.multi_agent == multi_agent)
+        and (not latest or latest_version(task_id) == task_id)
+    )
+
+
+def latest_version(task_id: str) -> str:
+    """The newest version of `task_id`'s task: 'bbbench/Bumps-v2' for 'bbbench/Bumps-v0'."""
+    name = spec(task_id).name
+    return max((task for task in SUITE.values() if task.name == name), key=_version).id
+
+
+def _version(task: TaskSpec) -> int:
+    return task.version
 
 
 def spec(task_id: str) -> TaskSpec:

@@ -115,13 +115,11 @@ def recipe(algorithm: str, key: str) -> Recipe:
 
 def _newer_version(key: str) -> str | None:
     """The latest version of `key`'s task, if `key` is an older version of it."""
-    from bbbench.tasks.suite import SUITE, list_tasks
+    from bbbench.tasks.suite import SUITE, latest_version
 
-    if key not in SUITE:
+    if key not in SUITE or latest_version(key) == key:
         return None
-    name = SUITE[key].name
-    latest = next(task for task in list_tasks(latest=True) if SUITE[task].name == name)
-    return latest if latest != key else None
+    return latest_version(key)
 
 
 def parse_policy_kwargs(text: str) -> dict[str, Any]:
