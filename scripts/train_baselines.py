@@ -2,7 +2,7 @@
 leaderboard with `bbbench leaderboard add` as it finishes.
 
     python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-v1-s0 ...] [--list]
-                                      [--train-only]
+                                      [--train-only] [--add-trained] [--table]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
 the command's output); its policy goes into `leaderboards/submissions/<slug>/` with a
@@ -92,6 +92,43 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
     return f"{run['slug']}: {minutes:.1f} min, on the board"
 
 
+def table(root: Path, board: Path) -> str:
+    """The Markdown table of the runs on the board: steps, each seed's training wall
+    time and its normalized score on its task's evaluation seeds, and PD's."""
+    stored = sorted((board / "results").glob("*.json"))
+    results = {path.stem: json.loads(path.read_text()) for path in stored}
+
+    def score(slug: str, task_id: str) -> float | None:
+        for block in results.get(slug, {}).get("tasks", []):
+            if block["task"] == task_id:
+                return block["aggregate"]["normalized_score"]
+        return None
+
+    lines = [
+        "| task | steps | training wall time, by seed | normalized, by seed | PD |",
+        "|---|---:|---:|---|---:|",
+    ]
+    plan = runs()
+    for task_id in (*LATEST_SINGLE, *LATEST_MULTI, "generalist"):
+        mine = [run for run in plan if (run.get("generalist") and task_id == "generalist")
+                or (not run.get("generalist") and run["tasks"] == [task_id])]  # fmt: skip
+        done = [run for run in mine if run["slug"] in results]
+        if not done:
+            continue
+        records = [json.loads((root / run["slug"] / "train.json").read_text()) for run in done]
+        minutes = " / ".join(f"{record['wall_time_s'] / 60:.1f}" for record in records)
+        if task_id == "generalist":
+            scores = " / ".join(f"{score(done[0]['slug'], task):.3f}" for task in LATEST_SINGLE)
+            name, pd = "generalist (all six; by task, in the order above)", ""
+        else:
+            scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
+            name, pd = task_id.removeprefix("bbbench/"), f"{score('pd', task_id):.3f}"
+        steps = records[0]["steps"]
+        budget = f"{steps / 1e6:g}M" if steps >= 1e6 else f"{steps / 1e3:g}k"
+        lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")
+    return "\n".join(lines)
+
+
 def _display(run: dict) -> str:
     if run.get("generalist"):
         return "generalist"
@@ -113,12 +150,18 @@ def main() -> None:
         action="store_true",
         help="add the runs --train-only left in baselines/ to the board, one by one",
     )
+    parser.add_argument(
+        "--table", action="store_true", help="print the Markdown table of the runs on the board"
+    )
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
     args = parser.parse_args()
     plan = [run for run in runs() if not args.only or run["slug"] in args.only]
     missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
     args.plan = missing
+    if args.table:
+        print(table(args.root, args.board))
+        return
     if args.list:
         for run in plan:
             print(run["slug"], "" if run in missing else "(on the board)")
