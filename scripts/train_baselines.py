@@ -87,8 +87,14 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
         f"(bbbench/training/recipes/{run['algo']}.yml): the best of {points} evaluations "
         f"on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
+    statistics = folder / "policy" / "vecnormalize.pkl"  # a recipe with `normalize` writes it
+    if statistics.exists():
+        add += ["--vecnormalize", str(statistics)]
     subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
     (folder / "policy.zip").unlink()  # the board keeps it, in submissions/<slug>/
+    if statistics.exists():
+        statistics.unlink()
+        statistics.parent.rmdir()
     return f"{run['slug']}: {minutes:.1f} min, on the board"
 
 
@@ -110,9 +116,7 @@ def table(root: Path, board: Path) -> str:
     ]
     plan = runs()
     for task_id in (*LATEST_SINGLE, *LATEST_MULTI, "generalist"):
-        mine = [run for run in plan if (run.get("generalist") and task_id == "generalist")
-                or (not run.get("generalist") and run["tasks"] == [task_id])]  # fmt: skip
-        done = [run for run in mine if run["slug"] in results]
+        done = [run for run in plan if _row(run) == task_id and run["slug"] in results]
         if not done:
             continue
         records = [json.loads((root / run["slug"] / "train.json").read_text()) for run in done]
@@ -127,6 +131,11 @@ def table(root: Path, board: Path) -> str:
         budget = f"{steps / 1e6:g}M" if steps >= 1e6 else f"{steps / 1e3:g}k"
         lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")
     return "\n".join(lines)
+
+
+def _row(run: dict) -> str:
+    """The table row a run belongs to: its task, or "generalist"."""
+    return "generalist" if run.get("generalist") else run["tasks"][0]
 
 
 def _display(run: dict) -> str:

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from stable_baselines3 import PPO
@@ -14,10 +16,12 @@ from stable_baselines3 import PPO
 import bbbench
 from bbbench import training
 from bbbench.cli import main
+from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.policies import load_policy
 from bbbench.training import recipes as recipes_module
 from bbbench.training.recipes import (
     ALGORITHMS,
+    parse_normalize,
     parse_policy_kwargs,
     recipe,
     recipes,
@@ -66,6 +70,75 @@ def test_a_multi_bot_task_trains_one_shared_policy(tmp_path, capsys):
     policy = load_policy(out)
     assert policy.mismatch(MULTI) is None
     assert policy.mismatch(FLAT) is not None  # it observes the neighbours too
+
+
+def test_a_recipe_with_normalize_keeps_the_statistics_of_the_policy_it_keeps(tmp_path, capsys):
+    """The multi-bot recipe trains inside VecNormalize: the statistics of the kept policy
+    go where rl-zoo3 puts them, with the same bytes on a second run; `bbbench eval` finds
+    them; and the policy they load plays the training seeds exactly as the evaluation
+    that chose it did."""
+    assert recipe("ppo", MULTI).normalize == {}
+    for name in ("first", "second"):
+        (tmp_path / name).mkdir()
+        out = tmp_path / name / "policy.zip"
+        argv = (MULTI, "--algo", "ppo", "--n-envs", "1", "--steps", "2048", "--out", str(out))
+        code, stdout, err = train_exit(capsys, *argv, "--eval-episodes", "1")
+        assert code == 0, err
+        assert f"its VecNormalize statistics {out.parent / 'policy'}" in stdout
+    first, second = tmp_path / "first", tmp_path / "second"
+    statistics = first / "policy" / "vecnormalize.pkl"
+    assert statistics.read_bytes() == (second / "policy" / "vecnormalize.pkl").read_bytes()
+    assert (first / "policy.zip").read_bytes() == (second / "policy.zip").read_bytes()
+    record = json.loads((first / "train.json").read_text())
+    assert record["recipe"]["normalize"] == {}
+    assert record["statistics"] == str(statistics)
+
+    policy = load_policy(first / "policy.zip")
+    assert "vecnormalize.pkl" in policy.normalization_source
+    assert policy.normalization.normalize
+    runner = EpisodeRunner(actors={MULTI: policy.actor(MULTI)}, action_mode="discrete",
+                           sampled=False)  # fmt: skip
+    try:
+        played = runner.play(MULTI, training.evaluation_seeds(MULTI))
+    finally:
+        runner.close()
+    mean = float(np.mean([episode.episode_return for episode in played]))
+    assert mean == record["best"]["mean"]
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [
+        (True, {}),
+        (False, None),
+        ("{'norm_obs': True, 'norm_reward': False}", {"norm_obs": True, "norm_reward": False}),
+    ],
+)
+def test_normalize_reads_rl_zoo3_s_forms(value, expected):
+    assert parse_normalize(value, "ppo.yml, x") == expected
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [
+        ("yes", "expected true, false or a dict of VecNormalize keywords"),
+        ("{'gamma': 0.9}", "normalize sets gamma; it takes norm_obs"),
+        ("__import__('os')", "expected true, false or a dict"),
+    ],
+)
+def test_a_bad_normalize_is_refused_saying_what_it_takes(value, expected):
+    with pytest.raises(ValueError, match=re.escape(expected)):
+        parse_normalize(value, "ppo.yml, x")
+
+
+def test_a_file_where_the_statistics_go_is_refused_before_training(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    Path("policy").write_text("mine")
+    code, _, err = train_exit(capsys, MULTI, "--algo", "ppo", "--out", "policy.zip", *TINY)
+    assert code == 2, err
+    assert "statistics go to policy/vecnormalize.pkl, but policy is a file" in err
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["policy"]
+    assert Path("policy").read_text() == "mine"
 
 
 def test_several_tasks_train_one_generalist(tmp_path):

@@ -47,11 +47,12 @@ def run(args: argparse.Namespace) -> int:
     from bbbench import training
 
     try:
-        tasks, _, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
+        tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
         if args.n_envs is not None and args.n_envs < 1:
             raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_seed(args.seed)
         check_output_path(args.out, "--out")
+        training.statistics_path(args.out, training.recipe(args.algo, key))
         if args.log is not None:
             from pathlib import Path
 
@@ -102,13 +103,17 @@ def run(args: argparse.Namespace) -> int:
             on_progress=on_progress,
         )
     args.written.append(args.out)
+    if trained.statistics is not None:
+        args.written.append(str(trained.statistics))
     best = max(trained.curve, key=lambda point: point["mean"])
     out = Console()
     if not out.is_terminal:
         out = Console(width=120)
     out.print(results_table(trained.results))
+    statistics = f", its VecNormalize statistics {trained.statistics}" if trained.statistics else ""
     print(
-        f"wrote {args.out} (best at {best['steps']:,} steps: mean return {best['mean']:.1f} on "
+        f"wrote {args.out}{statistics} (best at {best['steps']:,} steps: mean return "
+        f"{best['mean']:.1f} on "
         f"training seeds) and {trained.log_dir}/curve.json, curve.png, train.json, "
         f"results.json; {trained.seconds:.0f} s"
     )

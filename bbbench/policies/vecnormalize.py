@@ -143,6 +143,19 @@ class ObservationNormalization:
     std: np.ndarray  # sqrt(var + epsilon), float64
     clip: float
 
+    @classmethod
+    def of(cls, venv: Any) -> ObservationNormalization:
+        """A copy of the statistics a live `VecNormalize` applies now (a policy evaluated
+        while it trains sees observations as its training env shows them)."""
+        return cls(
+            file="(in training)",
+            sha256="",
+            normalize=bool(venv.norm_obs),
+            mean=np.array(venv.obs_rms.mean, dtype=np.float64),
+            std=np.sqrt(np.asarray(venv.obs_rms.var, dtype=np.float64) + venv.epsilon),
+            clip=float(venv.clip_obs),
+        )
+
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         """Observations as the policy saw them in training (float32)."""
         if not self.normalize:

@@ -9,7 +9,10 @@ call on one machine writes the same zip bytes. Every `eval_freq` steps the polic
 plays a fixed set of *training* seeds of each task (never an eval seed); the best
 one is kept. Written beside the zip (or in `log_dir`): `curve.json` and `curve.png`
 (the learning curve), `train.json` (the recipe, seed, budget, time, machine) and
-`results.json` (the final `bbbench eval` document on the task's eval seeds).
+`results.json` (the final `bbbench eval` document on the task's eval seeds). A recipe
+that trains inside `VecNormalize` (`normalize`) also writes the statistics of the kept
+policy where rl-zoo3 does and `bbbench eval` looks: `policy.zip` ->
+`policy/vecnormalize.pkl`.
 """
 
 from __future__ import annotations
@@ -66,6 +69,7 @@ class Trained:
 
     out: Path
     log_dir: Path
+    statistics: Path | None  # the VecNormalize statistics of a recipe with `normalize`
     curve: list[dict[str, float]]
     results: dict[str, Any]
     seconds: float
@@ -135,6 +139,7 @@ def train(
     if seed < 0:
         raise ValueError(f"--seed must be >= 0, got {seed}")
     out = check_output_path(out, "--out")
+    statistics = statistics_path(out, plan)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")
@@ -152,8 +157,12 @@ def train(
         env.close()
         callback.close()
         data = reproducible_zip(best.read_bytes())
+        kept_statistics = callback.best_statistics.read_bytes() if statistics else None
     seconds = time.perf_counter() - began
     write_atomic(out, data)
+    if statistics is not None:
+        statistics.parent.mkdir(exist_ok=True)
+        write_atomic(statistics, kept_statistics)
 
     from bbbench.policies import load_policy
 
@@ -171,6 +180,7 @@ def train(
         "wall_time_s": round(seconds, 1),
         "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
         "recipe": plan.record(),
+        **({"statistics": str(statistics)} if statistics is not None else {}),
     }
     write_all_atomic(
         {
@@ -180,7 +190,26 @@ def train(
             log_dir / "results.json": _dumps(results),
         }
     )
-    return Trained(out, log_dir, callback.curve, results, seconds, plan)
+    return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
+
+
+def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
+    """Where the VecNormalize statistics of the policy `out` go if `plan` trains inside
+    VecNormalize: rl-zoo3's layout, which `bbbench eval` finds on its own (`policy.zip`
+    -> `policy/vecnormalize.pkl`). None for a recipe without; `ValueError` if a file is
+    in the way."""
+    from bbbench.policies.vecnormalize import STATISTICS_FILE
+
+    if plan.normalize is None:
+        return None
+    out = Path(out)
+    statistics = out.parent / out.stem / STATISTICS_FILE
+    if statistics.parent.exists() and not statistics.parent.is_dir():
+        raise ValueError(
+            f"--out {out}: its recipe trains inside VecNormalize, whose statistics go to "
+            f"{statistics}, but {statistics.parent} is a file: choose another --out"
+        )
+    return statistics
 
 
 def _dumps(document: dict[str, Any]) -> bytes:
@@ -204,6 +233,11 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
             [lambda task=task: Monitor(gym.make(task, action_mode=mode)) for task in plays]
         )
     env.seed(seed)
+    if plan.normalize is not None:
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        gamma = plan.hyperparameters.get("gamma", 0.99)  # rl-zoo3 passes the recipe's
+        env = VecNormalize(env, gamma=gamma, **plan.normalize)
     return env
 
 
@@ -247,6 +281,7 @@ class _Evaluation(_callback_base()):
         self.next_at = every
         self.curve: list[dict[str, float]] = []
         self.best = -np.inf
+        self.best_statistics = best_path.with_suffix(".pkl")  # under VecNormalize
         self.runner: EpisodeRunner | None = None
 
     def _on_step(self) -> bool:
@@ -260,9 +295,15 @@ class _Evaluation(_callback_base()):
     def evaluate_now(self, model) -> None:
         if self.curve and self.curve[-1]["steps"] == model.num_timesteps:
             return
-        from bbbench.policies.base import TorchActor
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        from bbbench.policies.base import NormalizedActor, TorchActor
+        from bbbench.policies.vecnormalize import ObservationNormalization
 
         actor = TorchActor(model.policy)
+        normalized = isinstance(model.get_env(), VecNormalize)
+        if normalized:  # the observations as the training env shows them now
+            actor = NormalizedActor(actor, ObservationNormalization.of(model.get_env()))
         self.runner = self.runner or EpisodeRunner(actors={}, action_mode=self.mode, sampled=False)
         for task_id in self.tasks:
             self.runner.actors[task_id] = actor
@@ -281,6 +322,8 @@ class _Evaluation(_callback_base()):
         if point["mean"] > self.best:
             self.best = point["mean"]
             model.save(self.best_path)
+            if normalized:
+                model.get_env().save(self.best_statistics)
         if self.on_progress is not None:
             self.on_progress(self.num_timesteps, self.budget, point)
 

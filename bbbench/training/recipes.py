@@ -5,7 +5,10 @@ The same file drives `bbbench train` and rl-zoo3's own `python -m rl_zoo3.train 
 ppo --env bbbench/Bumps-v1 --gym-packages bbbench -conf <file>`. The keys rl-zoo3
 reads besides the algorithm's own arguments are understood here too: `n_envs`,
 `n_timesteps`, `policy`, `policy_kwargs` (a `dict(...)` string, read without `eval`),
-`noise_type` and `noise_std` (TD3's action noise). rl-zoo3's `env_wrapper` is refused:
+`noise_type` and `noise_std` (TD3's action noise), `normalize` (train inside
+stable-baselines3's `VecNormalize`: `true`, or a dict string of its keywords such as
+"{'norm_obs': True, 'norm_reward': False}"; its `gamma` is the recipe's, as in rl-zoo3).
+rl-zoo3's `env_wrapper` is refused:
 a shipped recipe learns from the task's own reward, and if a task cannot be learned from
 it, the task is wrong.
 """
@@ -37,7 +40,10 @@ _ZOO_KEYS = (
     "policy_kwargs",
     "noise_type",
     "noise_std",
+    "normalize",
 )
+# The VecNormalize keywords a recipe's `normalize` may set (gamma is the recipe's own).
+_NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "epsilon")
 _ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "SiLU", "Sigmoid")
 
 
@@ -53,6 +59,8 @@ class Recipe:
     hyperparameters: dict[str, Any]  # keyword arguments of the algorithm's class
     policy_kwargs: dict[str, Any]
     noise_std: float | None = None  # Gaussian action noise (TD3)
+    # Keywords of the VecNormalize the policy trains inside; None: raw observations.
+    normalize: dict[str, Any] | None = None
 
     def record(self) -> dict[str, Any]:
         """As `train.json` records it."""
@@ -65,6 +73,7 @@ class Recipe:
             "hyperparameters": self.hyperparameters,
             "policy_kwargs": _show_policy_kwargs(self.policy_kwargs),
             **({"noise_std": self.noise_std} if self.noise_std is not None else {}),
+            **({"normalize": self.normalize} if self.normalize is not None else {}),
         }
 
 
@@ -110,7 +119,33 @@ def recipe(algorithm: str, key: str) -> Recipe:
         hyperparameters={k: v for k, v in entry.items() if k not in _ZOO_KEYS},
         policy_kwargs=parse_policy_kwargs(entry.get("policy_kwargs", "dict()")),
         noise_std=float(entry["noise_std"]) if noise_type else None,
+        normalize=parse_normalize(entry.get("normalize", False), f"{algorithm}.yml, {key}"),
     )
+
+
+def parse_normalize(value: Any, where: str) -> dict[str, Any] | None:
+    """rl-zoo3's `normalize`: false (none), true (VecNormalize's defaults) or a dict string
+    of VecNormalize keywords, read as data; the keywords VecNormalize takes, or None."""
+    if value is False or value is None:
+        return None
+    if value is True:
+        return {}
+    try:
+        keywords = ast.literal_eval(value) if isinstance(value, str) else value
+    except (ValueError, SyntaxError):
+        keywords = None
+    if not isinstance(keywords, dict):
+        raise ValueError(
+            f"{where}: normalize {value!r}: expected true, false or a dict of VecNormalize "
+            f"keywords such as \"{{'norm_obs': True, 'norm_reward': False}}\""
+        )
+    unknown = sorted(set(keywords) - set(_NORMALIZE_KEYS))
+    if unknown:
+        raise ValueError(
+            f"{where}: normalize sets {', '.join(map(str, unknown))}; it takes "
+            f"{', '.join(_NORMALIZE_KEYS)} (gamma is the recipe's)"
+        )
+    return dict(keywords)
 
 
 def _newer_version(key: str) -> str | None:
