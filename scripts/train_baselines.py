@@ -65,7 +65,7 @@ def command(run: dict, folder: Path) -> list[str]:
     ]  # fmt: skip
 
 
-def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int) -> str:
+def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int | str) -> str:
     """`bbbench leaderboard add` of a finished run, with what it took."""
     argv = command(run, folder)
     record = json.loads((folder / "train.json").read_text())
@@ -79,7 +79,7 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
         "--env-steps", str(record["steps"]),
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
-        + (f"{side_by_side} trainings side by side" if side_by_side > 1 else "one training"),
+        + (f"{side_by_side} trainings side by side" if side_by_side != 1 else "one training"),
         "--seeds", str(run["seed"]),
         "--command", " ".join([*argv[:-2], "--out", "policy.zip"]),
         "--licence", "MIT",
