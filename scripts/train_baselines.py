@@ -24,6 +24,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from bbbench.policies.vecnormalize import find_rl_zoo_statistics
+
 LATEST_SINGLE = (
     "bbbench/FlatBalance-v1",
     "bbbench/VelocityTracking-v1",
@@ -87,12 +89,13 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
         f"(bbbench/training/recipes/{run['algo']}.yml): the best of {points} evaluations "
         f"on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
-    statistics = folder / "policy" / "vecnormalize.pkl"  # a recipe with `normalize` writes it
-    if statistics.exists():
+    # A recipe with `normalize` writes statistics where rl-zoo3 does; eval finds them so.
+    statistics = find_rl_zoo_statistics(folder / "policy.zip")
+    if statistics is not None:
         add += ["--vecnormalize", str(statistics)]
     subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
     (folder / "policy.zip").unlink()  # the board keeps it, in submissions/<slug>/
-    if statistics.exists():
+    if statistics is not None:
         statistics.unlink()
         statistics.parent.rmdir()
     return f"{run['slug']}: {minutes:.1f} min, on the board"

@@ -113,8 +113,7 @@ def run(args: argparse.Namespace) -> int:
     statistics = f", its VecNormalize statistics {trained.statistics}" if trained.statistics else ""
     print(
         f"wrote {args.out}{statistics} (best at {best['steps']:,} steps: mean return "
-        f"{best['mean']:.1f} on "
-        f"training seeds) and {trained.log_dir}/curve.json, curve.png, train.json, "
-        f"results.json; {trained.seconds:.0f} s"
+        f"{best['mean']:.1f} on training seeds) and {trained.log_dir}/curve.json, curve.png, "
+        f"train.json, results.json; {trained.seconds:.0f} s"
     )
     return 0
