@@ -48,7 +48,9 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
-from bbbench.policies.base import REFERENCE_POLICY, SB3ZipPolicy, act_once
+from bbbench.policies.policy import act_once
+from bbbench.policies.registry import REFERENCE_POLICY
+from bbbench.policies.zip_policy import SB3ZipPolicy
 
 
 def time_per_call(function, argument, calls: int) -> float:

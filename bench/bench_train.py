@@ -32,7 +32,7 @@ from stable_baselines3.common.env_util import make_vec_env
 
 import bbbench  # noqa: F401  (registers the tasks)
 from bbbench.evaluation.episodes import EpisodeRunner
-from bbbench.policies.base import TorchActor
+from bbbench.policies.policy import TorchActor
 from bbbench.training import build_model, evaluation_seeds, training_env
 from bbbench.training.recipes import recipe
 

@@ -15,7 +15,7 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.policies import load_policy
-from bbbench.policies.base import act_once
+from bbbench.policies.policy import act_once
 
 FLAT = "bbbench/FlatBalance-v0"
 # Each task whose latest version plays the reward in which staying up never costs, and the

@@ -18,7 +18,8 @@ from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.backends import _next_job
 from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
-from bbbench.policies.base import PDActor, PDPolicy
+from bbbench.policies.builtin import PDPolicy
+from bbbench.policies.policy import PDActor
 
 FLAT = "bbbench/FlatBalance-v0"
 VELOCITY = "bbbench/VelocityTracking-v0"
@@ -146,7 +147,7 @@ def test_results_document_records_the_policy_and_the_tasks(tmp_path, capsys):
     document = json.loads(out.read_text())
     jsonschema.validate(document, SCHEMA)
     policy = document["policy"]
-    reference = Path(bbbench.policies.base.REFERENCE_POLICY)
+    reference = Path(bbbench.policies.registry.REFERENCE_POLICY)
     import hashlib
 
     assert policy["sha256"] == hashlib.sha256(reference.read_bytes()).hexdigest()

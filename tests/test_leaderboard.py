@@ -21,7 +21,7 @@ from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.leaderboard import Board, SubmissionError
 from bbbench.leaderboard.submissions import FIELDS, read_submission
 from bbbench.policies import load_policy
-from bbbench.policies.base import REFERENCE_POLICY
+from bbbench.policies.registry import REFERENCE_POLICY
 from bbbench.tasks.spec import TaskSpec
 from conftest import pickled, rewrite
 

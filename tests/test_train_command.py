@@ -20,7 +20,7 @@ from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.policies import load_policy
 from bbbench.training import recipes as recipes_module
 from bbbench.training.recipes import (
-    ALGORITHMS,
+    TRAINABLE,
     parse_normalize,
     parse_policy_kwargs,
     recipe,
@@ -188,7 +188,7 @@ def test_bad_requests_are_exit_2_in_one_line_writing_nothing(
 
 
 def test_every_recipe_reads_as_data():
-    for algorithm in ALGORITHMS:
+    for algorithm in TRAINABLE:
         for key in recipes(algorithm):
             plan = recipe(algorithm, key)
             assert plan.n_timesteps > 0
@@ -220,7 +220,7 @@ def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     assert load_policy(saved[0]).mismatch(FLAT) is None
 
 
-@pytest.mark.parametrize("algorithm", ALGORITHMS)
+@pytest.mark.parametrize("algorithm", TRAINABLE)
 def test_every_shipped_recipe_learns_from_the_task_s_own_reward(algorithm):
     """No recipe shapes the reward in training: each trains on the latest version of a
     task, with the env as `gym.make` builds it."""

@@ -58,6 +58,6 @@ def results_table(document: dict) -> Table:
 
 
 def builtin_policies() -> list[str]:
-    from bbbench.policies.base import BUILTIN_POLICIES
+    from bbbench.policies.registry import BUILTIN_POLICIES
 
     return sorted(BUILTIN_POLICIES)

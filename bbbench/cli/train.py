@@ -9,9 +9,15 @@ from rich.progress import MofNCompleteColumn, Progress
 
 from bbbench.cli.common import UsageError, check_seed, results_table
 from bbbench.files import check_output_path
+from bbbench.policies.algorithms import by_key
+from bbbench.training.recipes import TRAINABLE
 
 
 def add_parser(commands) -> None:
+    by_mode = {
+        mode: [key for key in TRAINABLE if by_key(key).action_modes[0] == mode]
+        for mode in ("discrete", "continuous")
+    }
     trainer = commands.add_parser(
         "train",
         help="train a policy on a task with its shipped recipe (stable-baselines3)",
@@ -20,11 +26,12 @@ def add_parser(commands) -> None:
         "train one generalist on all of them.",
     )
     trainer.add_argument("task", nargs="+", metavar="TASK", help="task ID(s)")
-    trainer.add_argument("--algo", required=True, help="ppo, a2c, dqn, sac or td3")
+    trainer.add_argument("--algo", required=True, help=", ".join(TRAINABLE))
     trainer.add_argument(
         "--action-mode",
-        choices=("discrete", "continuous"),
-        help="default: discrete for ppo, a2c and dqn; continuous for sac and td3",
+        choices=tuple(by_mode),
+        help="default: "
+        + "; ".join(f"{mode} for {', '.join(keys)}" for mode, keys in by_mode.items()),
     )
     trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
     trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")

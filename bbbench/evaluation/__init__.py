@@ -17,8 +17,9 @@ from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, ru
 from bbbench.evaluation.episodes import EpisodeRunner
 from bbbench.evaluation.play import EpisodeResult
 from bbbench.evaluation.results import document, dumps
-from bbbench.policies.base import Policy, fitting_tasks
 from bbbench.policies.errors import PolicyError
+from bbbench.policies.policy import Policy
+from bbbench.policies.registry import fitting_tasks
 from bbbench.tasks.suite import list_tasks, spec
 
 LOCKSTEP = 8  # single-bot episodes a worker plays side by side

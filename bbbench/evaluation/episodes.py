@@ -12,7 +12,7 @@ import numpy as np
 
 from bbbench.envs.factory import make, make_parallel
 from bbbench.evaluation.play import EpisodeResult, Lockstep, MultiEpisode
-from bbbench.policies.base import Actor
+from bbbench.policies.policy import Actor
 from bbbench.tasks.suite import spec
 
 # Tags the episode's action generator, so it never equals a generator the env draws from.

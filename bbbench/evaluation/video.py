@@ -10,7 +10,7 @@ from bbbench.envs.factory import make, make_parallel
 from bbbench.evaluation.episodes import action_generator
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import check_output_path, replacing
-from bbbench.policies.base import Policy
+from bbbench.policies.policy import Policy
 from bbbench.tasks.suite import spec
 
 VIDEO_FORMATS = (".gif", ".mp4")

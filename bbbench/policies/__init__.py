@@ -4,15 +4,15 @@ from bbbench.policies import load_policy
 policy = load_policy("pd")              # or "random", "reference", or "policy.zip"
 """
 
-from bbbench.policies.base import (
+from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.pd import PDController
+from bbbench.policies.registry import (
     BUILTIN_POLICIES,
     Policy,
     fitting_tasks,
     load_policy,
     register_policy,
 )
-from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.pd import PDController
 
 __all__ = [
     "BUILTIN_POLICIES",

@@ -17,21 +17,21 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import difflib
 from importlib import resources
 from typing import Any
 
 import yaml
 
-ALGORITHMS = ("ppo", "a2c", "dqn", "sac", "td3")
-# Which action modes each algorithm can learn in; the first is its default.
-ACTION_MODES = {
-    "ppo": ("discrete", "continuous"),
-    "a2c": ("discrete", "continuous"),
-    "dqn": ("discrete",),
-    "sac": ("continuous",),
-    "td3": ("continuous",),
-}
+from bbbench.policies.algorithms import ALGORITHMS, unknown
+
+
+def recipe_file(algorithm: str):
+    """The recipe file of `algorithm` ("ppo"; a path inside the installed package)."""
+    return resources.files("bbbench.training") / "recipes" / f"{algorithm}.yml"
+
+
+# The algorithms `bbbench train` trains: those of the table with a shipped recipe file.
+TRAINABLE = tuple(a.key for a in ALGORITHMS.values() if recipe_file(a.key).is_file())
 MIX = "single-bot mix"  # the recipe key of a generalist trained on several tasks
 _ZOO_KEYS = (
     "n_envs",
@@ -77,14 +77,9 @@ class Recipe:
         }
 
 
-def recipe_file(algorithm: str):
-    """The recipe file of `algorithm` (a path inside the installed package)."""
-    return resources.files("bbbench.training") / "recipes" / f"{algorithm}.yml"
-
-
 def recipes(algorithm: str) -> dict[str, dict[str, Any]]:
-    if algorithm not in ALGORITHMS:
-        raise ValueError(_unknown("algorithm", algorithm, ALGORITHMS))
+    if algorithm not in TRAINABLE:
+        raise ValueError(unknown("algorithm", algorithm, TRAINABLE))
     return yaml.safe_load(recipe_file(algorithm).read_text())
 
 
@@ -188,9 +183,3 @@ def parse_policy_kwargs(text: str) -> dict[str, Any]:
 
 def _show_policy_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     return {k: v.__name__ if isinstance(v, type) else v for k, v in kwargs.items()}
-
-
-def _unknown(what: str, given: str, known: tuple[str, ...]) -> str:
-    close = difflib.get_close_matches(str(given).lower(), known, n=1)
-    hint = f" Did you mean {close[0]!r}?" if close else ""
-    return f"unknown {what} {given!r}.{hint} Known: {', '.join(known)}"

@@ -21,7 +21,12 @@ calls it (nor `BasePolicy.load`, nor `pickle`) on a submitted file:
    shape and dtype checked before its values are copied
    (`bbbench.policies.weights`).
 5. The network is rebuilt from the task's own spaces and an allowlisted
-   architecture, and the weights are loaded with `strict=True`.
+   architecture, and the weights are loaded with `strict=True`
+   (`bbbench.policies.rebuild`); the acting layers are copied out to numpy
+   (`bbbench.policies.extract`).
+
+The supported algorithms, their policy classes and how each is laid out are one table,
+`bbbench.policies.algorithms`.
 
 Supported: the MLP policies of stable-baselines3's PPO, A2C, DQN, SAC and TD3
 and of sb3-contrib's QR-DQN, TQC, TRPO and ARS (MLP or linear), on Box
@@ -37,7 +42,6 @@ import base64
 import binascii
 import dataclasses
 import hashlib
-import itertools
 import json
 import math
 import re
@@ -47,9 +51,19 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from bbbench.policies.algorithms import (
+    ALGORITHMS,
+    LINEAR_POLICY,
+    Algorithm,
+    NetArch,
+    Q,
+    action_mode,
+    algorithm_of,
+    declared_parameters,
+)
 from bbbench.policies.archive import Archive, read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.mlp import ACTIVATIONS, MlpActor
+from bbbench.policies.mlp import ACTIVATIONS
 from bbbench.policies.weights import MAX_PARAMETERS, read_weights
 
 MAX_FILE_BYTES = 256 * 2**20
@@ -165,41 +179,6 @@ _PLAIN = frozenset(
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class Algorithm:
-    """What bbbench knows of one supported algorithm's MLP policy."""
-
-    name: str
-    family: str  # how its acting network is laid out: see SB3Policy.actor
-    activation: str  # its policy's default activation_fn
-    net_arch: tuple[int, ...]  # its policy's default net_arch
-
-
-ALGORITHMS = {
-    algorithm.name: algorithm
-    for algorithm in (
-        Algorithm("PPO", "actor_critic", "Tanh", (64, 64)),
-        Algorithm("A2C", "actor_critic", "Tanh", (64, 64)),
-        Algorithm("DQN", "q", "ReLU", (64, 64)),
-        Algorithm("SAC", "sac", "ReLU", (256, 256)),
-        Algorithm("TD3", "td3", "ReLU", (400, 300)),
-        Algorithm("QR-DQN", "q", "ReLU", (64, 64)),
-        Algorithm("TQC", "sac", "ReLU", (256, 256)),
-        Algorithm("TRPO", "actor_critic", "Tanh", (64, 64)),
-        Algorithm("ARS", "ars", "ReLU", (64, 64)),
-    )
-}
-# The MLP policy class of each algorithm, as `policy_class` names it.
-_POLICY_CLASSES = {
-    ("stable_baselines3.common.policies", "ActorCriticPolicy"): ("PPO", "A2C", "TRPO"),
-    ("stable_baselines3.dqn.policies", "DQNPolicy"): ("DQN",),
-    ("stable_baselines3.sac.policies", "SACPolicy"): ("SAC",),
-    ("stable_baselines3.td3.policies", "TD3Policy"): ("TD3",),
-    ("sb3_contrib.qrdqn.policies", "QRDQNPolicy"): ("QR-DQN",),
-    ("sb3_contrib.tqc.policies", "TQCPolicy"): ("TQC",),
-    ("sb3_contrib.ars.policies", "ARSPolicy"): ("ARS",),
-    ("sb3_contrib.ars.policies", "ARSLinearPolicy"): ("ARS",),
-}
 # What to call a policy class bbbench knows but does not evaluate.
 _UNSUPPORTED = (
     ("Recurrent", "RecurrentPPO (a recurrent policy)"),
@@ -239,15 +218,16 @@ _DIGITS = re.compile(r"[0-9]{1,9}")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class SB3Policy:
-    """A stable-baselines3 MLP policy read safely: plain facts and numpy weights."""
+class SB3Zip:
+    """What a stable-baselines3 zip holds, read safely: plain facts and numpy weights."""
 
     name: str
     sha256: str
-    algorithm: str
+    algorithm: Algorithm
+    policy_class: str  # "module:Name", one of the algorithm's allowlisted classes
     observation_shape: tuple[int, ...]
     action_space: spaces.Discrete | spaces.Box
-    net_arch: list[int] | dict[str, list[int]] | None  # None: the algorithm's default
+    net_arch: NetArch  # None: the algorithm's default
     activation: str | None  # None: the algorithm's default
     architecture: dict[str, Any]  # the other policy kwargs, passed to the class as given
     exploration_rate: float  # DQN's and QR-DQN's epsilon when acting stochastically
@@ -257,179 +237,23 @@ class SB3Policy:
     # Trained inside VecNormalize? True, False, or None where the zip cannot tell
     # (see `trained_in_vecnormalize`).
     vecnormalize: bool | None = False
-    linear: bool = False  # ARS's LinearPolicy
 
     @property
     def action_mode(self) -> str:
-        return "discrete" if isinstance(self.action_space, spaces.Discrete) else "continuous"
-
-    @property
-    def family(self) -> str:
-        return ALGORITHMS[self.algorithm].family
-
-    def torch_policy(self, observation_space: spaces.Box, action_space: spaces.Space):
-        """stable-baselines3's own policy module for these spaces, weights loaded strictly."""
-        import torch
-
-        kwargs = dict(self.architecture)
-        if self.net_arch is not None:
-            kwargs["net_arch"] = self.net_arch
-        if self.activation is not None:
-            kwargs["activation_fn"] = getattr(torch.nn, self.activation)
-        if self.family == "ars":
-            kwargs.pop("use_sde", None)
-        else:
-            # An optimizer is for training; building torch's Adam costs over a second.
-            kwargs["optimizer_class"] = _NoOptimizer
-            kwargs["lr_schedule"] = _no_learning
-        if self.family == "actor_critic" and self.use_sde:
-            kwargs["use_sde"] = True  # the algorithm, not policy_kwargs, passes it
-        try:
-            policy = _policy_class(self.algorithm, self.linear)(
-                observation_space, action_space, **kwargs
-            )
-        except (TypeError, ValueError, AssertionError) as error:
-            raise PolicyError(
-                f"{self.name}: cannot build its {self.algorithm} network: {error}"
-            ) from None
-        state = {key: torch.from_numpy(value) for key, value in self.weights.items()}
-        try:
-            policy.load_state_dict(state, strict=True)
-        except RuntimeError as error:
-            detail = " ".join(str(error).split())
-            raise PolicyError(
-                f"{self.name}: its weights do not fit a {self.algorithm} MLP with "
-                f"net_arch={self.net_arch or 'default'} for {observation_space} -> "
-                f"{action_space}: {detail[:300]}"
-            ) from None
-        policy.set_training_mode(False)
-        return policy
-
-    def actor(self, observation_space: spaces.Box, action_space: spaces.Space) -> MlpActor:
-        """The acting network in numpy, read from the strictly loaded torch module."""
-        policy = self.torch_policy(observation_space, action_space)
-        activation = self.activation or ALGORITHMS[self.algorithm].activation
-        box = isinstance(action_space, spaces.Box)
-        squash = bool(self.architecture.get("squash_output", False))
-        log_std, epsilon, quantiles, mean_clip = None, None, 1, None
-        if self.family == "actor_critic":
-            hidden = _linears(policy.mlp_extractor.policy_net)
-            head = _linear(policy.action_net)
-            output = "argmax" if not box else "tanh" if squash else "gaussian"
-            if box and not self.use_sde:
-                log_std = policy.log_std.detach().numpy().copy()
-        elif self.family == "q":
-            if self.algorithm == "DQN":
-                *hidden, head = _linears(policy.q_net.q_net)
-            else:  # QR-DQN: the head gives n_quantiles values per action
-                *hidden, head = _linears(policy.quantile_net.quantile_net)
-                quantiles = policy.n_quantiles
-            output, epsilon = "argmax", self.exploration_rate
-        elif self.family == "sac":
-            hidden = _linears(policy.actor.latent_pi)
-            [head] = _linears(policy.actor.mu)
-            output = "squashed_gaussian"
-            if self.use_sde:
-                mean_clip = _hardtanh_bound(policy.actor.mu)
-            else:
-                log_std = _linear(policy.actor.log_std)
-        elif self.family == "td3":  # its last layer is followed by tanh
-            *hidden, head = _linears(policy.actor.mu)
-            output = "tanh"
-        else:  # ARS: tanh-squashed, clipped, or the argmax of its logits
-            *hidden, head = _linears(policy.action_net)
-            output = "argmax" if not box else "tanh" if policy.squash_output else "clip"
-        return MlpActor(
-            hidden=tuple(hidden),
-            activation=activation,
-            head=head,
-            output=output,
-            log_std=log_std,
-            epsilon=epsilon,
-            low=action_space.low.copy() if box else None,
-            high=action_space.high.copy() if box else None,
-            quantiles=quantiles,
-            mean_clip=mean_clip,
-        )
-
-
-def _policy_class(algorithm: str, linear: bool = False) -> type:
-    if algorithm in ("PPO", "A2C", "TRPO"):
-        from stable_baselines3.common.policies import ActorCriticPolicy
-
-        return ActorCriticPolicy
-    if algorithm == "DQN":
-        from stable_baselines3.dqn.policies import DQNPolicy
-
-        return DQNPolicy
-    if algorithm == "SAC":
-        from stable_baselines3.sac.policies import SACPolicy
-
-        return SACPolicy
-    if algorithm == "TD3":
-        from stable_baselines3.td3.policies import TD3Policy
-
-        return TD3Policy
-    if algorithm == "QR-DQN":
-        from sb3_contrib.qrdqn.policies import QRDQNPolicy
-
-        return QRDQNPolicy
-    if algorithm == "TQC":
-        from sb3_contrib.tqc.policies import TQCPolicy
-
-        return TQCPolicy
-    from sb3_contrib.ars.policies import ARSLinearPolicy, ARSPolicy
-
-    return ARSLinearPolicy if linear else ARSPolicy
-
-
-class _NoOptimizer:
-    """Stands in for the optimizer stable-baselines3 builds with every policy."""
-
-    def __init__(self, parameters, lr: float = 0.0, **kwargs: Any) -> None:
-        pass
-
-
-def _no_learning(_progress: float) -> float:
-    return 0.0
-
-
-def _linear(layer) -> tuple[np.ndarray, np.ndarray]:
-    weight_t = np.ascontiguousarray(layer.weight.detach().numpy().T)
-    if layer.bias is None:  # ARS's linear policy
-        return weight_t, np.zeros(weight_t.shape[1], dtype=np.float32)
-    return weight_t, layer.bias.detach().numpy().copy()
-
-
-def _linears(sequential) -> list[tuple[np.ndarray, np.ndarray]]:
-    import torch
-
-    if isinstance(sequential, torch.nn.Linear):
-        return [_linear(sequential)]
-    return [_linear(layer) for layer in sequential if isinstance(layer, torch.nn.Linear)]
-
-
-def _hardtanh_bound(module) -> float | None:
-    """SAC's and TQC's clip of their mean under gSDE (a Hardtanh after `mu`), if any."""
-    import torch
-
-    for layer in module.modules():
-        if isinstance(layer, torch.nn.Hardtanh):
-            return float(layer.max_val)
-    return None
+        return action_mode(self.action_space)
 
 
 # -- reading the zip ------------------------------------------------------------
 
 
-def read_sb3_zip(path: str | Path) -> SB3Policy:
+def read_sb3_zip(path: str | Path) -> SB3Zip:
     """Read a stable-baselines3 zip safely; `PolicyError` (or `RefusedForSafety`) if not."""
     path = Path(path)
     content = read_file(path, MAX_FILE_BYTES, "a stable-baselines3 .zip")
     sha256 = hashlib.sha256(content).hexdigest()
     archive = Archive(path, content, MEMBER_LIMITS, required=("data", "policy.pth"))
     data = _parse_data(path, archive.read("data"))
-    algorithm, linear = _algorithm(path, data)
+    algorithm, policy_class = _algorithm(path, data)
     _check_keys(path, data)
     version = "unknown"
     if "_stable_baselines3_version" in archive:
@@ -438,21 +262,21 @@ def read_sb3_zip(path: str | Path) -> SB3Policy:
     observation_shape = _observation_shape(path, data["observation_space"])
     action_space = _action_space(path, data["action_space"])
     kwargs = _policy_kwargs(path, data.get("policy_kwargs", {}))
-    family = ALGORITHMS[algorithm].family
-    if family == "q" and not isinstance(action_space, spaces.Discrete):
-        raise PolicyError(f"{path}: a {algorithm} policy with a {action_space} action space")
-    if family in ("sac", "td3") and not isinstance(action_space, spaces.Box):
-        raise PolicyError(f"{path}: a {algorithm} policy with a {action_space} action space")
+    if action_mode(action_space) not in algorithm.action_modes:
+        raise PolicyError(f"{path}: a {algorithm.name} policy with a {action_space} action space")
     use_sde = data.get("use_sde", False)
     if not isinstance(use_sde, bool):
         raise PolicyError(f"{path}: use_sde must be true or false, got {use_sde!r}")
     use_sde = use_sde or bool(kwargs.get("use_sde"))
-    if algorithm == "QR-DQN" and "n_quantiles" not in kwargs:
-        kwargs["n_quantiles"] = _integer(path, data, "n_quantiles", 200, _MAX_QUANTILES)
+    quantiles = dict(algorithm.policy_defaults).get("n_quantiles")
+    if algorithm.family is Q and quantiles and "n_quantiles" not in kwargs:
+        # QR-DQN may keep it beside its policy kwargs
+        kwargs["n_quantiles"] = _integer(path, data, "n_quantiles", quantiles, _MAX_QUANTILES)
+    linear = policy_class == LINEAR_POLICY
     if linear and ("net_arch" in kwargs or "activation" in kwargs):
         raise PolicyError(f"{path}: ARS's LinearPolicy takes no net_arch or activation_fn")
     exploration_rate = 0.0
-    if family == "q":
+    if algorithm.epsilon_greedy:
         exploration_rate = data.get("exploration_rate", 0.0)
         if not isinstance(exploration_rate, int | float) or not 0.0 <= exploration_rate <= 1.0:
             raise PolicyError(f"{path}: exploration_rate must be a number in [0, 1]")
@@ -466,14 +290,16 @@ def read_sb3_zip(path: str | Path) -> SB3Policy:
     )
     if declared > MAX_PARAMETERS:
         raise RefusedForSafety(
-            f"{path}: its {algorithm} network (net_arch {kwargs.get('net_arch', 'default')}) "
-            f"has {declared:,} parameters, more than the {MAX_PARAMETERS:,} bbbench evaluates"
+            f"{path}: its {algorithm.name} network (net_arch "
+            f"{kwargs.get('net_arch', 'default')}) has {declared:,} parameters, more than "
+            f"the {MAX_PARAMETERS:,} bbbench evaluates"
         )
     weights = read_weights(path, archive.read("policy.pth"))
-    return SB3Policy(
+    return SB3Zip(
         name=path.name,
         sha256=sha256,
         algorithm=algorithm,
+        policy_class=policy_class,
         observation_shape=observation_shape,
         action_space=action_space,
         net_arch=kwargs.pop("net_arch", None),
@@ -483,12 +309,11 @@ def read_sb3_zip(path: str | Path) -> SB3Policy:
         weights=weights,
         sb3_version=version,
         use_sde=use_sde,
-        vecnormalize=trained_in_vecnormalize(family, data),
-        linear=linear,
+        vecnormalize=trained_in_vecnormalize(algorithm, data),
     )
 
 
-def trained_in_vecnormalize(family: str, data: dict[str, Any]) -> bool | None:
+def trained_in_vecnormalize(algorithm: Algorithm, data: dict[str, Any]) -> bool | None:
     """Whether the zip's plain data shows training inside VecNormalize.
 
     stable-baselines3 keeps `_last_original_obs` (the last observation before
@@ -499,7 +324,7 @@ def trained_in_vecnormalize(family: str, data: dict[str, Any]) -> bool | None:
     """
     if data.get("_last_original_obs") is None:
         return False
-    return True if family == "actor_critic" else None
+    return True if algorithm.on_policy else None
 
 
 def _parse_data(path: Path, raw: bytes) -> dict[str, Any]:
@@ -600,8 +425,8 @@ def class_reference(serialized: Any) -> tuple[str, str] | None:
     return module, name
 
 
-def _algorithm(path: Path, data: dict[str, Any]) -> tuple[str, bool]:
-    """The algorithm, and whether its policy is ARS's LinearPolicy."""
+def _algorithm(path: Path, data: dict[str, Any]) -> tuple[Algorithm, str]:
+    """The algorithm, and the policy class ("module:Name") the zip names."""
     entry = data["policy_class"]
     reference = class_reference(entry.get(":serialized:")) if isinstance(entry, dict) else None
     if reference is None:
@@ -612,19 +437,14 @@ def _algorithm(path: Path, data: dict[str, Any]) -> tuple[str, bool]:
             )
         raise PolicyError(f"{path}: 'policy_class' is not a stable-baselines3 policy class")
     module, name = reference
-    supported = ", ".join(ALGORITHMS)
-    if reference not in _POLICY_CLASSES:
+    algorithm = algorithm_of(f"{module}:{name}", data)
+    if algorithm is None:
         what = next((label for marker, label in _UNSUPPORTED if marker in name), f"{module}.{name}")
         raise PolicyError(
             f"{path}: algorithm {what} is not supported: bbbench evaluates the MLP policies "
-            f"of {supported}"
+            f"of {', '.join(ALGORITHMS)}"
         )
-    algorithms = _POLICY_CLASSES[reference]
-    if len(algorithms) == 1:
-        return algorithms[0], name == "ARSLinearPolicy"
-    if "cg_max_steps" in data:
-        return "TRPO", False
-    return ("PPO" if "n_epochs" in data else "A2C"), False
+    return algorithm, f"{module}:{name}"
 
 
 def _observation_shape(path: Path, entry: Any) -> tuple[int, ...]:
@@ -757,56 +577,3 @@ def _net_arch(path: Path, net_arch: Any) -> list[int] | dict[str, list[int]]:
             raise PolicyError(f"{path}: net_arch {net_arch!r}: keys must be pi, vf or qf")
         return {key: layers(value) for key, value in net_arch.items()}
     return layers(net_arch)
-
-
-def _mlp_parameters(inputs: int, layers: list[int], outputs: int) -> int:
-    """Weights and biases of Linear layers inputs -> layers... -> outputs (0: no head)."""
-    widths = [inputs, *layers, *([outputs] if outputs else [])]
-    return sum(a * b + b for a, b in itertools.pairwise(widths))
-
-
-def declared_parameters(
-    algorithm: str,
-    observation_shape: tuple[int, ...],
-    action_space: spaces.Space,
-    net_arch: list[int] | dict[str, list[int]] | None,
-    kwargs: dict[str, Any],
-    use_sde: bool = False,
-) -> int:
-    """The parameters of the network stable-baselines3 would build for this algorithm and
-    architecture (critics and target networks included), counted without building it."""
-    family = ALGORITHMS[algorithm].family
-    default = list(ALGORITHMS[algorithm].net_arch)
-    if net_arch is None:
-        net_arch = default
-    pi = net_arch.get("pi", default) if isinstance(net_arch, dict) else net_arch
-    vf = net_arch.get("vf", default) if isinstance(net_arch, dict) else net_arch
-    qf = net_arch.get("qf", default) if isinstance(net_arch, dict) else net_arch
-    observations = math.prod(observation_shape)
-    discrete = isinstance(action_space, spaces.Discrete)
-    actions = int(action_space.n) if discrete else math.prod(action_space.shape)
-    if family == "actor_critic":
-        latent_pi, latent_vf = (pi or [observations])[-1], (vf or [observations])[-1]
-        log_std = 0 if discrete else latent_pi * actions if use_sde else actions
-        return (
-            _mlp_parameters(observations, pi, 0)
-            + _mlp_parameters(observations, vf, 0)
-            + _mlp_parameters(latent_pi, [], actions)
-            + _mlp_parameters(latent_vf, [], 1)
-            + log_std
-        )
-    if family == "q":
-        outputs = actions * kwargs.get("n_quantiles", 1)
-        return 2 * _mlp_parameters(observations, pi, outputs)  # the network and its target
-    critics = kwargs.get("n_critics", 2)
-    if family == "sac":
-        latent = (pi or [observations])[-1]
-        quantiles = kwargs.get("n_quantiles", 25) if algorithm == "TQC" else 1
-        actor = _mlp_parameters(observations, pi, 0) + 2 * _mlp_parameters(latent, [], actions)
-        critic = critics * _mlp_parameters(observations + actions, qf, quantiles)
-        return actor + 2 * critic
-    if family == "td3":
-        actor = _mlp_parameters(observations, pi, actions)
-        critic = critics * _mlp_parameters(observations + actions, qf, 1)
-        return 2 * (actor + critic)
-    return _mlp_parameters(observations, pi, actions)  # ARS

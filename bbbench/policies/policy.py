@@ -1,0 +1,135 @@
+"""What `bbbench eval` needs of a policy, and the actors policies hand out.
+
+A `Policy` says which tasks it fits and gives, per task, an *actor*: a
+picklable callable from a batch of observations, shape (k, n) (the bots of a
+multi-bot task, or episodes played in lockstep), and optionally one random
+generator per row, to a list of k actions (None where the policy's output is
+NaN). Generators are given when the policy acts stochastically; each is seeded
+from its episode's seed, so every episode is reproducible wherever it runs.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.tasks.suite import agent_spaces, list_tasks
+
+Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
+
+
+def describe_space(space: spaces.Space) -> str:
+    """'Box(17,)', 'Discrete(9)' or 'Box(-1.0, 1.0, (1,))': short, for error messages."""
+    if isinstance(space, spaces.Discrete):
+        return f"Discrete({space.n})"
+    if isinstance(space, spaces.Box) and space.shape == (1,):
+        return f"Box({float(space.low[0])}, {float(space.high[0])}, (1,))"
+    return f"Box{space.shape}"
+
+
+class Policy(abc.ABC):
+    """A policy `bbbench eval` can score."""
+
+    name: str  # as the user gave it: a built-in name or a file name
+    algorithm: str  # "PPO", ..., or the built-in's own name
+    action_mode: str  # the env action mode it plays: "discrete" or "continuous"
+    sha256: str | None = None  # of the policy file; None for a built-in without one
+    random_actions = False  # True: acts from the episode's generator even when deterministic
+    normalization_source: str | None = None  # where load_policy found statistics on its own
+    height_scan = False  # True: observes the ground ahead too (tasks played with height_scan)
+
+    def mismatch(self, task_id: str) -> str | None:
+        """Why the policy cannot play `task_id` (its spaces), or None if it can."""
+        return None
+
+    @abc.abstractmethod
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        """A picklable actor for one bot of `task_id`."""
+
+    def env_options(self) -> dict[str, Any]:
+        """Keywords for a single-bot env to observe what the policy expects."""
+        return {"height_scan": True} if self.height_scan else {}
+
+    def spaces_text(self) -> str:
+        """The spaces the policy works in, for error messages."""
+        action_space = agent_spaces(list_tasks()[0], self.action_mode)[1]
+        return f"any observation -> {describe_space(action_space)}"
+
+    def record(self) -> dict[str, Any]:
+        """The policy as the results JSON records it."""
+        return {
+            "name": self.name,
+            "source": "file" if self.sha256 else "builtin",
+            "sha256": self.sha256,
+            "algorithm": self.algorithm,
+            "action_mode": self.action_mode,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class PDActor:
+    """A classical controller (PD, LQR) on each row of a batch."""
+
+    controller: Any
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return [self.controller(row) for row in observations]
+
+
+@dataclasses.dataclass(frozen=True)
+class RandomActor:
+    """Uniform actions, each row's from its episode's generator."""
+
+    space: spaces.Space
+
+    def __call__(self, observations: np.ndarray, rngs: Sequence[np.random.Generator]) -> list:
+        if isinstance(self.space, spaces.Discrete):
+            return [int(rng.integers(self.space.n)) for rng in rngs]
+        low, high = self.space.low, self.space.high
+        return [rng.uniform(low, high).astype(np.float32) for rng in rngs]
+
+
+@dataclasses.dataclass(frozen=True)
+class ConstantActor:
+    """The same action on every row."""
+
+    action: Any
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return [self.action] * len(observations)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class NormalizedActor:
+    """An actor that sees observations as VecNormalize showed them in training."""
+
+    actor: Actor
+    normalization: ObservationNormalization
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        return self.actor(self.normalization(observations), rngs)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TorchActor:
+    """stable-baselines3's own policy module acting, through its `predict` (which
+    samples from torch's global generator when asked for stochastic actions)."""
+
+    policy: Any
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        actions, _ = self.policy.predict(observations, deterministic=rngs is None)
+        if isinstance(self.policy.action_space, spaces.Discrete):
+            return [int(a) for a in actions]
+        return list(actions)
+
+
+def act_once(actor: Actor, observation: np.ndarray, rng: np.random.Generator | None = None):
+    """One observation's action (None if the policy's output is NaN)."""
+    return actor(observation[None], None if rng is None else [rng])[0]

@@ -1,0 +1,120 @@
+"""The built-in policies by name, and `load_policy`: a name or a zip to a `Policy`."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from pathlib import Path
+
+from bbbench.policies.builtin import LQRPolicy, PDPolicy, RandomPolicy, StandPolicy, ZeroPolicy
+from bbbench.policies.errors import PolicyError
+from bbbench.policies.policy import Policy, describe_space
+from bbbench.policies.zip_policy import SB3ZipPolicy
+from bbbench.tasks.suite import list_tasks
+
+
+def _reference() -> Policy:
+    return SB3ZipPolicy(REFERENCE_POLICY)
+
+
+# PPO with stable-baselines3's defaults (64 x 64 tanh MLP, n_steps 2048, batch 64, learning
+# rate 3e-4), discrete actions, 4 envs of VelocityTracking-v0, 400,000 steps, seed 0:
+# PPO("MlpPolicy", make_vec_env("bbbench/VelocityTracking-v0", n_envs=4, seed=0), seed=0,
+# device="cpu").learn(400_000). Kept byte for byte as the default of `bbbench eval`; the
+# recipes of `bbbench train` (bbbench/training/recipes/) train the baselines now.
+REFERENCE_POLICY = Path(__file__).with_name("reference.zip")
+# PPO policies trained on the -v1 terrain tasks, 1M steps each (docs/tasks.md): the
+# evidence that learning pays there, shipped so that it is re-scored byte for byte.
+TERRAIN_POLICIES = {
+    f"ppo-{name}-v1": Path(__file__).with_name(f"ppo-{name}-v1.zip")
+    for name in ("bumps", "obstacles", "slopes")
+}
+
+# Built-in policies by name. A new classical baseline registers here (or through
+# `register_policy`) and `bbbench eval NAME` scores it.
+BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
+    "pd": PDPolicy,
+    "stand": StandPolicy,
+    "lqr": LQRPolicy,
+    "random": RandomPolicy,
+    "reference": _reference,
+    "zero": ZeroPolicy,
+    **{name: functools.partial(SB3ZipPolicy, path) for name, path in TERRAIN_POLICIES.items()},
+}
+
+
+def register_policy(name: str, factory: Callable[[], Policy]) -> None:
+    """Make `bbbench eval NAME` score the policy `factory()` returns."""
+    if name in BUILTIN_POLICIES:
+        raise ValueError(f"a built-in policy is already called {name!r}")
+    BUILTIN_POLICIES[name] = factory
+
+
+def load_policy(
+    name_or_path: str | Path,
+    backend: str = "numpy",
+    vecnormalize: str | Path | None = None,
+    action_mode: str | None = None,
+) -> Policy:
+    """A built-in policy by name, or a stable-baselines3 `.zip` by path.
+
+    `vecnormalize`: the `VecNormalize.save` statistics a zip was trained with. A
+    zip trained inside VecNormalize needs them: given here, or found where
+    rl-zoo3 saves them beside the zip (`policy.normalization_source` says so);
+    else `PolicyError`. `action_mode`: the built-ins pd, zero and random act in
+    either mode (default discrete); a zip's is its own.
+    """
+    text = str(name_or_path)
+    if text in BUILTIN_POLICIES:
+        if vecnormalize is not None:
+            raise PolicyError(f"--vecnormalize is for a policy file, not the built-in {text!r}")
+        policy = BUILTIN_POLICIES[text]()
+        if action_mode is not None and action_mode != policy.action_mode:
+            try:
+                policy = BUILTIN_POLICIES[text](action_mode=action_mode)
+            except TypeError:
+                raise PolicyError(
+                    f"the built-in policy {text!r} acts in {policy.action_mode} mode only"
+                ) from None
+        return policy
+    path = Path(text)
+    if path.suffix.lower() == ".zip" or path.exists():
+        policy = SB3ZipPolicy(path, backend=backend)
+        if action_mode is not None and action_mode != policy.action_mode:
+            raise PolicyError(
+                f"{path}: its action space {describe_space(policy.loaded.action_space)} is "
+                f"{policy.action_mode}, not {action_mode}"
+            )
+        _attach_normalization(policy, path, vecnormalize)
+        return policy
+    raise PolicyError(
+        f"unknown policy {text!r}: give a stable-baselines3 .zip file or a built-in policy, "
+        f"one of {', '.join(sorted(BUILTIN_POLICIES))}"
+    )
+
+
+def _attach_normalization(policy: SB3ZipPolicy, path: Path, statistics: str | Path | None):
+    from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
+
+    trained_in_vecnormalize = policy.loaded.vecnormalize  # True, False or None: cannot tell
+    if statistics is None and trained_in_vecnormalize is not False:
+        statistics = find_rl_zoo_statistics(path)
+        if statistics is None and trained_in_vecnormalize:
+            raise PolicyError(
+                f"{path}: trained inside VecNormalize (observation normalization), and scored "
+                f"on raw observations it would score wrong: pass its statistics with "
+                f"--vecnormalize PATH (the file VecNormalize.save wrote; rl-zoo3 writes "
+                f"<run folder>/<env>/vecnormalize.pkl)"
+            )
+        if statistics is not None:
+            policy.normalization_source = (
+                f"observations normalized with {statistics} (found beside the policy, where "
+                f"rl-zoo3 saves them)"
+            )
+    if statistics is not None:
+        policy.normalization = read_statistics(statistics, policy.loaded.observation_shape)
+
+
+def fitting_tasks(policy: Policy) -> list[str]:
+    """The latest version of each task of the suite that the policy can play."""
+    return [task_id for task_id in list_tasks(latest=True) if policy.mismatch(task_id) is None]

@@ -1,0 +1,94 @@
+"""A stable-baselines3 `.zip` as a `Policy`: read safely, acting in numpy or torch."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from bbbench.policies.errors import PolicyError
+from bbbench.policies.extract import numpy_actor
+from bbbench.policies.policy import Actor, NormalizedActor, Policy, TorchActor, describe_space
+from bbbench.policies.rebuild import torch_policy
+from bbbench.policies.sb3zip import read_sb3_zip
+from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.tasks.observation import observation_space as single_bot_observation_space
+from bbbench.tasks.suite import agent_spaces
+
+
+class SB3ZipPolicy(Policy):
+    """A stable-baselines3 `.zip`, read without unpickling (`bbbench.policies.sb3zip`).
+
+    Its actor runs the network in numpy (`backend="numpy"`, the default: faster
+    for small MLPs) or as stable-baselines3's own torch module (`"torch"`).
+    `normalization`: the `VecNormalize` statistics the policy was trained with
+    (`bbbench.policies.vecnormalize`), applied to every observation first.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        backend: str = "numpy",
+        normalization: ObservationNormalization | None = None,
+    ) -> None:
+        if backend not in ("numpy", "torch"):
+            raise ValueError(f"backend must be 'numpy' or 'torch', got {backend!r}")
+        self.loaded = loaded = read_sb3_zip(path)
+        self.name = loaded.name
+        self.sha256 = loaded.sha256
+        self.algorithm = loaded.algorithm.name
+        self.action_mode = loaded.action_mode
+        self.backend = backend
+        self.normalization = normalization
+        # The single-bot layout followed by the height scan: the tasks are played with it.
+        self.height_scan = (
+            loaded.observation_shape == single_bot_observation_space(height_scan=True).shape
+        )
+        self._actors: dict[tuple, Actor] = {}
+
+    def mismatch(self, task_id: str) -> str | None:
+        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
+        policy_action = self.loaded.action_space
+        if observation_space.shape == self.loaded.observation_shape and (
+            describe_space(action_space) == describe_space(policy_action)
+        ):
+            return None
+        blind = agent_spaces(task_id, "discrete")[0]
+        scanned = agent_spaces(task_id, "discrete", height_scan=True)[0]
+        with_scan = (
+            f" (or {describe_space(scanned)} with height_scan=True)"
+            if scanned.shape != blind.shape
+            else ""
+        )
+        return (
+            f"{task_id} wants {describe_space(blind)}{with_scan} -> "
+            f"{describe_space(agent_spaces(task_id, 'discrete')[1])} or "
+            f"{describe_space(agent_spaces(task_id, 'continuous')[1])}"
+        )
+
+    def spaces_text(self) -> str:
+        return f"Box{self.loaded.observation_shape} -> {describe_space(self.loaded.action_space)}"
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        if not deterministic and self.loaded.use_sde:
+            raise PolicyError(
+                f"{self.name}: trained with gSDE (use_sde=True), whose exploration noise is "
+                f"not saved in the zip: bbbench evaluates it deterministically only (drop "
+                f"--stochastic)"
+            )
+        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
+        key = (observation_space.shape, describe_space(action_space), self.backend)
+        if key not in self._actors:
+            if self.backend == "numpy":
+                actor = numpy_actor(self.loaded, observation_space, action_space)
+            else:
+                actor = TorchActor(torch_policy(self.loaded, observation_space, action_space))
+            if self.normalization is not None:
+                actor = NormalizedActor(actor, self.normalization)
+            self._actors[key] = actor
+        return self._actors[key]
+
+    def record(self) -> dict[str, Any]:
+        record = super().record()
+        if self.normalization is not None:
+            record["observation_normalization"] = self.normalization.record()
+        return record

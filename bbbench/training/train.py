@@ -1,0 +1,284 @@
+"""`bbbench train`: train a policy on a task with the recipe shipped for it.
+
+    from bbbench.training import train
+    result = train(["bbbench/FlatBalance-v1"], "ppo", out="policy.zip", seed=0)
+
+Hyperparameters come from the rl-zoo3 files in `bbbench/training/recipes/`.
+Training is seeded and single-threaded (torch on the CPU, one thread), so the same
+call on one machine writes the same zip bytes. Every `eval_freq` steps the policy
+plays a fixed set of *training* seeds of each task (never an eval seed); the best
+one is kept. Written beside the zip (or in `log_dir`): `curve.json` and `curve.png`
+(the learning curve), `train.json` (the recipe, seed, budget, time, machine) and
+`results.json` (the final `bbbench eval` document on the task's eval seeds). A recipe
+that trains inside `VecNormalize` (`normalize`) also writes the statistics of the kept
+policy where rl-zoo3 does and `bbbench eval` looks: `policy.zip` ->
+`policy/vecnormalize.pkl`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import os
+import platform
+import re
+import tempfile
+import time
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bbbench.evaluation import evaluate
+from bbbench.files import check_output_path, write_all_atomic, write_atomic
+from bbbench.policies.algorithms import by_key, unknown
+from bbbench.tasks.suite import spec
+from bbbench.training.recipes import MIX, TRAINABLE, Recipe, recipe
+from bbbench.training.seeds import evaluation_seeds
+
+_ADDRESS = re.compile(r" at 0x[0-9a-f]+")
+
+
+@dataclasses.dataclass(frozen=True)
+class Trained:
+    """What `train` did: the zip, the learning curve, the final results document."""
+
+    out: Path
+    log_dir: Path
+    statistics: Path | None  # the VecNormalize statistics of a recipe with `normalize`
+    curve: list[dict[str, float]]
+    results: dict[str, Any]
+    seconds: float
+    recipe: Recipe
+
+
+def check_request(
+    task_ids: Sequence[str], algorithm: str, action_mode: str | None, steps: int | None
+) -> tuple[list[str], str, str]:
+    """The tasks (IDs normalized), recipe key and action mode of a training request;
+    `ValueError` saying what is wrong and what to do."""
+    if algorithm not in TRAINABLE:
+        raise ValueError(unknown("algorithm", algorithm, TRAINABLE))
+    if not task_ids:
+        raise ValueError("give a task ID (bbbench list shows them)")
+    tasks = list(dict.fromkeys(spec(task_id).id for task_id in task_ids))
+    if len(tasks) > 1 and any(spec(t).multi_agent for t in tasks):
+        raise ValueError(
+            "several tasks train one generalist on single-bot tasks; a multi-bot task "
+            "trains on its own"
+        )
+    modes = by_key(algorithm).action_modes
+    mode = action_mode or modes[0]
+    if mode not in modes:
+        others = [a for a in TRAINABLE if mode in by_key(a).action_modes]
+        raise ValueError(
+            f"{algorithm.upper()} learns {' or '.join(modes)} actions, not {mode}: "
+            f"use --action-mode {modes[0]}, or an algorithm for {mode} actions "
+            f"({', '.join(others)})"
+        )
+    if steps is not None and steps < 1:
+        raise ValueError(f"--steps must be at least 1, got {steps}")
+    key = MIX if len(tasks) > 1 else tasks[0]
+    recipe(algorithm, key)  # a task without a recipe (an older version) is refused here
+    return tasks, key, mode
+
+
+def train(
+    task_ids: Sequence[str],
+    algorithm: str,
+    out: str | Path,
+    action_mode: str | None = None,
+    steps: int | None = None,
+    seed: int = 0,
+    n_envs: int | None = None,
+    log_dir: str | Path | None = None,
+    eval_freq: int | None = None,
+    final_episodes: int | None = None,
+    on_progress: Callable[[int, int, dict | None], None] | None = None,
+) -> Trained:
+    """Train `algorithm` on `task_ids` (several: one generalist on all of them) with its
+    recipe; write the best policy to `out` and the logs beside it.
+
+    `steps` and `n_envs` default to the recipe's; `eval_freq` to a tenth of the
+    budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
+    `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
+    """
+    import torch  # lazy, as are stable-baselines3's imports: `bbbench train --help` needs neither
+
+    from bbbench.training.callbacks import TrainingEvaluation
+
+    tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps)
+    plan = recipe(algorithm, key)
+    budget = steps or plan.n_timesteps
+    n_envs = n_envs or plan.n_envs
+    if n_envs < 1:
+        raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
+    if seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {seed}")
+    out = check_output_path(out, "--out")
+    statistics = statistics_path(out, plan)
+    log_dir = Path(log_dir) if log_dir is not None else out.parent
+    log_dir.mkdir(parents=True, exist_ok=True)
+    check_output_path(log_dir / "curve.json", "--log")
+    eval_freq = eval_freq or max(budget // 10, 1)
+
+    torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
+    began = time.perf_counter()
+    env = training_env(plan, tasks, n_envs, mode, seed)
+    model = build_model(plan, env, seed)
+    with tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
+        best = Path(scratch) / "best.zip"
+        callback = TrainingEvaluation(tasks, mode, eval_freq, best, began, on_progress, budget)
+        model.learn(total_timesteps=budget, callback=callback)
+        callback.evaluate_now(model)  # the end of the budget is a point of the curve
+        env.close()
+        callback.close()
+        data = reproducible_zip(best.read_bytes())
+        kept_statistics = callback.best_statistics.read_bytes() if statistics else None
+    seconds = time.perf_counter() - began
+    write_atomic(out, data)
+    if statistics is not None:
+        statistics.parent.mkdir(exist_ok=True)
+        write_atomic(statistics, kept_statistics)
+
+    from bbbench.policies import load_policy
+
+    policy = load_policy(out)
+    results = evaluate(policy, tasks, episodes=final_episodes).document
+    record = {
+        "tasks": tasks,
+        "action_mode": mode,
+        "seed": seed,
+        "steps": budget,
+        "n_envs": n_envs,
+        "eval_freq": eval_freq,
+        "evaluation_seeds": {task_id: evaluation_seeds(task_id) for task_id in tasks},
+        "best": max(callback.curve, key=lambda point: point["mean"]),
+        "wall_time_s": round(seconds, 1),
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
+        "recipe": plan.record(),
+        **({"statistics": str(statistics)} if statistics is not None else {}),
+    }
+    write_all_atomic(
+        {
+            log_dir / "curve.json": _dumps({"points": callback.curve}),
+            log_dir / "curve.png": _curve_png(callback.curve, tasks, algorithm),
+            log_dir / "train.json": _dumps(record),
+            log_dir / "results.json": _dumps(results),
+        }
+    )
+    return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
+
+
+def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
+    """Where the VecNormalize statistics of the policy `out` go if `plan` trains inside
+    VecNormalize: rl-zoo3's layout, which `bbbench eval` finds on its own (`policy.zip`
+    -> `policy/vecnormalize.pkl`). None for a recipe without; `ValueError` if a file is
+    in the way."""
+    from bbbench.policies.vecnormalize import STATISTICS_FILE
+
+    if plan.normalize is None:
+        return None
+    out = Path(out)
+    statistics = out.parent / out.stem / STATISTICS_FILE
+    if statistics.parent.exists() and not statistics.parent.is_dir():
+        raise ValueError(
+            f"--out {out}: its recipe trains inside VecNormalize, whose statistics go to "
+            f"{statistics}, but {statistics.parent} is a file: choose another --out"
+        )
+    return statistics
+
+
+def _dumps(document: dict[str, Any]) -> bytes:
+    return (json.dumps(document, indent=2) + "\n").encode()
+
+
+def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: int):
+    """The VecEnv a recipe trains in: `n_envs` envs of the task (worlds of bots for a
+    multi-bot task; for several tasks, sub-env i plays task i mod len(tasks)), seeded."""
+    import gymnasium as gym
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from bbbench.vec import make_vec
+
+    if len(tasks) == 1:
+        env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
+    else:  # sub-env i plays task i mod len(tasks), each in a Monitor
+        plays = [tasks[i % len(tasks)] for i in range(n_envs)]
+        env = DummyVecEnv(
+            [lambda task=task: Monitor(gym.make(task, action_mode=mode)) for task in plays]
+        )
+    env.seed(seed)
+    if plan.normalize is not None:
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        gamma = plan.hyperparameters.get("gamma", 0.99)  # rl-zoo3 passes the recipe's
+        env = VecNormalize(env, gamma=gamma, **plan.normalize)
+    return env
+
+
+def build_model(plan: Recipe, env, seed: int):
+    """The stable-baselines3 model of `plan` on `env`, seeded, on the CPU."""
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    extra = {}
+    if plan.noise_std is not None:
+        size = env.action_space.shape[0]
+        extra["action_noise"] = NormalActionNoise(np.zeros(size), plan.noise_std * np.ones(size))
+    return by_key(plan.algorithm).model_class()(
+        plan.policy,
+        env,
+        seed=seed,
+        device="cpu",
+        verbose=0,
+        policy_kwargs=plan.policy_kwargs,
+        **plan.hyperparameters,
+        **extra,
+    )
+
+
+def reproducible_zip(data: bytes) -> bytes:
+    """A stable-baselines3 zip with the same bytes for the same training: members with
+    a fixed date, without the two fields that hold wall-clock times (`start_time` and
+    `ep_info_buffer`, which `learn` sets up again), and with the memory addresses in
+    the descriptions of pickled values zeroed. SB3's `load` reads it."""
+    source = zipfile.ZipFile(io.BytesIO(data))
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as target:
+        for info in source.infolist():
+            content = source.read(info.filename)
+            if info.filename == "data":
+                fields = json.loads(content)
+                for timed in ("start_time", "ep_info_buffer"):
+                    fields.pop(timed, None)
+                # The descriptions beside pickled values name objects by memory address.
+                text = _ADDRESS.sub(" at 0x0", json.dumps(fields, indent=4))
+                content = text.encode()
+            member = zipfile.ZipInfo(info.filename, date_time=(1980, 1, 1, 0, 0, 0))
+            member.compress_type = zipfile.ZIP_DEFLATED
+            member.external_attr = 0o644 << 16
+            target.writestr(member, content)
+    return buffer.getvalue()
+
+
+def _curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) -> bytes:
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(6.0, 3.4), layout="constrained")
+    axes = figure.add_subplot()
+    steps = [point["steps"] for point in curve]
+    axes.plot(steps, [point["mean"] for point in curve], marker="o", label="mean return")
+    axes.plot(steps, [point["iqm"] for point in curve], marker=".", label="IQM")
+    axes.set_xlabel("environment steps")
+    axes.set_ylabel("return on training seeds")
+    names = ", ".join(task.removeprefix("bbbench/") for task in tasks)
+    axes.set_title(f"{algorithm.upper()} on {names}", fontsize=9)
+    axes.grid(alpha=0.3)
+    axes.legend(frameon=False)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    return buffer.getvalue()
