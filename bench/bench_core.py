@@ -40,7 +40,7 @@ from bbbench.robots.balancebot import (
 from bbbench.sim import GRAVITY, physics_parameters
 from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.reward import RewardWeights, StayUpReward, step_outcome
-from bbbench.tasks.spec import TRAINING_SEEDS, episode_streams
+from bbbench.tasks.spec import TRAINING_SEEDS, seed_streams
 from bbbench.terrain import GROUND_FRICTION
 
 TASK = "bbbench/FlatBalance-v0"
@@ -121,7 +121,7 @@ class RawLoop:
         cid, body = self.cid, self.body
         # The env's episode seeds: SEED first, then training seeds drawn from np_random.
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if self.episodes else SEED
-        start = episode_streams(episode_seed).start
+        start = seed_streams(episode_seed).start
         pitch = float(start.uniform(-self.initial_pitch, self.initial_pitch))
         com, orientation = spawn_pose(pitch)  # the pose BalanceBot.reset gives the same lean
         # As BalanceBot.reset: drop the last episode's contact points (clear of everything,

@@ -31,7 +31,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 
 import bbbench  # noqa: F401  (registers the tasks)
-from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies.policy import TorchActor
 from bbbench.training import build_model, evaluation_seeds, training_env
 from bbbench.training.recipes import recipe
@@ -47,7 +47,7 @@ class UntilItStands(BaseCallback):
     def __init__(self, every: int) -> None:
         super().__init__()
         self.every, self.next_at = every, every
-        self.runner = EpisodeRunner(actors={}, action_mode="discrete", sampled=False)
+        self.runner = LockstepPlayer(actors={}, action_mode="discrete", sampled=False)
         self.checking = 0.0
         self.began = time.perf_counter()
         self.stood: tuple[int, float] | None = None

@@ -18,7 +18,7 @@ import time
 import gymnasium as gym
 
 import bbbench  # noqa: F401 (registers the tasks)
-from bbbench.tasks.spec import episode_streams
+from bbbench.tasks.spec import seed_streams
 
 
 def main() -> None:
@@ -29,7 +29,7 @@ def main() -> None:
     env = gym.make(args.task)
     env.reset(seed=0)
     ground = env.unwrapped.scene.ground
-    heightmaps = [ground.terrain.generate(episode_streams(seed).terrain) for seed in range(50)]
+    heightmaps = [ground.terrain.generate(seed_streams(seed).terrain) for seed in range(50)]
     took = 0.0
     for k in range(args.uploads):
         heightmap = heightmaps[k % len(heightmaps)]

@@ -122,14 +122,14 @@ def test_episodes_played_in_a_row_equal_episodes_in_fresh_envs(task_id):
     """Bullet warm-starts its solver from the contact points it keeps between steps; a
     reset drops them, so which episodes an env played before never shows (a first
     version let a fallen bot's contacts change about 1 episode in 25)."""
-    from bbbench.evaluation.episodes import EpisodeRunner
+    from bbbench.evaluation.episodes import LockstepPlayer
     from bbbench.policies import load_policy
 
     random = load_policy("random")
     seeds = bbbench.spec(task_id).eval_seeds[:25]
 
-    def runner() -> EpisodeRunner:
-        return EpisodeRunner({task_id: random.actor(task_id)}, "discrete", sampled=True)
+    def runner() -> LockstepPlayer:
+        return LockstepPlayer({task_id: random.actor(task_id)}, "discrete", sampled=True)
 
     expected = [runner().play(task_id, [seed])[0] for seed in seeds]
     in_a_row, backwards = runner(), runner()

@@ -16,7 +16,7 @@ from bbbench.cli import main
 from bbbench.dev.random_reference import measure
 from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.backends import _next_job
-from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
 from bbbench.policies.builtin import PDPolicy
 from bbbench.policies.policy import PDActor
@@ -88,7 +88,7 @@ def test_episodes_are_the_eval_seeds_in_order_and_match_a_gymnasium_loop():
 
 def test_a_runner_holds_the_worlds_of_one_task_at_a_time_and_results_do_not_change():
     policy = load_policy("pd")
-    runner = EpisodeRunner(
+    runner = LockstepPlayer(
         actors={task: policy.actor(task) for task in (FLAT, VELOCITY)},
         action_mode="discrete",
         sampled=False,

@@ -12,7 +12,7 @@ import trimesh
 
 from bbbench.portable import exp as exp_same_everywhere
 from bbbench.sim import World
-from bbbench.terrain.bullet import HeightfieldBody, HeightfieldGround
+from bbbench.terrain.bullet import BulletHeightfield, HeightfieldBody
 from bbbench.terrain.generators import GENERATORS, Bumps
 from bbbench.terrain.heightmap import HeightfieldTerrain
 from bbbench.terrain.mesh import export, to_trimesh
@@ -81,7 +81,7 @@ def test_flat_ground_surrounds_the_strip():
     """Past every edge a ray meets flat ground at z = 0, not a drop."""
     spec = terrain("bumps", 1.0)
     world = World(time_step=0.01)
-    ground = HeightfieldGround(world.client, spec)
+    ground = BulletHeightfield(world.client, spec)
     ground.reset(np.random.default_rng(0))
     x_min, x_max, y_min, y_max = spec.bounds
     outside = [
@@ -151,9 +151,9 @@ TERRAIN_BITS = {
 TERRAIN_HASH = """
 import hashlib, sys
 import bbbench
-from bbbench.tasks.spec import episode_streams
+from bbbench.tasks.spec import seed_streams
 task = bbbench.spec(sys.argv[1])
-heights = task.terrain.generate(episode_streams(task.eval_seeds[0]).terrain).heights
+heights = task.terrain.generate(seed_streams(task.eval_seeds[0]).terrain).heights
 print(hashlib.sha256(heights.tobytes()).hexdigest())
 """
 

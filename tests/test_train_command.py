@@ -16,7 +16,7 @@ from stable_baselines3 import PPO
 import bbbench
 from bbbench import training
 from bbbench.cli import main
-from bbbench.evaluation.episodes import EpisodeRunner
+from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies import load_policy
 from bbbench.training import recipes as recipes_module
 from bbbench.training.recipes import (
@@ -96,7 +96,7 @@ def test_a_recipe_with_normalize_keeps_the_statistics_of_the_policy_it_keeps(tmp
     policy = load_policy(first / "policy.zip")
     assert "vecnormalize.pkl" in policy.normalization_source
     assert policy.normalization.normalize
-    runner = EpisodeRunner(actors={MULTI: policy.actor(MULTI)}, action_mode="discrete",
+    runner = LockstepPlayer(actors={MULTI: policy.actor(MULTI)}, action_mode="discrete",
                            sampled=False)  # fmt: skip
     try:
         played = runner.play(MULTI, training.evaluation_seeds(MULTI))

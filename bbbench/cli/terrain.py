@@ -6,7 +6,7 @@ import argparse
 
 import bbbench
 from bbbench.cli.common import UsageError, check_seed
-from bbbench.tasks.spec import episode_streams
+from bbbench.tasks.spec import seed_streams
 from bbbench.terrain import HeightfieldTerrain
 
 
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> None:
         )
     from bbbench.terrain.mesh import export  # trimesh: only this command needs it
 
-    heightmap = spec.terrain.generate(episode_streams(check_seed(args.seed)).terrain)
+    heightmap = spec.terrain.generate(seed_streams(check_seed(args.seed)).terrain)
     try:
         path = export(heightmap, args.out)
     except (ValueError, OSError) as error:

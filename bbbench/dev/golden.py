@@ -21,7 +21,7 @@ import numpy as np
 
 from bbbench.envs.balance import BalanceEnv
 from bbbench.envs.multi import MultiBalanceEnv
-from bbbench.envs.scene import Episode
+from bbbench.envs.scene import EpisodeDraw
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import write_atomic
 from bbbench.tasks.spec import GOLDEN_FILE, TaskSpec
@@ -90,7 +90,7 @@ def _multi_rollout_hash(task: TaskSpec) -> str:
     return digest.hexdigest()[:16]
 
 
-def _generated(episode: Episode) -> list[np.ndarray]:
+def _generated(episode: EpisodeDraw) -> list[np.ndarray]:
     """What an episode's seed drew, as the golden hash takes it: targets (bot by bot),
     sensor errors, terrain heights."""
     values = [episode.targets.ravel()]

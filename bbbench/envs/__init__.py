@@ -5,6 +5,6 @@ a class per single-bot task in `bbbench.envs.tasks`) and the PettingZoo API
 from bbbench.envs.balance import BalanceEnv
 from bbbench.envs.factory import make, make_parallel
 from bbbench.envs.multi import MultiBalanceEnv
-from bbbench.envs.scene import Episode, Scene
+from bbbench.envs.scene import EpisodeDraw, Scene
 
-__all__ = ["BalanceEnv", "Episode", "MultiBalanceEnv", "Scene", "make", "make_parallel"]
+__all__ = ["BalanceEnv", "EpisodeDraw", "MultiBalanceEnv", "Scene", "make", "make_parallel"]

@@ -24,7 +24,7 @@ from bbbench.sim import World
 from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
 from bbbench.tasks.group import spawn_poses
 from bbbench.tasks.sensors import PerfectSensors
-from bbbench.tasks.spec import TaskSpec, episode_streams
+from bbbench.tasks.spec import TaskSpec, seed_streams
 from bbbench.terrain import Heightmap, load_ground
 
 # m: where a bot taken out of the episode is set aside, far beyond anything an episode
@@ -37,7 +37,7 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return array
 
 
-class Episode:
+class EpisodeDraw:
     """What an episode's seed drew, read-only (`scene.episode`).
 
     The arrays are built on first use: a reset on the hot path of training pays for the
@@ -109,7 +109,7 @@ class Scene:
         self._bots: tuple[BalanceBot, ...] = ()
         self._first: BalanceBot | None = None  # bots[0], for the single-bot hot path
         self._world_step = None
-        self._episode: Episode | None = None
+        self._episode: EpisodeDraw | None = None
         self._follow = None
         self.live, self.live_bots = [], []
 
@@ -122,7 +122,7 @@ class Scene:
 
     @property
     def ground(self):
-        """The ground in the world (`PlaneGround` or `HeightfieldGround`); None before reset."""
+        """The ground in the world (`BulletPlane` or `BulletHeightfield`); None before reset."""
         return self._ground
 
     @property
@@ -131,7 +131,7 @@ class Scene:
         return self._bots
 
     @property
-    def episode(self) -> Episode | None:
+    def episode(self) -> EpisodeDraw | None:
         """What the current episode's seed drew; None before the first reset."""
         return self._episode
 
@@ -143,7 +143,7 @@ class Scene:
         if not self._bots:
             self._build()
         task, n = self.task, self.n_bots
-        streams = episode_streams(seed)
+        streams = seed_streams(seed)
         ground = self._ground
         ground.reset(streams.terrain)
         if task.group is not None:
@@ -163,7 +163,7 @@ class Scene:
             [list(column) for column in zip(*rows, strict=True)] if n > 1 else None
         )
         self._errors = errors
-        self._episode = Episode(
+        self._episode = EpisodeDraw(
             seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches
         )
         # Bullet keeps contact points from step to step and warm-starts its solver from
@@ -273,7 +273,7 @@ class Scene:
         self._bots = tuple(BalanceBot(client) for _ in range(self.n_bots))
         self._first = self._bots[0]
         self._world_step = self.world.step
-        # Terrain with no side edge moves with its one bot (`HeightfieldGround.follow`).
+        # Terrain with no side edge moves with its one bot (`BulletHeightfield.follow`).
         if self._ground.period is not None:
             if self.n_bots != 1:
                 raise ValueError(f"{self.task.id}: a moving ground follows a single bot")

@@ -14,8 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
-from bbbench.evaluation.episodes import EpisodeRunner
-from bbbench.evaluation.play import EpisodeResult
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import document, dumps
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import Policy
@@ -26,8 +26,8 @@ LOCKSTEP = 8  # single-bot episodes a worker plays side by side
 
 __all__ = [
     "BACKENDS",
-    "EpisodeResult",
     "Evaluation",
+    "PlayedEpisode",
     "dumps",
     "evaluate",
     "results_document",
@@ -74,7 +74,7 @@ def evaluate(
     backend: str = "local",
     address: str | None = None,
     stochastic: bool = False,
-    on_result: Callable[[int, list[EpisodeResult] | None], None] | None = None,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
 ) -> Evaluation:
     """Play the first `episodes` eval seeds (default: all) of each task, each episode
     seeded with `reset(seed=s)`, on `workers` processes (default: every core) of the
@@ -103,14 +103,14 @@ def evaluate(
         for task, task_seeds in zip(tasks, seeds, strict=True)
         for start in range(0, len(task_seeds), LOCKSTEP)
     ]
-    runner = EpisodeRunner(
+    runner = LockstepPlayer(
         actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,
         height_scan=policy.height_scan,
     )
 
-    def report(index: int, played: list[EpisodeResult] | None) -> None:
+    def report(index: int, played: list[PlayedEpisode] | None) -> None:
         if on_result is not None:
             on_result(len(jobs[index][1]), played)
 
@@ -133,7 +133,7 @@ def evaluate(
 
 def results_document(
     policy: Policy,
-    results: Mapping[str, Sequence[EpisodeResult | None]],
+    results: Mapping[str, Sequence[PlayedEpisode | None]],
     stochastic: bool = False,
 ) -> dict[str, Any]:
     """The results document of `policy`'s episodes: `results[task_id]` holds the episodes

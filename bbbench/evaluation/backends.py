@@ -1,7 +1,7 @@
 """Where episodes run: local worker processes, or Ray tasks on a local or remote Ray.
 
 Both take the same jobs, (task ID, a group of episode seeds), and hand back
-each job's `EpisodeResult`s, or None for a job whose worker died twice: a dead
+each job's `PlayedEpisode`s, or None for a job whose worker died twice: a dead
 worker's job is retried once on a fresh worker, then reported missing. Which
 worker plays a job never changes its results (episodes are seeded, envs are
 history-free, and a group is played the same way anywhere), so both backends
@@ -20,11 +20,11 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
 
-from bbbench.evaluation.episodes import EpisodeRunner
-from bbbench.evaluation.play import EpisodeResult
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.play import PlayedEpisode
 
 Job = tuple[str, tuple[int, ...]]  # (task ID, episode seeds played together)
-Results = list[EpisodeResult] | None  # a job's episodes; None if its worker died twice
+Results = list[PlayedEpisode] | None  # a job's episodes; None if its worker died twice
 OnResult = Callable[[int, Results], None]
 BACKENDS = ("local", "ray")
 ATTEMPTS = 2  # a job whose worker dies is tried once more
@@ -80,7 +80,7 @@ def _die_with_parent(parent: int) -> None:
 
 def _serve(
     connection: Connection,
-    runner: EpisodeRunner,
+    runner: LockstepPlayer,
     parent: int,
     inherited: Sequence[Connection] = (),
 ) -> None:
@@ -105,7 +105,7 @@ def _serve(
 
 
 class _Worker:
-    def __init__(self, context, runner: EpisodeRunner, siblings: Sequence[_Worker] = ()) -> None:
+    def __init__(self, context, runner: LockstepPlayer, siblings: Sequence[_Worker] = ()) -> None:
         self.connection, child = context.Pipe()
         inherited = [w.connection for w in siblings] if context.get_start_method() == "fork" else []
         self.process = context.Process(
@@ -132,7 +132,7 @@ class _Worker:
 
 
 def run_local(
-    runner: EpisodeRunner, jobs: Sequence[Job], workers: int, on_result: OnResult
+    runner: LockstepPlayer, jobs: Sequence[Job], workers: int, on_result: OnResult
 ) -> list[Results]:
     """Run `jobs` on `workers` processes; each process keeps its envs between episodes.
 
@@ -231,18 +231,18 @@ def check_ray_address(address: str | None) -> None:
 
 
 class _RayWorker:
-    """A Ray actor: one `EpisodeRunner`, kept between episodes like a local worker."""
+    """A Ray actor: one `LockstepPlayer`, kept between episodes like a local worker."""
 
-    def __init__(self, runner: EpisodeRunner) -> None:
+    def __init__(self, runner: LockstepPlayer) -> None:
         keep_freed_memory()
         self.runner = runner
 
-    def play(self, index: int, task_id: str, seeds: tuple[int, ...]) -> list[EpisodeResult]:
+    def play(self, index: int, task_id: str, seeds: tuple[int, ...]) -> list[PlayedEpisode]:
         return self.runner.play(task_id, seeds)
 
 
 def run_ray(
-    runner: EpisodeRunner,
+    runner: LockstepPlayer,
     jobs: Sequence[Job],
     workers: int,
     on_result: OnResult,

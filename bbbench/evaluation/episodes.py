@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from bbbench.envs.factory import make, make_parallel
-from bbbench.evaluation.play import EpisodeResult, Lockstep, MultiEpisode
+from bbbench.evaluation.play import Lockstep, MultiEpisode, PlayedEpisode
 from bbbench.policies.policy import Actor
 from bbbench.tasks.suite import spec
 
@@ -26,7 +26,7 @@ def action_generator(seed: int) -> np.random.Generator:
 
 
 @dataclasses.dataclass
-class EpisodeRunner:
+class LockstepPlayer:
     """Plays episodes of several tasks with one policy, keeping the envs of the task
     it plays between episodes (jobs come task by task; each world holds some 30 MB,
     so the worlds of the task before are closed).
@@ -44,7 +44,7 @@ class EpisodeRunner:
     height_scan: bool = False  # single-bot envs observe the ground ahead (height_scan=True)
     _envs: dict[str, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
 
-    def play(self, task_id: str, seeds: Sequence[int]) -> list[EpisodeResult]:
+    def play(self, task_id: str, seeds: Sequence[int]) -> list[PlayedEpisode]:
         task = spec(task_id)
         if task_id not in self._envs:
             self.close()

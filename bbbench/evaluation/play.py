@@ -5,12 +5,12 @@ one per env API, whoever plays it (`bbbench eval` and the leaderboard, `--video`
     lockstep = Lockstep(envs, act, seeds, limit)   # single-bot envs, one lane each
     for step in lockstep:                          # after reset, then after each step
         ...                                        # step.observations, step.rewards
-    lockstep.results                               # an EpisodeResult per seed
+    lockstep.results                               # an PlayedEpisode per seed
 
 `act(batch, rngs)` is a policy's actor (`Policy.actor`): a batch of observations in,
 one action per row out (None for a NaN output); `rngs`, one generator per row, for a
 policy that acts at random. An episode ends at a fall, at `limit` steps, at a NaN
-action or at an action the env refuses (`EpisodeResult.failure` says which).
+action or at an action the env refuses (`PlayedEpisode.failure` says which).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ Act = Callable[[np.ndarray, list | None], list]
 
 
 @dataclasses.dataclass(frozen=True)
-class EpisodeResult:
+class PlayedEpisode:
     """One evaluation episode. On a multi-bot task, `episode_return` and
     `velocity_error` are per bot (the mean over bots) and `falls` counts bots."""
 
@@ -57,7 +57,7 @@ class EpisodeResult:
         }
 
     @classmethod
-    def from_record(cls, record: dict[str, Any]) -> EpisodeResult:
+    def from_record(cls, record: dict[str, Any]) -> PlayedEpisode:
         """The episode a results document recorded (`record`'s inverse)."""
         return cls(
             seed=record["seed"],
@@ -101,7 +101,7 @@ class Lockstep:
         rngs: list[np.random.Generator] | None = None,
     ) -> None:
         self.envs, self.act, self.seeds, self.limit, self.rngs = envs, act, seeds, limit, rngs
-        self.results: list[EpisodeResult] = []
+        self.results: list[PlayedEpisode] = []
 
     def __iter__(self) -> Iterator[Step]:
         envs, act, seeds, limit, rngs = self.envs, self.act, self.seeds, self.limit, self.rngs
@@ -149,7 +149,7 @@ class Lockstep:
                 batch = batch[keep]
                 lane_rngs = None if rngs is None else [rngs[i] for i in lanes]
         self.results = [
-            EpisodeResult(
+            PlayedEpisode(
                 seed,
                 totals[i],
                 lengths[i],
@@ -160,7 +160,7 @@ class Lockstep:
             for i, seed in enumerate(seeds)
         ]
 
-    def play(self) -> list[EpisodeResult]:
+    def play(self) -> list[PlayedEpisode]:
         """Play every lane to its end; the results, seed by seed."""
         for _ in self:
             pass
@@ -184,7 +184,7 @@ class MultiEpisode:
         self, env: Any, act: Act, seed: int, rng: np.random.Generator | None = None
     ) -> None:
         self.env, self.act, self.seed, self.rng = env, act, seed, rng
-        self.result: EpisodeResult | None = None
+        self.result: PlayedEpisode | None = None
 
     def __iter__(self) -> Iterator[MultiStep]:
         env, act, rng = self.env, self.act, self.rng
@@ -215,7 +215,7 @@ class MultiEpisode:
             bot_steps += len(rewards)
             falls += sum(terminations.values())
             yield MultiStep(steps, observations, rewards)
-        self.result = EpisodeResult(
+        self.result = PlayedEpisode(
             self.seed,
             sum(returns.values()) / len(returns),
             steps,
@@ -224,7 +224,7 @@ class MultiEpisode:
             failure,
         )
 
-    def play(self) -> EpisodeResult:
+    def play(self) -> PlayedEpisode:
         """Play the episode to its end; its result."""
         for _ in self:
             pass

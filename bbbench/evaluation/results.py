@@ -15,7 +15,7 @@ import numpy as np
 
 import bbbench
 from bbbench.evaluation import stats
-from bbbench.evaluation.episodes import EpisodeResult
+from bbbench.evaluation.episodes import PlayedEpisode
 from bbbench.tasks.spec import TaskSpec
 
 SCHEMA = "bbbench-results/1"
@@ -36,7 +36,7 @@ def normalized(value: float, task: TaskSpec) -> float | None:
     return (value - task.random_return) / (task.max_return - task.random_return)
 
 
-def aggregate(task: TaskSpec, episodes: Sequence[EpisodeResult]) -> dict[str, Any]:
+def aggregate(task: TaskSpec, episodes: Sequence[PlayedEpisode]) -> dict[str, Any]:
     """A task's aggregates over its (played) episodes."""
     if not episodes:
         return {"episodes": 0}
@@ -60,7 +60,7 @@ def aggregate(task: TaskSpec, episodes: Sequence[EpisodeResult]) -> dict[str, An
     }
 
 
-def overall(tasks: Sequence[TaskSpec], episodes: Sequence[Sequence[EpisodeResult]]) -> dict:
+def overall(tasks: Sequence[TaskSpec], episodes: Sequence[Sequence[PlayedEpisode]]) -> dict:
     """Across tasks: the IQM of per-episode normalized scores, stratified by task."""
     strata = [
         np.array([normalized(e.episode_return, task) for e in played])
@@ -80,7 +80,7 @@ def document(
     policy: dict[str, Any],
     tasks: Sequence[TaskSpec],
     seeds: Sequence[Sequence[int]],
-    results: Sequence[Sequence[EpisodeResult | None]],
+    results: Sequence[Sequence[PlayedEpisode | None]],
     deterministic: bool,
 ) -> dict[str, Any]:
     """The whole results document; `results[i][j]` is task i's episode on `seeds[i][j]`,

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 import bbbench
-from bbbench.evaluation import EpisodeResult, evaluate, results_document, stats
+from bbbench.evaluation import PlayedEpisode, evaluate, results_document, stats
 from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import Submission, SubmissionError
@@ -102,7 +102,7 @@ def score(
             )
         reused = {} if stored is None else _stored_episodes(stored, submission.slug, policy, board)
         pending = [t for t in task_ids if t not in reused]
-        played: dict[str, list[EpisodeResult]] = {}
+        played: dict[str, list[PlayedEpisode]] = {}
         if pending:
             evaluation = evaluate(
                 policy,
@@ -128,16 +128,16 @@ def score(
     return scored
 
 
-def _episodes(document: dict[str, Any]) -> dict[str, list[EpisodeResult]]:
+def _episodes(document: dict[str, Any]) -> dict[str, list[PlayedEpisode]]:
     return {
-        block["task"]: [EpisodeResult.from_record(record) for record in block["episodes"]]
+        block["task"]: [PlayedEpisode.from_record(record) for record in block["episodes"]]
         for block in document["tasks"]
     }
 
 
 def _stored_episodes(
     folder: Path, slug: str, policy: Policy, board: Board
-) -> dict[str, list[EpisodeResult]]:
+) -> dict[str, list[PlayedEpisode]]:
     """The tasks of `folder/<slug>.json` whose key matches today's: their episodes."""
     try:
         old = json.loads((folder / f"{slug}.json").read_text())
@@ -153,7 +153,7 @@ def _stored_episodes(
         for block in old["tasks"]:
             task = spec(block["task"]).with_height_scan(policy.height_scan)
             seeds = board.seeds(task.id)
-            episodes = [EpisodeResult.from_record(record) for record in block["episodes"]]
+            episodes = [PlayedEpisode.from_record(record) for record in block["episodes"]]
             if (
                 task.id in board.tasks
                 and block["fingerprint"] == task.fingerprint
@@ -213,7 +213,7 @@ def _member(entry: Scored, ranked: Sequence[str]) -> _Member | None:
     if not any(task_id in blocks for task_id in ranked):
         return None
     strata = _normalized(blocks, ranked)
-    played = [[EpisodeResult.from_record(r) for r in blocks[t]["episodes"]] for t in strata]
+    played = [[PlayedEpisode.from_record(r) for r in blocks[t]["episodes"]] for t in strata]
     return _Member(entry, blocks, strata, overall([spec(t) for t in strata], played))
 
 

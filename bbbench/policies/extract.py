@@ -1,43 +1,22 @@
 """The acting network of a rebuilt stable-baselines3 policy, copied out to numpy.
 
-`numpy_actor` rebuilds the zip's network (`bbbench.policies.rebuild`), loads its
-weights strictly, and copies the layers that act into an `MlpActor`, which runs with
-portable arithmetic (`bbbench.portable`). Each algorithm family lays its acting
-network out differently; `bbbench.policies.algorithms` names the function below that
-reads each family's.
+Given the network rebuilt with its weights loaded strictly (`bbbench.policies.rebuild`),
+the function of its family reads the layers that act, as the keywords of an `MlpActor`
+(which runs them with portable arithmetic, `bbbench.portable`). Each algorithm family
+lays its acting network out differently; `bbbench.policies.algorithms` names the
+function below that reads each family's.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-from gymnasium import spaces
-
-from bbbench.policies.mlp import MlpActor
-
-if TYPE_CHECKING:
-    from bbbench.policies.sb3zip import SB3Zip
 
 Layer = tuple[np.ndarray, np.ndarray]
 
 
-def numpy_actor(model: SB3Zip, observation_space: spaces.Box, action_space: spaces.Space):
-    """The acting network of `model` in numpy, read from the strictly loaded torch module."""
-    from bbbench.policies.rebuild import torch_policy
-
-    policy = torch_policy(model, observation_space, action_space)
-    box = isinstance(action_space, spaces.Box)
-    layout = model.algorithm.family.extract(policy, model, box)
-    return MlpActor(
-        activation=model.activation or model.algorithm.activation,
-        low=action_space.low.copy() if box else None,
-        high=action_space.high.copy() if box else None,
-        **{"log_std": None, "epsilon": None, "quantiles": 1, "mean_clip": None, **layout},
-    )
-
-
-def actor_critic(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
+def actor_critic(policy, model, box: bool) -> dict[str, Any]:
     """PPO, A2C, TRPO: the policy branch of the MLP extractor, then the action net."""
     squash = bool(model.architecture.get("squash_output", False))
     layout = {
@@ -50,7 +29,7 @@ def actor_critic(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
     return layout
 
 
-def q_network(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
+def q_network(policy, model, box: bool) -> dict[str, Any]:
     """DQN, QR-DQN: the online network (QR-DQN's head gives n_quantiles values per
     action), epsilon-greedy when acting stochastically."""
     if hasattr(policy, "quantile_net"):
@@ -68,7 +47,7 @@ def q_network(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
     }
 
 
-def sac(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
+def sac(policy, model, box: bool) -> dict[str, Any]:
     """SAC, TQC: the actor's latent layers, its mean, and its log std (or, under gSDE, the
     clip of its mean)."""
     [head] = _linears(policy.actor.mu)
@@ -84,13 +63,13 @@ def sac(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
     return layout
 
 
-def td3(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
+def td3(policy, model, box: bool) -> dict[str, Any]:
     """TD3: the actor, whose last layer is followed by tanh."""
     *hidden, head = _linears(policy.actor.mu)
     return {"hidden": tuple(hidden), "head": head, "output": "tanh"}
 
 
-def ars(policy, model: SB3Zip, box: bool) -> dict[str, Any]:
+def ars(policy, model, box: bool) -> dict[str, Any]:
     """ARS: tanh-squashed, clipped, or the argmax of its logits."""
     *hidden, head = _linears(policy.action_net)
     output = "argmax" if not box else "tanh" if policy.squash_output else "clip"

@@ -8,19 +8,17 @@ fit it. Nothing of the zip is unpickled.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from gymnasium import spaces
 
 from bbbench.policies.algorithms import ACTOR_CRITIC, load_class
 from bbbench.policies.errors import PolicyError
 
-if TYPE_CHECKING:
-    from bbbench.policies.sb3zip import SB3Zip
 
-
-def torch_policy(model: SB3Zip, observation_space: spaces.Box, action_space: spaces.Space):
-    """stable-baselines3's own policy module for these spaces, weights loaded strictly."""
+def torch_policy(model, observation_space: spaces.Box, action_space: spaces.Space):
+    """stable-baselines3's own policy module of `model` (an `SB3Zip`) for these spaces,
+    weights loaded strictly."""
     import torch  # lazy: importing bbbench.policies (built-ins, the CLI) needs no torch
 
     algorithm = model.algorithm

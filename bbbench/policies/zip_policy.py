@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from gymnasium import spaces
+
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.extract import numpy_actor
+from bbbench.policies.mlp import MlpActor
 from bbbench.policies.policy import Actor, NormalizedActor, Policy, TorchActor, describe_space
 from bbbench.policies.rebuild import torch_policy
-from bbbench.policies.sb3zip import read_sb3_zip
+from bbbench.policies.sb3zip import SB3Zip, read_sb3_zip
 from bbbench.policies.vecnormalize import ObservationNormalization
 from bbbench.tasks.observation import observation_space as single_bot_observation_space
 from bbbench.tasks.suite import agent_spaces
@@ -92,3 +94,16 @@ class SB3ZipPolicy(Policy):
         if self.normalization is not None:
             record["observation_normalization"] = self.normalization.record()
         return record
+
+
+def numpy_actor(model: SB3Zip, observation_space: spaces.Box, action_space: spaces.Space):
+    """The acting network of `model` in numpy, read from the strictly loaded torch module."""
+    policy = torch_policy(model, observation_space, action_space)
+    box = isinstance(action_space, spaces.Box)
+    layout = model.algorithm.family.extract(policy, model, box)
+    return MlpActor(
+        activation=model.activation or model.algorithm.activation,
+        low=action_space.low.copy() if box else None,
+        high=action_space.high.copy() if box else None,
+        **{"log_std": None, "epsilon": None, "quantiles": 1, "mean_clip": None, **layout},
+    )

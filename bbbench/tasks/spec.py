@@ -28,7 +28,7 @@ TRAINING_SEEDS = range(2**31)
 EVAL_SEEDS = tuple(range(2**31, 2**31 + 100))
 
 
-class EpisodeStreams(NamedTuple):
+class SeedStreams(NamedTuple):
     """Independent generators for the parts of one episode, all from its seed."""
 
     terrain: np.random.Generator
@@ -37,10 +37,10 @@ class EpisodeStreams(NamedTuple):
     sensors: np.random.Generator
 
 
-def episode_streams(episode_seed: int) -> EpisodeStreams:
+def seed_streams(episode_seed: int) -> SeedStreams:
     """The episode's generators: a harder terrain does not change the same seed's commands."""
-    children = np.random.SeedSequence(episode_seed).spawn(len(EpisodeStreams._fields))
-    return EpisodeStreams(*(np.random.default_rng(child) for child in children))
+    children = np.random.SeedSequence(episode_seed).spawn(len(SeedStreams._fields))
+    return SeedStreams(*(np.random.default_rng(child) for child in children))
 
 
 # Fields that document or score a task without changing its behaviour: editing

@@ -10,17 +10,17 @@ Nothing here knows about robots.
 
 from bbbench.terrain.bullet import add_ground_plane, load_ground
 from bbbench.terrain.flat import GROUND_FRICTION, FlatGround
-from bbbench.terrain.generators import GENERATORS, Bumps, Flat, ObstacleCourse, Obstacles, Slopes
+from bbbench.terrain.generators import GENERATORS, Bumps, Level, ObstacleCourse, Obstacles, Slopes
 from bbbench.terrain.heightmap import HeightfieldTerrain, Heightmap
 
 __all__ = [
     "GENERATORS",
     "GROUND_FRICTION",
     "Bumps",
-    "Flat",
     "FlatGround",
     "HeightfieldTerrain",
     "Heightmap",
+    "Level",
     "ObstacleCourse",
     "Obstacles",
     "Slopes",

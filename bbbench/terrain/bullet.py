@@ -140,7 +140,7 @@ def _png(image: np.ndarray) -> bytes:
 _SPAWN_RADIUS = 0.15  # m
 
 
-class PlaneGround:
+class BulletPlane:
     """Flat ground in a world; the same every episode."""
 
     period = None  # nothing to follow the bot: the plane has no edge
@@ -221,7 +221,7 @@ def add_flat_surround(
     return bodies
 
 
-class HeightfieldGround:
+class BulletHeightfield:
     """Procedural ground in a world: a new heightmap each episode, flat ground around it."""
 
     def __init__(self, client: BulletClient, terrain: HeightfieldTerrain) -> None:
@@ -300,8 +300,8 @@ class HeightfieldGround:
 
 def load_ground(
     client: BulletClient, terrain: FlatGround | HeightfieldTerrain
-) -> PlaneGround | HeightfieldGround:
+) -> BulletPlane | BulletHeightfield:
     """Build the ground a task's spec describes in a world."""
     if isinstance(terrain, FlatGround):
-        return PlaneGround(client, terrain)
-    return HeightfieldGround(client, terrain)
+        return BulletPlane(client, terrain)
+    return BulletHeightfield(client, terrain)

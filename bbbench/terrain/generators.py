@@ -73,7 +73,7 @@ def _smooth_noise(
 
 
 @parameters
-class Flat:
+class Level:
     """Level ground."""
 
     periodic_x = True
@@ -289,7 +289,7 @@ class ObstacleCourse(_HeightGrowsWithDifficulty):
 
 
 GENERATORS = {
-    "flat": Flat,
+    "flat": Level,
     "bumps": Bumps,
     "obstacles": Obstacles,
     "obstacle_course": ObstacleCourse,

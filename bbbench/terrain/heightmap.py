@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bbbench.parameters import parameters
-from bbbench.terrain.generators import Bumps, Flat, ObstacleCourse, Obstacles, Slopes
+from bbbench.terrain.generators import Bumps, Level, ObstacleCourse, Obstacles, Slopes
 
-TerrainGenerator = Flat | Bumps | Obstacles | ObstacleCourse | Slopes
+TerrainGenerator = Level | Bumps | Obstacles | ObstacleCourse | Slopes
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,11 +134,11 @@ class HeightfieldTerrain:
     With a `lateral_period` P the terrain has no side edge: the generator draws
     one period, the strip is two copies side by side (`size[0]` = 2 P), the
     pad is a band across the strip, and in the world the field is re-centred
-    under the bot by whole periods (`terrain.bullet.HeightfieldGround.follow`),
+    under the bot by whole periods (`terrain.bullet.BulletHeightfield.follow`),
     which leaves the ground under the bot as it was.
     """
 
-    generator: TerrainGenerator = field(default_factory=Flat)
+    generator: TerrainGenerator = field(default_factory=Level)
     difficulty: float = 0.0
     # m: 12 m of driving at the fastest target, 0.8 m/s, fit with room to spare. The
     # bot cannot steer and obstacles turn it: the PD baseline leaves the strip's sides

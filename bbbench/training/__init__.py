@@ -3,13 +3,13 @@
     from bbbench.training import train
     result = train(["bbbench/FlatBalance-v1"], "ppo", out="policy.zip", seed=0)
 
-The training loop is `bbbench.training.train`; its evaluation during training,
+The training loop is `bbbench.training.trainer`; its evaluation during training,
 `bbbench.training.callbacks`; the rl-zoo3 recipe files, `bbbench.training.recipes`.
 """
 
 from bbbench.training.recipes import MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
-from bbbench.training.train import (
+from bbbench.training.trainer import (
     Trained,
     build_model,
     check_request,

@@ -10,8 +10,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecNormalize
 
 from bbbench.evaluation import stats
-from bbbench.evaluation.episodes import EpisodeRunner
-from bbbench.evaluation.play import EpisodeResult
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.play import PlayedEpisode
 from bbbench.policies.policy import NormalizedActor, TorchActor
 from bbbench.policies.vecnormalize import ObservationNormalization
 from bbbench.training.seeds import evaluation_seeds
@@ -30,7 +30,7 @@ class TrainingEvaluation(BaseCallback):
         self.curve: list[dict[str, float]] = []
         self.best = -np.inf
         self.best_statistics = best_path.with_suffix(".pkl")  # under VecNormalize
-        self.runner: EpisodeRunner | None = None
+        self.runner: LockstepPlayer | None = None
 
     def _on_step(self) -> bool:
         if self.num_timesteps >= self.next_at:
@@ -47,10 +47,10 @@ class TrainingEvaluation(BaseCallback):
         normalized = isinstance(model.get_env(), VecNormalize)
         if normalized:  # the observations as the training env shows them now
             actor = NormalizedActor(actor, ObservationNormalization.of(model.get_env()))
-        self.runner = self.runner or EpisodeRunner(actors={}, action_mode=self.mode, sampled=False)
+        self.runner = self.runner or LockstepPlayer(actors={}, action_mode=self.mode, sampled=False)
         for task_id in self.tasks:
             self.runner.actors[task_id] = actor
-        played: list[EpisodeResult] = []
+        played: list[PlayedEpisode] = []
         for task_id in self.tasks:
             played += self.runner.play(task_id, evaluation_seeds(task_id))
         returns = np.array([episode.episode_return for episode in played])

@@ -1,0 +1,104 @@
+"""Generating a board: score the submissions and write every file of the board, the same
+bytes on every build."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from bbbench.evaluation.results import dumps
+from bbbench.files import write_all_atomic
+from bbbench.leaderboard.board import Board, Scored, leaderboard_document, score
+from bbbench.leaderboard.submissions import Submission, read_submissions
+from bbbench.leaderboard.views import markdown, page, with_baselines
+
+DOCUMENT = "bbbench-v0.json"
+RESULTS = "results"
+SUBMISSIONS = "submissions"
+DEFAULT_BOARD = Board()  # what the `bbbench leaderboard` command plays
+
+
+@dataclasses.dataclass(frozen=True)
+class Built:
+    """A generated leaderboard: its files (path inside the folder -> bytes) and what it
+    took to make them."""
+
+    files: dict[str, bytes]
+    document: dict[str, Any]
+    played: int  # episodes played (the rest came from stored results)
+    episodes: int  # episodes on the board
+
+
+def generate(
+    root: str | Path,
+    board: Board = DEFAULT_BOARD,
+    cache: bool = True,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    on_episodes: Callable[[int], None] | None = None,
+    extra: Submission | None = None,
+) -> Built:
+    """Score the submissions in `root` (and `extra`, one not yet written there) and
+    generate every file of the board, in memory. With `cache`, a task result stored
+    in `root/results` is reused when its key matches."""
+    root = Path(root)
+    submissions = read_submissions(root / SUBMISSIONS)
+    if extra is not None:
+        submissions = sorted([*submissions, extra], key=lambda s: s.slug)
+    scored = score(
+        submissions,
+        board,
+        stored=root / RESULTS if cache else None,
+        workers=workers,
+        backend=backend,
+        address=address,
+        on_episodes=on_episodes,
+    )
+    built = _files(scored, board)
+    readme = root.parent / "README.md"  # the project's, where the board sits in a repository
+    if readme.is_file():
+        text = with_baselines(readme.read_text(encoding="utf-8"), built.document)
+        if text is not None:
+            built.files["../README.md"] = text.encode()
+    return built
+
+
+def _files(scored: list[Scored], board: Board) -> Built:
+    document = leaderboard_document(scored, board)
+    results = {entry.submission.slug: entry.results for entry in scored}
+    files = {
+        DOCUMENT: dumps(document).encode(),
+        "README.md": markdown(document).encode(),
+        "index.html": page(document, results).encode(),
+        **{f"{RESULTS}/{slug}.json": dumps(doc).encode() for slug, doc in results.items()},
+    }
+    episodes = sum(
+        block["aggregate"]["episodes"] for doc in results.values() for block in doc["tasks"]
+    )
+    return Built(files, document, sum(entry.played for entry in scored), episodes)
+
+
+def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Built:
+    """`generate`, then write the files into `root`: each atomically, and all of them
+    only once every episode is scored (an interrupted build changes nothing).
+    Results of submissions that are gone are removed."""
+    built = generate(root, board, **options)
+    write(Path(root), built.files)
+    return built
+
+
+def write(root: Path, files: dict[str, bytes]) -> None:
+    """Replace the generated files of the board in `root` by `files`, all at once; remove
+    the results of submissions that are gone."""
+    (root / RESULTS).mkdir(parents=True, exist_ok=True)
+    stale = [
+        path
+        for path in sorted((root / RESULTS).glob("*.json"))
+        if f"{RESULTS}/{path.name}" not in files
+    ]
+    write_all_atomic({root / name: data for name, data in files.items()})
+    for path in stale:
+        path.unlink()

@@ -1,0 +1,86 @@
+"""`bbbench leaderboard add`: check a submission, score it, and write it with its board."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from bbbench.leaderboard.board import Board
+from bbbench.leaderboard.generation import DEFAULT_BOARD, SUBMISSIONS, Built, generate, write
+from bbbench.leaderboard.submissions import (
+    NORMALIZATION_FILE,
+    POLICY_FILE,
+    SUBMISSION_FILE,
+    SubmissionError,
+    check_policy,
+    check_policy_size,
+    check_slug,
+    read_submission,
+    validate,
+)
+from bbbench.policies import BUILTIN_POLICIES, PolicyError, load_policy
+
+
+def add(
+    root: str | Path,
+    policy: str,
+    slug: str,
+    metadata: dict[str, Any],
+    vecnormalize: str | Path | None = None,
+    board: Board = DEFAULT_BOARD,
+    **options: Any,
+) -> Built:
+    """Add a submission: check it (slug, fields, the policy read safely, its action mode),
+    score it (stored results of the others are reused), then write its folder
+    `root/submissions/<slug>/` and the regenerated board. Nothing is written if any
+    of it fails. `policy`: a policy file, or a built-in policy's name."""
+    root = Path(root)
+    check_slug(slug)
+    target = root / SUBMISSIONS / slug
+    if target.exists():
+        raise SubmissionError(f"{target}: the slug {slug!r} is taken; choose another --slug")
+    metadata = dict(metadata)
+    source = None
+    if policy in BUILTIN_POLICIES:
+        if vecnormalize is not None:
+            raise SubmissionError(
+                f"--vecnormalize is for a policy file, not the built-in {policy!r}"
+            )
+        metadata["builtin"] = policy
+        metadata.setdefault("action_mode", BUILTIN_POLICIES[policy]().action_mode)
+    else:
+        source = Path(policy)
+        if not source.is_file():
+            raise SubmissionError(
+                f"{policy}: no such file, and not a built-in policy "
+                f"({', '.join(sorted(BUILTIN_POLICIES))})"
+            )
+        check_policy_size(source)
+        try:  # refused here, the file never enters submissions/
+            loaded = load_policy(source, vecnormalize=vecnormalize)
+        except PolicyError as error:
+            raise SubmissionError(f"{policy}: {error}") from None
+        check_policy(loaded, metadata.setdefault("action_mode", loaded.action_mode), policy)
+    validate(metadata, "the submission (from the command's options)")
+    (root / SUBMISSIONS).mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{slug}.", suffix=".partial", dir=root / SUBMISSIONS))
+    try:
+        folder = staging / slug
+        folder.mkdir()
+        text = json.dumps(metadata, indent=2, ensure_ascii=False) + "\n"
+        (folder / SUBMISSION_FILE).write_text(text, encoding="utf-8")
+        if source is not None:
+            shutil.copyfile(source, folder / POLICY_FILE)
+            if vecnormalize is not None:
+                shutil.copyfile(vecnormalize, folder / NORMALIZATION_FILE)
+        submission = read_submission(folder)
+        built = generate(root, board, extra=submission, **options)
+        os.rename(folder, target)  # the submission, whole, then its board
+        write(root, built.files)
+        return built
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
