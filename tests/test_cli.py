@@ -111,3 +111,22 @@ def test_terrain_mistakes_are_exit_2(argv, message, tmp_path, capsys):
     assert re.search(message, err)
     assert "Traceback" not in err
     assert not (tmp_path / "t.obj").exists()
+
+
+def test_list_of_one_task_prints_its_description_and_version_history(capsys):
+    assert main(["list", "bbbench/NoisySensors-v1"]) == 0
+    out = capsys.readouterr().out
+    task = bbbench.spec("bbbench/NoisySensors-v1")
+    assert out.startswith(f"{task.id}: {task.summary}")
+    assert "| pitch       | N(0, 0.1) rad" in out  # the description, its table whole
+    assert all(entry in out for entry in task.version_history)
+    assert task.fingerprint in out
+    assert main(["list", "bbbench/NoisySensors-v0"]) == 0
+    assert "superseded by bbbench/NoisySensors-v1" in capsys.readouterr().out
+
+
+def test_list_of_an_unknown_task_is_exit_2(capsys):
+    assert main(["list", "Noisy"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown task 'Noisy'" in err
+    assert "Traceback" not in err

@@ -1,19 +1,29 @@
-"""`bbbench list`: the suite's tasks as a table."""
+"""`bbbench list`: the suite's tasks as a table; `bbbench list TASK`: one task in full."""
 
 from __future__ import annotations
 
 import argparse
 
 import bbbench
+from bbbench.cli.common import UsageError
 from bbbench.tasks.suite import latest_version
 
 
 def add_parser(commands) -> None:
-    listing = commands.add_parser("list", help="print the suite's tasks as a table")
+    listing = commands.add_parser(
+        "list",
+        help="print the suite's tasks as a table, or one task in full",
+        description="Print the suite's tasks as a table; given a task ID, print that task's "
+        "description and version history.",
+    )
+    listing.add_argument("task", nargs="?", metavar="TASK", help="a task ID to describe")
     listing.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> None:
+    if args.task is not None:
+        describe(args.task)
+        return
     specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
     rows = [
         ("task", "bots", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")
@@ -41,3 +51,25 @@ def run(args: argparse.Namespace) -> None:
         print(
             "  ".join(cell.ljust(width) for cell, width in zip(row, widths, strict=True)).rstrip()
         )
+
+
+def describe(task_id: str) -> None:
+    """One task as its row says: summary, description, version history, fingerprint."""
+    try:
+        spec = bbbench.spec(task_id)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    newer = latest_version(spec.id)
+    print(f"{spec.id}: {spec.summary}")
+    if newer != spec.id:
+        print(f"(superseded by {newer})")
+    print(f"\n{spec.description.strip()}\n")
+    bots = spec.group.n_bots if spec.multi_agent else 1
+    print(
+        f"bots {bots}, {spec.max_episode_steps} steps of {spec.control_dt:g} s, max return "
+        f"{spec.max_return:g}, {len(spec.eval_seeds)} eval seeds, fingerprint "
+        f"{spec.fingerprint}"
+    )
+    print("\nVersion history:")
+    for entry in spec.version_history:
+        print(f"  - {entry}")

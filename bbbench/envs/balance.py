@@ -43,7 +43,7 @@ class BalanceEnv(Env):
     commanded wheel speed, driving the wheels under the torso.
 
     Every single-bot task of bbbench is this class (a subclass per task, in
-    `bbbench.envs.tasks`, documents each) and shares its robot,
+    `bbbench.envs.tasks`, made from the task's row, documents each) and shares its robot,
     action table, observation layout and reward; a task is a `TaskSpec` (see
     `bbbench.spec(id)`), and differs only in its ground, its command schedule
     and its sensors:
@@ -211,7 +211,8 @@ class BalanceEnv(Env):
 
     ## Version History
 
-    Each task's own class documents it: `bbbench.envs.tasks.FlatBalanceEnv`,
+    Each task's own class, made from its row of the suite, documents it
+    (`help(env.unwrapped)`, or `bbbench list TASK`): `bbbench.envs.tasks.FlatBalanceEnv`,
     `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`, `SlopesEnv`.
     """
 

@@ -45,7 +45,7 @@ def seed_streams(episode_seed: int) -> SeedStreams:
 
 # Fields that document or score a task without changing its behaviour: editing
 # them must not change the fingerprint.
-_NOT_BEHAVIOUR_FIELDS = ("summary", "version_history", "random_return")
+_NOT_BEHAVIOUR_FIELDS = ("summary", "description", "version_history", "random_return")
 # Options added after tasks were published (fields of the spec or of its components), with
 # the value that means "as before": hashed only when set otherwise, so that adding an
 # option moves no published fingerprint.
@@ -81,13 +81,16 @@ def parse_task_id(task_id: str) -> tuple[str | None, str, int]:
 class TaskSpec:
     """One task of the suite. A task is a row of specs, not a class.
 
-    Changing any field but `summary`, `version_history` and `random_return` (which
-    is measured from the others) changes `fingerprint`, and so needs a new version of
-    the task ID.
+    Changing any field but `summary`, `description`, `version_history` and
+    `random_return` (which is measured from the others) changes `fingerprint`, and so
+    needs a new version of the task ID.
     """
 
     id: str
-    summary: str
+    summary: str  # one line: `bbbench list`, and the first line of the task's docstring
+    # What the task adds to what every task shares (Markdown): its env's docstring
+    # (`bbbench.envs.tasks`) and `bbbench list TASK`.
+    description: str = ""
     terrain: FlatGround | HeightfieldTerrain = field(default_factory=FlatGround)
     command: CommandSchedule = field(default_factory=ConstantVelocity)
     sensors: SensorModel = field(default_factory=PerfectSensors)

@@ -21,40 +21,56 @@ from bbbench.terrain import Bumps, HeightfieldTerrain, ObstacleCourse, Obstacles
 _VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0))
 # On terrain the bot must make progress across it: forward targets only.
 _FORWARD_TARGETS = PiecewiseConstantVelocity(low=0.2, high=0.8, hold=(2.0, 5.0))
-# The -v1 terrain is crossed at speed, 40-80% of the bot's 2.46 m/s top speed: at walking
-# pace the PD baseline stalls against a bump or a step and rocks back, never falling
-# (measured: no fall on hills of 45 degrees at 0.2-0.8 m/s); at speed the bot's momentum
-# carries the torso over an obstacle that stops the wheels. On flat ground PD holds these
-# speeds on every seed tested.
+# The -v1 terrain: crossed at speed, on cells fine enough to have edges, on a strip that
+# repeats across. Why each number is what it is: docs/tasks.md, "The terrain: why -v0 had
+# no headroom, and what -v1 changes".
 _SPEED_TARGETS = PiecewiseConstantVelocity(low=1.0, high=2.0, hold=(2.0, 5.0))
-# m: the strip starts 1 m behind the bot and reaches 23 m ahead: the PD baseline got at
-# most 16.5 m along it in 60 episodes (terrain holds it back from the 22 m its targets
-# ask for on average); past the end lies flat ground. Each node costs about 0.7 us when a
-# new terrain replaces the old after an episode, so the strip is no longer than that and
-# narrow (a reset <= 20 ms). The bot cannot steer: kicked by a bump it turns, and drifted
-# 2 m sideways in half the PD episodes (14 m in one in ten). So the terrain repeats
-# across with a 1.2 m period and the field follows the bot by whole periods: narrow and
-# cheap, yet without a side edge to leave by.
 _V1_STRIP = dict(size=(2.4, 24.0), start_margin=1.0, lateral_period=1.2)
-# m: a heightfield joins nodes by ramps one cell long: at 0.2 m cells a 6 cm step is a
-# 17 degree ramp that no wheel hits. At 0.05 m it is a face of 50 degrees.
 _V1_FINE_CELLS = 0.05
+_WHY_V1 = """\
+Why the terrain is built this way (speed, fine cells, a strip that repeats across and
+follows the bot), from the robot's own numbers: docs/tasks.md, "The terrain: why -v0 had
+no headroom, and what -v1 changes"; its calibration against PD is the table after it."""
 
 _PUBLISHED = (
     TaskSpec(
         id="bbbench/FlatBalance-v0",
         summary="stay upright and in place on flat ground (the tutorial's task)",
+        description=(
+            "The tutorial's task. The target velocity is 0 throughout, the sensors are "
+            "perfect, and the ground is an endless plane with the tutorial's friction. A "
+            "policy that stands still scores close to the maximum return."
+        ),
         random_return=4.265516002827753,
     ),
     TaskSpec(
         id="bbbench/VelocityTracking-v0",
         summary="follow a target velocity in [-1, 1] m/s that changes every 2-5 s",
+        description=(
+            "Flat ground and perfect sensors, as in FlatBalance. The target forward "
+            "velocity (observation 4) is piecewise constant: a value drawn uniformly from "
+            "[-1, 1] m/s, held for a duration drawn uniformly from 2-5 s, then the next, "
+            "all from the episode's seed. The reward's velocity term scores the axle's "
+            "true forward velocity against it."
+        ),
         random_return=1.2860367754813657,
         command=_VELOCITY_TARGETS,
     ),
     TaskSpec(
         id="bbbench/NoisySensors-v0",
         summary="velocity tracking with a biased, noisy IMU and encoders",
+        description="""\
+VelocityTracking's ground and targets, observed through a biased, noisy IMU and noisy
+encoders (the tutorial's noisy variant, now reproducible):
+
+| Reading     | Per-episode bias   | Per-step noise (std) |
+|-------------|--------------------|----------------------|
+| pitch       | N(0, 0.1) rad      | 0.05 rad             |
+| pitch_rate  | none               | 0.01 rad/s           |
+| wheel_speed | none               | 0.05 rad/s           |
+
+Bias and noise are drawn from the episode's seed; the wheel command and the target are
+observed exactly. The reward uses the true state.""",
         random_return=1.2860367754813657,
         command=_VELOCITY_TARGETS,
         sensors=NoisySensors(),
@@ -62,6 +78,11 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/Bumps-v0",
         summary="drive forward at 0.2-0.8 m/s across smooth random hills",
+        description=(
+            "An 8 x 20 m strip of smooth random hills (0.35 m features, 0.2 m cells), a new "
+            "one from each episode's seed, 0.02 m high at difficulty 0 and 0.08 m at 1 "
+            "(default 0.3), driven along at 0.2-0.8 m/s. Sensors are perfect."
+        ),
         random_return=1.781347180609098,
         terrain=HeightfieldTerrain(generator=Bumps(), difficulty=0.3),
         command=_FORWARD_TARGETS,
@@ -69,6 +90,11 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/Obstacles-v0",
         summary="drive forward at 0.2-0.8 m/s over scattered boxes and steps",
+        description=(
+            "An 8 x 20 m strip on 0.2 m cells with scattered boxes and steps, 0.015-0.05 m "
+            "high (default difficulty 0.3), a new layout from each episode's seed, driven "
+            "along at 0.2-0.8 m/s. Sensors are perfect."
+        ),
         random_return=1.777879984692359,
         terrain=HeightfieldTerrain(generator=Obstacles(), difficulty=0.3),
         command=_FORWARD_TARGETS,
@@ -76,6 +102,21 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/Bumps-v1",
         summary="cross short, steep random hills (up to ~21 deg) at 1-2 m/s",
+        description=f"""\
+The ground is a strip of random hills (white noise low-passed by a Gaussian of 0.1 m, on
+0.05 m cells), a new one from each episode's seed, with flat ground around it. The bot
+starts on a level pad 3 m from the strip's near end and must drive along it: the target
+velocity is drawn from [1, 2] m/s and held 2-5 s at a time. Sensors are perfect.
+
+`difficulty` (default 0.9, any number in [0, 1]) sets the hills' height, 0.01 m + 0.10 m
+x difficulty, and with it their steepest slope: about 2 deg at 0, 13 deg at 0.5, 21 deg
+at 0.9 (the default) and 23 deg at 1 (the mean over seeds of each map's steepest node).
+Hills of 0.1 m features are shorter than the 0.24 m between the wheels: at 1-2 m/s the
+wheels meet each one as a kick, not a climb, and the kicks lift them off the ground and
+turn the bot. The value is recorded in `env.spec.kwargs` and changes the task's
+fingerprint.
+
+{_WHY_V1}""",
         random_return=-5.935016249898391,
         terrain=HeightfieldTerrain(
             generator=Bumps(min_height=0.01, extra_height=0.10, feature_size=0.1),
@@ -96,6 +137,20 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/Obstacles-v1",
         summary="cross boxes and steps (up to 6 cm) with shrinking gaps at 1-2 m/s",
+        description=f"""\
+Along a strip of level ground on 0.05 m cells, obstacles follow one another, a new course
+from each episode's seed (`ObstacleCourse`): 40% are full-width steps (a raised band
+0.1-0.8 m deep: up, then down), the rest boxes 0.3-1.2 m across and 0.1-0.8 m deep
+(repeating across the strip with the terrain). The bot cannot steer: a box under one
+wheel turns it. Targets and start as in Bumps.
+
+`difficulty` (default 0.5, in [0, 1]) sets the obstacles' height, each 25-100% of
+0.01 m + 0.05 m x difficulty (at 1: 0.06 m, 0.6x the wheel radius, a face the wheel can
+climb only with momentum), and their spacing: the gap before each is drawn from
+[0.3, 2.0 - 1.7 x difficulty] m, so at difficulty 1 the next obstacle comes within
+0.15-0.3 s at speed, before the bot has recovered from the last (no flat run-up).
+
+{_WHY_V1}""",
         random_return=-5.9759097239538495,
         terrain=HeightfieldTerrain(
             generator=ObstacleCourse(),
@@ -117,6 +172,21 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/Slopes-v1",
         summary="climb and descend ramps (up to ~26 deg) at 1-2 m/s",
+        description=f"""\
+A strip on 0.1 m cells, level across and ramped along the driving direction: ramps
+0.3-1.5 m long, each inclined up or down by an angle drawn up to 0.5 rad x difficulty,
+heights kept within [0, 2] m (a ramp that would leave them levels off), a new profile
+from each episode's seed (`Slopes`). Targets and start as in Bumps: the command asks for
+1-2 m/s up and down.
+
+`difficulty` (default 0.9, in [0, 1]) sets the steepest ramp: 0 at 0, 14 deg at 0.5,
+26 deg at 0.9 (the default), 29 deg at 1. Holding a speed on a ramp needs a lean into it
+(about 0.2 rad at 20 deg for this bot's 1.57 N m/rad of torso weight torque); the kink
+where an up-ramp meets a down-ramp changes that lean at once, and at 2 m/s the wheels
+leave the crest. On ramps of at most 20 deg (difficulty 0.7) PD finishes about two thirds
+of the episodes, too many for the calibration: the default is steeper than that.
+
+{_WHY_V1}""",
         random_return=-5.9305729273501235,
         terrain=HeightfieldTerrain(
             generator=Slopes(
@@ -139,6 +209,12 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/MultiBalance-v0",
         summary="4 bots (2-16) whose paths cross on flat ground, each at 0.2-0.8 m/s",
+        description=(
+            "Several bots (4 by default, `n_bots` 2-16) start on a circle facing its centre, "
+            "so their paths cross, on flat ground; each follows its own forward target at "
+            "0.2-0.8 m/s and leaves the episode when it falls. `bbbench.envs.multi."
+            "MultiBalanceEnv` documents the PettingZoo API they share."
+        ),
         random_return=1.5245667657055884,
         command=_FORWARD_TARGETS,
         group=Group(),
@@ -146,6 +222,10 @@ _PUBLISHED = (
     TaskSpec(
         id="bbbench/MultiBumps-v0",
         summary="4 bots (2-16) whose paths cross on smooth random hills",
+        description=(
+            "MultiBalance's bots and targets on a 12 x 12 m square of -v0's smooth random "
+            "hills (0.3 default difficulty) around the spawn circle, level along it."
+        ),
         random_return=1.5233704486135895,
         terrain=HeightfieldTerrain(
             generator=Bumps(),
@@ -204,11 +284,11 @@ SUITE.update(
 
 
 def entry_point(task_id: str) -> str:
-    """The class that plays a task: one per single-bot task name (`bbbench/envs/tasks.py`),
-    one for every multi-bot task (`bbbench/envs/multi.py`)."""
+    """What plays a task: `bbbench.envs.tasks.make` every single-bot task (as the class made
+    from its row), `MultiBalanceEnv` every multi-bot task."""
     if SUITE[task_id].multi_agent:
         return "bbbench.envs.multi:MultiBalanceEnv"
-    return f"bbbench.envs.tasks:{SUITE[task_id].name}Env"
+    return "bbbench.envs.tasks:make"
 
 
 def register_suite() -> None:
