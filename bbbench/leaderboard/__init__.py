@@ -20,11 +20,12 @@ from scratch and compare.
 
 from bbbench.leaderboard.board import Board, BuildError
 from bbbench.leaderboard.checking import Checked, check
-from bbbench.leaderboard.generation import DOCUMENT, Built, build, generate, write
+from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, Built, build, generate, write
 from bbbench.leaderboard.submissions import MAX_POLICY_BYTES, SubmissionError
 from bbbench.leaderboard.submit import add
 
 __all__ = [
+    "DEFAULT_BOARD",
     "DOCUMENT",
     "MAX_POLICY_BYTES",
     "Board",
