@@ -7,25 +7,20 @@ evaluation = evaluate(load_policy("policy.zip"), ["bbbench/FlatBalance-v1"], epi
 evaluation.document["tasks"][0]["aggregate"]["iqm"]
 """
 
-from __future__ import annotations
-
-import dataclasses
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
-
-from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
-from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.backends import BACKENDS
+from bbbench.evaluation.harness import (
+    LOCKSTEP,
+    Evaluation,
+    evaluate,
+    results_document,
+    select_tasks,
+)
 from bbbench.evaluation.play import PlayedEpisode
-from bbbench.evaluation.results import document, dumps
-from bbbench.policies.errors import PolicyError
-from bbbench.policies.policy import Policy
-from bbbench.policies.registry import fitting_tasks
-from bbbench.tasks.suite import list_tasks, spec
-
-LOCKSTEP = 8  # single-bot episodes a worker plays side by side
+from bbbench.evaluation.results import dumps
 
 __all__ = [
     "BACKENDS",
+    "LOCKSTEP",
     "Evaluation",
     "PlayedEpisode",
     "dumps",
@@ -33,115 +28,3 @@ __all__ = [
     "results_document",
     "select_tasks",
 ]
-
-
-@dataclasses.dataclass(frozen=True)
-class Evaluation:
-    """What `evaluate` returns: the results document, and the episodes it lacks."""
-
-    document: dict[str, Any]
-    missing: list[tuple[str, int]]  # (task ID, seed) of episodes whose worker died twice
-    steps: int  # environment steps played (bot-steps on multi-bot tasks count once)
-
-
-def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list[str]:
-    """The tasks to evaluate: those requested (each must fit the policy), else every task
-    of the suite the policy fits (its latest version; an older one when requested).
-    `ValueError` for an unknown ID; `PolicyError` otherwise."""
-    if requested:
-        task_ids = list(dict.fromkeys(spec(task_id).id for task_id in requested))
-        unfit = [(task_id, policy.mismatch(task_id)) for task_id in task_ids]
-        unfit = [reason for _, reason in unfit if reason]
-        if unfit:
-            raise PolicyError(
-                f"{policy.name} ({policy.spaces_text()}) cannot play: {'; '.join(unfit)}"
-            )
-        return task_ids
-    task_ids = fitting_tasks(policy)
-    if not task_ids:
-        wants = "; ".join(policy.mismatch(task_id) or "" for task_id in list_tasks(latest=True))
-        raise PolicyError(
-            f"{policy.name} ({policy.spaces_text()}) fits no task of the suite: {wants}"
-        )
-    return task_ids
-
-
-def evaluate(
-    policy: Policy,
-    task_ids: Sequence[str],
-    episodes: int | None = None,
-    workers: int | None = None,
-    backend: str = "local",
-    address: str | None = None,
-    stochastic: bool = False,
-    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
-) -> Evaluation:
-    """Play the first `episodes` eval seeds (default: all) of each task, each episode
-    seeded with `reset(seed=s)`, on `workers` processes (default: every core) of the
-    local machine or of Ray; aggregate them into the results document.
-
-    Single-bot episodes run in groups of `LOCKSTEP` consecutive seeds, side by
-    side, so the policy's network runs once per step for the group.
-    `on_result(n, results)` is called as each group of n episodes ends (results
-    None if its worker died twice).
-    """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if episodes is not None and episodes < 1:
-        raise ValueError(f"episodes must be at least 1, got {episodes}")
-    workers = default_workers() if workers is None else workers
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
-    if address is None:  # this machine: more processes than cores only cost memory
-        workers = min(workers, default_workers())
-    # A policy that observes the ground ahead plays every task with the height scan on.
-    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in task_ids]
-    seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
-    # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
-    jobs = [
-        (task.id, tuple(task_seeds[start : start + LOCKSTEP]))
-        for task, task_seeds in zip(tasks, seeds, strict=True)
-        for start in range(0, len(task_seeds), LOCKSTEP)
-    ]
-    runner = LockstepPlayer(
-        actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
-        action_mode=policy.action_mode,
-        sampled=stochastic or policy.random_actions,
-        height_scan=policy.height_scan,
-    )
-
-    def report(index: int, played: list[PlayedEpisode] | None) -> None:
-        if on_result is not None:
-            on_result(len(jobs[index][1]), played)
-
-    if backend == "ray":
-        done = run_ray(runner, jobs, workers, report, address=address)
-    else:
-        done = run_local(runner, jobs, workers, report)
-    by_seed = {}
-    for (task_id, group), played in zip(jobs, done, strict=True):
-        for i, seed in enumerate(group):
-            by_seed[task_id, seed] = None if played is None else played[i]
-    results = {
-        task.id: [by_seed[task.id, seed] for seed in ts]
-        for task, ts in zip(tasks, seeds, strict=True)
-    }
-    missing = [key for key, result in by_seed.items() if result is None]
-    steps = sum(result.length for result in by_seed.values() if result is not None)
-    return Evaluation(results_document(policy, results, stochastic), missing, steps)
-
-
-def results_document(
-    policy: Policy,
-    results: Mapping[str, Sequence[PlayedEpisode | None]],
-    stochastic: bool = False,
-) -> dict[str, Any]:
-    """The results document of `policy`'s episodes: `results[task_id]` holds the episodes
-    on the task's first eval seeds, in order (None for one that is missing)."""
-    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in results]
-    played = list(results.values())
-    seeds = [
-        list(task.eval_seeds[: len(episodes)]) for task, episodes in zip(tasks, played, strict=True)
-    ]
-    deterministic = not (stochastic or policy.random_actions)
-    return document(policy.record(), tasks, seeds, played, deterministic)
