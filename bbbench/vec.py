@@ -17,6 +17,7 @@ from typing import Any
 
 import gymnasium
 import numpy as np
+from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnvIndices,
@@ -191,6 +192,5 @@ def make_vec(task_id: str, n_envs: int = 1, **kwargs: Any) -> VecEnv:
         raise ValueError(f"n_envs must be a whole number >= 1, got {n_envs!r}")
     if spec(task_id).multi_agent:
         return BotSlotsVecEnv([make_parallel(task_id, **kwargs) for _ in range(n_envs)])
-    from stable_baselines3.common.env_util import make_vec_env
 
     return make_vec_env(task_id, n_envs=n_envs, env_kwargs=kwargs)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+import bbbench
+
 PACKAGE = Path(__file__).resolve().parents[1] / "bbbench"
 
 
@@ -114,3 +116,35 @@ def test_spec_and_suite_import_no_env_code():
 
     for data in ("bbbench.tasks.spec", "bbbench.tasks.suite"):
         assert not reachable(data) & envs, data
+
+
+def function_level_imports() -> list[tuple[str, int, str, str]]:
+    """(file, line, the line, the line above) of every import inside a function."""
+    found = []
+    for path in sorted(Path(bbbench.__file__).parent.rglob("*.py")):
+        lines = path.read_text().splitlines()
+        stack = [(ast.parse("\n".join(lines)), False)]
+        while stack:
+            node, in_function = stack.pop()
+            for child in ast.iter_child_nodes(node):
+                if isinstance(child, ast.Import | ast.ImportFrom):
+                    if in_function:
+                        row = child.lineno - 1
+                        found.append((path.name, child.lineno, lines[row], lines[row - 1]))
+                else:
+                    function = isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef)
+                    stack.append((child, in_function or function))
+    return found
+
+
+def test_every_function_level_import_says_why_it_is_lazy_and_the_count_is_documented():
+    """Imports inside functions only keep a command or an optional dependency lazy."""
+    found = function_level_imports()
+    unexplained = [
+        f"{name}:{line}: {text.strip()}"
+        for name, line, text, above in found
+        if "# lazy:" not in text and "# lazy:" not in above
+    ]
+    assert unexplained == [], "a function-level import without '# lazy: why'"
+    architecture = (Path(__file__).parents[1] / "docs" / "architecture.md").read_text()
+    assert f"There are {len(found)} in `bbbench/`" in architecture

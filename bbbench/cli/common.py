@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 from rich.table import Table
+
+from bbbench.policies.registry import BUILTIN_POLICIES
 
 
 class UsageError(Exception):
@@ -16,8 +20,6 @@ def check_seed(value: int, flag: str = "--seed") -> int:
 
 
 def say_normalization(policy) -> None:
-    import sys
-
     if policy.normalization_source:
         print(f"bbbench: {policy.normalization_source}", file=sys.stderr)
 
@@ -58,6 +60,4 @@ def results_table(document: dict) -> Table:
 
 
 def builtin_policies() -> list[str]:
-    from bbbench.policies.registry import BUILTIN_POLICIES
-
     return sorted(BUILTIN_POLICIES)

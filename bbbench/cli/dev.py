@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from bbbench.dev import golden
+from bbbench.dev.random_reference import measure
+from bbbench.tasks.suite import spec
+
 
 def add_parser(commands) -> None:
     dev = commands.add_parser(
@@ -29,15 +33,10 @@ def add_parser(commands) -> None:
 
 
 def run_golden(args: argparse.Namespace) -> None:
-    from bbbench.dev import golden
-
     for line in golden.report(add=args.add):
         print(line)
 
 
 def run_random_reference(args: argparse.Namespace) -> None:
-    from bbbench.dev.random_reference import measure
-    from bbbench.tasks.suite import spec
-
     for task_id, value in measure(workers=args.workers).items():
         print(f"{task_id:30} measured {value!r:22} stored {spec(task_id).random_return!r}")

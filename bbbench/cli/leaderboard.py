@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from pathlib import Path
 
 from rich.console import Console
 from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 from rich.text import Text
 
+from bbbench import leaderboard
 from bbbench.cli.common import UsageError
+from bbbench.evaluation.backends import check_ray_address
+from bbbench.leaderboard import DOCUMENT
+from bbbench.leaderboard.views import rows
 
 
 def add_parser(commands) -> None:
@@ -97,8 +103,6 @@ def add_parser(commands) -> None:
 
 def _options(args: argparse.Namespace) -> dict:
     """The options every leaderboard command that plays episodes shares, checked."""
-    from bbbench.evaluation.backends import check_ray_address
-
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.backend != "ray":
@@ -112,8 +116,6 @@ def _options(args: argparse.Namespace) -> dict:
 
 
 def _root(args: argparse.Namespace):
-    from pathlib import Path
-
     root = Path(args.root)
     if not root.is_dir():
         raise UsageError(
@@ -138,8 +140,6 @@ def _playing(what: str):
 
 
 def build(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard
-
     root = _root(args)
     options = _options(args)
     progress, on_episodes = _playing("episodes played")
@@ -170,8 +170,6 @@ def build(args: argparse.Namespace) -> int:
 
 
 def check(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard
-
     root = _root(args)
     options = _options(args)
     progress, on_episodes = _playing("episodes re-scored")
@@ -199,8 +197,6 @@ def check(args: argparse.Namespace) -> int:
 
 
 def add(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard
-
     root = _root(args)
     options = _options(args)
     metadata = {
@@ -254,11 +250,6 @@ def add(args: argparse.Namespace) -> int:
 
 
 def show(args: argparse.Namespace) -> int:
-    import json
-
-    from bbbench.leaderboard import DOCUMENT
-    from bbbench.leaderboard.views import rows
-
     path = _root(args) / DOCUMENT
     try:
         document = json.loads(path.read_bytes())

@@ -7,6 +7,9 @@ import statistics
 
 import bbbench
 from bbbench.cli.common import UsageError, builtin_policies, check_seed, say_normalization
+from bbbench.evaluation.episodes import action_generator
+from bbbench.evaluation.play import Lockstep
+from bbbench.policies import PolicyError, load_policy
 
 
 def add_parser(commands) -> None:
@@ -35,10 +38,6 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
-    from bbbench.evaluation.episodes import action_generator
-    from bbbench.evaluation.play import Lockstep
-    from bbbench.policies import PolicyError, load_policy
-
     try:
         spec = bbbench.spec(args.task)
     except ValueError as error:

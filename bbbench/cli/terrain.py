@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> None:
             f"{spec.id} is on flat ground: there is no terrain to write. Tasks with terrain: "
             f"{', '.join(terrain_tasks)}"
         )
-    from bbbench.terrain.mesh import export  # trimesh: only this command needs it
+    from bbbench.terrain.mesh import export  # lazy: trimesh, for this command only
 
     heightmap = spec.terrain.generate(seed_streams(check_seed(args.seed)).terrain)
     try:

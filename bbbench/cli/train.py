@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import time
+from pathlib import Path
 
 from rich.console import Console
-from rich.progress import MofNCompleteColumn, Progress
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from bbbench import training
 from bbbench.cli.common import UsageError, check_seed, results_table
 from bbbench.files import check_output_path
 from bbbench.policies.algorithms import by_key
@@ -49,10 +52,6 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
-
-    from bbbench import training
-
     try:
         tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
         if args.n_envs is not None and args.n_envs < 1:
@@ -61,8 +60,6 @@ def run(args: argparse.Namespace) -> int:
         check_output_path(args.out, "--out")
         training.statistics_path(args.out, training.recipe(args.algo, key))
         if args.log is not None:
-            from pathlib import Path
-
             log = Path(args.log)
             if log.exists() and not log.is_dir():
                 raise ValueError(f"--log {args.log}: exists and is not a folder")
@@ -86,8 +83,6 @@ def run(args: argparse.Namespace) -> int:
     began = [None]
 
     def on_progress(steps: int, total: int, point: dict | None) -> None:
-        import time
-
         now = time.perf_counter()
         began[0] = began[0] or now
         rate = steps / (now - began[0]) if now > began[0] else 0.0

@@ -24,9 +24,11 @@ def check_video_path(path: str | Path) -> Path:
     if path.suffix.lower() not in VIDEO_FORMATS:
         raise ValueError(f"--video {path}: expected a file name ending in .gif or .mp4")
     try:
+        # lazy: imageio, for --video only
         import imageio.v3  # noqa: F401
 
         if path.suffix.lower() == ".mp4":
+            # lazy: imageio-ffmpeg, for .mp4 only
             import imageio_ffmpeg  # noqa: F401
     except ImportError:
         raise ValueError(
@@ -42,7 +44,7 @@ def record_episode(
     return the number of frames. The episode is played alone; the evaluation plays it
     in a lockstep group, so a network's outputs (and so continuous actions) can differ
     from the evaluated episode's in their last bits."""
-    import imageio.v3 as iio
+    import imageio.v3 as iio  # lazy: imageio, for --video only
 
     path = check_video_path(path)
     task = spec(task_id)

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from bbbench.policies.lqr import LQRController
+from bbbench.policies.pd import PDController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
+from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.suite import agent_spaces
 
 
@@ -20,8 +23,6 @@ class PDPolicy(Policy):
         self.action_mode = action_mode
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        from bbbench.policies.pd import PDController
-
         return PDActor(PDController(action_mode=self.action_mode, hold_velocity=self.hold_velocity))
 
 
@@ -44,8 +45,6 @@ class LQRPolicy(Policy):
         self.action_mode = action_mode
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        from bbbench.policies.lqr import LQRController
-
         return PDActor(LQRController(action_mode=self.action_mode))
 
 
@@ -72,8 +71,6 @@ class ZeroPolicy(Policy):
         self.action_mode = action_mode
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
-
         if self.action_mode == "discrete":
             return ConstantActor(WHEEL_SPEED_CHANGES.index(0.0))
         return ConstantActor(np.zeros(1, dtype=np.float32))

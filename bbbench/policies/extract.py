@@ -84,7 +84,7 @@ def _linear(layer) -> Layer:
 
 
 def _linears(sequential) -> list[Layer]:
-    import torch  # lazy: importing bbbench.policies (built-ins, the CLI) needs no torch
+    import torch  # lazy: torch, for policy files only
 
     if isinstance(sequential, torch.nn.Linear):
         return [_linear(sequential)]
@@ -93,7 +93,7 @@ def _linears(sequential) -> list[Layer]:
 
 def _hardtanh_bound(module) -> float | None:
     """SAC's and TQC's clip of their mean under gSDE (a Hardtanh after `mu`), if any."""
-    import torch  # lazy: as in _linears
+    import torch  # lazy: torch, for policy files only
 
     for layer in module.modules():
         if isinstance(layer, torch.nn.Hardtanh):

@@ -40,6 +40,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from bbbench.envs.factory import make
+from bbbench.policies.pd import PDController
 from bbbench.robots import MODEL as ROBOT
 from bbbench.tasks.actions import ACTION_MODES, MAX_WHEEL_SPEED_CHANGE, WHEEL_SPEED_CHANGES
 from bbbench.tasks.observation import INDEX
@@ -121,9 +123,6 @@ def identify(
     episodes: int = 20, noise: float = 0.3, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """A and B fitted by least squares to FlatBalance-v0's steps (see the module docstring)."""
-    from bbbench.envs.factory import make
-    from bbbench.policies.pd import PDController
-
     env = make("bbbench/FlatBalance-v0", action_mode="continuous").unwrapped
     pd = PDController(action_mode="continuous")
     rng = np.random.default_rng(seed)

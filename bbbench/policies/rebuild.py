@@ -19,7 +19,7 @@ from bbbench.policies.errors import PolicyError
 def torch_policy(model, observation_space: spaces.Box, action_space: spaces.Space):
     """stable-baselines3's own policy module of `model` (an `SB3Zip`) for these spaces,
     weights loaded strictly."""
-    import torch  # lazy: importing bbbench.policies (built-ins, the CLI) needs no torch
+    import torch  # lazy: torch, for policy files only
 
     algorithm = model.algorithm
     kwargs = dict(model.architecture)

@@ -9,6 +9,7 @@ from pathlib import Path
 from bbbench.policies.builtin import LQRPolicy, PDPolicy, RandomPolicy, StandPolicy, ZeroPolicy
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import Policy, describe_space
+from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
 from bbbench.policies.zip_policy import SB3ZipPolicy
 from bbbench.tasks.suite import list_tasks
 
@@ -94,8 +95,6 @@ def load_policy(
 
 
 def _attach_normalization(policy: SB3ZipPolicy, path: Path, statistics: str | Path | None):
-    from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
-
     trained_in_vecnormalize = policy.loaded.vecnormalize  # True, False or None: cannot tell
     if statistics is None and trained_in_vecnormalize is not False:
         statistics = find_rl_zoo_statistics(path)

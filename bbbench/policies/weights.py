@@ -36,7 +36,7 @@ CAST_TO_FLOAT32 = ("float16", "bfloat16", "float64")
 def read_weights(path: Path, raw: bytes) -> dict[str, np.ndarray]:
     """`policy.pth`'s state dict as float32 numpy arrays; `PolicyError` (naming `path`)
     for anything else."""
-    import torch
+    import torch  # lazy: torch, for policy files only
 
     _check_records(path, raw)
     try:
@@ -84,7 +84,7 @@ def _check_records(path: Path, raw: bytes) -> None:
 
 
 def _check_tensor(path: Path, key: str, tensor) -> None:
-    import torch
+    import torch  # lazy: torch, for policy files only
 
     if tensor.layout != torch.strided:
         kind = str(tensor.layout).removeprefix("torch.")

@@ -23,6 +23,7 @@ from typing import Any
 import yaml
 
 from bbbench.policies.algorithms import ALGORITHMS, unknown
+from bbbench.tasks.suite import SUITE, latest_version
 
 
 def recipe_file(algorithm: str):
@@ -145,8 +146,6 @@ def parse_normalize(value: Any, where: str) -> dict[str, Any] | None:
 
 def _newer_version(key: str) -> str | None:
     """The latest version of `key`'s task, if `key` is an older version of it."""
-    from bbbench.tasks.suite import SUITE, latest_version
-
     if key not in SUITE or latest_version(key) == key:
         return None
     return latest_version(key)
@@ -155,7 +154,7 @@ def _newer_version(key: str) -> str | None:
 def parse_policy_kwargs(text: str) -> dict[str, Any]:
     """rl-zoo3's `policy_kwargs` string, 'dict(net_arch=[64, 64], activation_fn=nn.ReLU)',
     read as data: literal values, and torch.nn activations by name."""
-    import torch.nn
+    import torch.nn  # lazy: torch, for training only
 
     try:
         call = ast.parse(text, mode="eval").body

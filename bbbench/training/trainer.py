@@ -30,11 +30,14 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from bbbench.evaluation import evaluate
 from bbbench.files import check_output_path, write_all_atomic, write_atomic
+from bbbench.policies import load_policy
 from bbbench.policies.algorithms import by_key, unknown
+from bbbench.policies.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import spec
 from bbbench.training.recipes import MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import evaluation_seeds
@@ -106,9 +109,9 @@ def train(
     budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
     `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
     """
-    import torch  # lazy, as are stable-baselines3's imports: `bbbench train --help` needs neither
+    import torch  # lazy: torch and stable-baselines3, for training only
 
-    from bbbench.training.callbacks import TrainingEvaluation
+    from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable-baselines3
 
     tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps)
     plan = recipe(algorithm, key)
@@ -144,8 +147,6 @@ def train(
         statistics.parent.mkdir(exist_ok=True)
         write_atomic(statistics, kept_statistics)
 
-    from bbbench.policies import load_policy
-
     policy = load_policy(out)
     results = evaluate(policy, tasks, episodes=final_episodes).document
     record = {
@@ -178,8 +179,6 @@ def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
     VecNormalize: rl-zoo3's layout, which `bbbench eval` finds on its own (`policy.zip`
     -> `policy/vecnormalize.pkl`). None for a recipe without; `ValueError` if a file is
     in the way."""
-    from bbbench.policies.vecnormalize import STATISTICS_FILE
-
     if plan.normalize is None:
         return None
     out = Path(out)
@@ -199,11 +198,10 @@ def _dumps(document: dict[str, Any]) -> bytes:
 def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: int):
     """The VecEnv a recipe trains in: `n_envs` envs of the task (worlds of bots for a
     multi-bot task; for several tasks, sub-env i plays task i mod len(tasks)), seeded."""
-    import gymnasium as gym
-    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.monitor import Monitor  # lazy: stable-baselines3
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from bbbench.vec import make_vec
+    from bbbench.vec import make_vec  # lazy: stable-baselines3
 
     if len(tasks) == 1:
         env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
@@ -214,7 +212,7 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
         )
     env.seed(seed)
     if plan.normalize is not None:
-        from stable_baselines3.common.vec_env import VecNormalize
+        from stable_baselines3.common.vec_env import VecNormalize  # lazy: stable-baselines3
 
         gamma = plan.hyperparameters.get("gamma", 0.99)  # rl-zoo3 passes the recipe's
         env = VecNormalize(env, gamma=gamma, **plan.normalize)
@@ -223,7 +221,7 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
 
 def build_model(plan: Recipe, env, seed: int):
     """The stable-baselines3 model of `plan` on `env`, seeded, on the CPU."""
-    from stable_baselines3.common.noise import NormalActionNoise
+    from stable_baselines3.common.noise import NormalActionNoise  # lazy: stable-baselines3
 
     extra = {}
     if plan.noise_std is not None:
@@ -266,7 +264,7 @@ def reproducible_zip(data: bytes) -> bytes:
 
 
 def _curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) -> bytes:
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # lazy: matplotlib, for the curve only
 
     figure = Figure(figsize=(6.0, 3.4), layout="constrained")
     axes = figure.add_subplot()
