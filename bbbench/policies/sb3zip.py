@@ -232,7 +232,6 @@ class SB3Zip:
     architecture: dict[str, Any]  # the other policy kwargs, passed to the class as given
     exploration_rate: float  # DQN's and QR-DQN's epsilon when acting stochastically
     weights: dict[str, np.ndarray]  # policy.pth, as float32 numpy arrays
-    sb3_version: str
     use_sde: bool = False  # trained with gSDE
     # Trained inside VecNormalize? True, False, or None where the zip cannot tell
     # (see `trained_in_vecnormalize`).
@@ -255,10 +254,6 @@ def read_sb3_zip(path: str | Path) -> SB3Zip:
     data = _parse_data(path, archive.read("data"))
     algorithm, policy_class = _algorithm(path, data)
     _check_keys(path, data)
-    version = "unknown"
-    if "_stable_baselines3_version" in archive:
-        raw = archive.read("_stable_baselines3_version")
-        version = raw.decode("ascii", "replace").strip()[:32]
     observation_shape = _observation_shape(path, data["observation_space"])
     action_space = _action_space(path, data["action_space"])
     kwargs = _policy_kwargs(path, data.get("policy_kwargs", {}))
@@ -307,7 +302,6 @@ def read_sb3_zip(path: str | Path) -> SB3Zip:
         architecture=kwargs,
         exploration_rate=float(exploration_rate),
         weights=weights,
-        sb3_version=version,
         use_sde=use_sde,
         vecnormalize=trained_in_vecnormalize(algorithm, data),
     )
