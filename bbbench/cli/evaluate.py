@@ -9,10 +9,7 @@ from rich.console import Console
 from rich.progress import MofNCompleteColumn, Progress
 
 import bbbench
-from bbbench import evaluation
 from bbbench.cli.common import UsageError, builtin_policies, results_table, say_normalization
-from bbbench.evaluation.backends import check_ray_address, default_workers
-from bbbench.evaluation.video import check_video_path, record_episode
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 
@@ -53,6 +50,16 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from bbbench import evaluation  # lazy: only this command needs it
+    from bbbench.evaluation.backends import (  # lazy: only this command needs it
+        check_ray_address,
+        default_workers,
+    )
+    from bbbench.evaluation.video import (  # lazy: only this command needs it
+        check_video_path,
+        record_episode,
+    )
+
     if args.episodes is not None and args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
     if args.workers is not None and args.workers < 1:

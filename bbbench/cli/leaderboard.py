@@ -12,11 +12,7 @@ from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 from rich.text import Text
 
-from bbbench import leaderboard
 from bbbench.cli.common import UsageError
-from bbbench.evaluation.backends import check_ray_address
-from bbbench.leaderboard import DOCUMENT
-from bbbench.leaderboard.views import rows
 
 
 def add_parser(commands) -> None:
@@ -103,6 +99,8 @@ def add_parser(commands) -> None:
 
 def _options(args: argparse.Namespace) -> dict:
     """The options every leaderboard command that plays episodes shares, checked."""
+    from bbbench.evaluation.backends import check_ray_address  # lazy: only this command needs it
+
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.backend != "ray":
@@ -140,6 +138,8 @@ def _playing(what: str):
 
 
 def build(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard  # lazy: only this command needs it
+
     root = _root(args)
     options = _options(args)
     progress, on_episodes = _playing("episodes played")
@@ -170,6 +170,8 @@ def build(args: argparse.Namespace) -> int:
 
 
 def check(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard  # lazy: only this command needs it
+
     root = _root(args)
     options = _options(args)
     progress, on_episodes = _playing("episodes re-scored")
@@ -197,6 +199,8 @@ def check(args: argparse.Namespace) -> int:
 
 
 def add(args: argparse.Namespace) -> int:
+    from bbbench import leaderboard  # lazy: only this command needs it
+
     root = _root(args)
     options = _options(args)
     metadata = {
@@ -250,6 +254,9 @@ def add(args: argparse.Namespace) -> int:
 
 
 def show(args: argparse.Namespace) -> int:
+    from bbbench.leaderboard import DOCUMENT  # lazy: only this command needs it
+    from bbbench.leaderboard.views import rows  # lazy: only this command needs it
+
     path = _root(args) / DOCUMENT
     try:
         document = json.loads(path.read_bytes())

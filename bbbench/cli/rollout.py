@@ -7,8 +7,6 @@ import statistics
 
 import bbbench
 from bbbench.cli.common import UsageError, builtin_policies, check_seed, say_normalization
-from bbbench.evaluation.episodes import action_generator
-from bbbench.evaluation.play import Lockstep
 from bbbench.policies import PolicyError, load_policy
 
 
@@ -38,6 +36,9 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
+    from bbbench.evaluation.episodes import action_generator  # lazy: only this command needs it
+    from bbbench.evaluation.play import Lockstep  # lazy: only this command needs it
+
     try:
         spec = bbbench.spec(args.task)
     except ValueError as error:

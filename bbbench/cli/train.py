@@ -9,18 +9,11 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from bbbench import training
 from bbbench.cli.common import UsageError, check_seed, results_table
 from bbbench.files import check_output_path
-from bbbench.policies.algorithms import by_key
-from bbbench.training.recipes import TRAINABLE
 
 
 def add_parser(commands) -> None:
-    by_mode = {
-        mode: [key for key in TRAINABLE if by_key(key).action_modes[0] == mode]
-        for mode in ("discrete", "continuous")
-    }
     trainer = commands.add_parser(
         "train",
         help="train a policy on a task with its shipped recipe (stable-baselines3)",
@@ -29,12 +22,15 @@ def add_parser(commands) -> None:
         "train one generalist on all of them.",
     )
     trainer.add_argument("task", nargs="+", metavar="TASK", help="task ID(s)")
-    trainer.add_argument("--algo", required=True, help=", ".join(TRAINABLE))
+    trainer.add_argument(
+        "--algo",
+        required=True,
+        help="an algorithm with a recipe in bbbench/training/recipes/ (ppo.yml: --algo ppo)",
+    )
     trainer.add_argument(
         "--action-mode",
-        choices=tuple(by_mode),
-        help="default: "
-        + "; ".join(f"{mode} for {', '.join(keys)}" for mode, keys in by_mode.items()),
+        choices=("discrete", "continuous"),
+        help="default: discrete if the algorithm learns discrete actions, else continuous",
     )
     trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
     trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
@@ -52,6 +48,8 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from bbbench import training  # lazy: only this command needs it
+
     try:
         tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
         if args.n_envs is not None and args.n_envs < 1:
