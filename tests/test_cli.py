@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -130,3 +131,17 @@ def test_list_of_an_unknown_task_is_exit_2(capsys):
     err = capsys.readouterr().err
     assert "unknown task 'Noisy'" in err
     assert "Traceback" not in err
+
+
+def test_output_to_a_reader_that_left_ends_quietly():
+    """`bbbench list | head`: no traceback when the pipe closes first."""
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before the command writes
+    try:
+        ended = subprocess.run(
+            [sys.executable, "-m", "bbbench", "list"], stdout=write, stderr=subprocess.PIPE
+        )
+    finally:
+        os.close(write)
+    assert ended.returncode == 141
+    assert ended.stderr == b""
