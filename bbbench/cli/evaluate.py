@@ -50,15 +50,19 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    policy, task_ids = _checked(args)
+    result = _played(args, policy, task_ids)
+    return _reported(args, policy, task_ids, result)
+
+
+def _checked(args: argparse.Namespace):
+    """The policy and the tasks, and every option checked, before any episode is played."""
     from bbbench import evaluation  # lazy: only this command needs it
     from bbbench.evaluation.backends import (  # lazy: only this command needs it
         check_ray_address,
         default_workers,
     )
-    from bbbench.evaluation.video import (  # lazy: only this command needs it
-        check_video_path,
-        record_episode,
-    )
+    from bbbench.evaluation.video import check_video_path  # lazy: only this command needs it
 
     if args.episodes is not None and args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
@@ -89,9 +93,14 @@ def run(args: argparse.Namespace) -> int:
     most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
     if args.episodes is not None and args.episodes > most:
         raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
+    return policy, task_ids
 
-    per_task = args.episodes or most
-    total = per_task * len(task_ids)
+
+def _played(args: argparse.Namespace, policy, task_ids: list[str]):
+    """`evaluate`, with a progress bar on a terminal."""
+    from bbbench import evaluation  # lazy: only this command needs it
+
+    per_task = args.episodes or min(len(bbbench.spec(t).eval_seeds) for t in task_ids)
     console = Console(stderr=True)
     with Progress(
         *Progress.get_default_columns(),
@@ -100,9 +109,11 @@ def run(args: argparse.Namespace) -> int:
         transient=True,
         disable=not console.is_terminal,
     ) as progress:
-        bar = progress.add_task(f"{policy.name}: {len(task_ids)} task(s)", total=total)
+        bar = progress.add_task(
+            f"{policy.name}: {len(task_ids)} task(s)", total=per_task * len(task_ids)
+        )
         try:
-            result = evaluation.evaluate(
+            return evaluation.evaluate(
                 policy,
                 task_ids,
                 episodes=args.episodes,
@@ -116,6 +127,13 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(str(error)) from None
         except ConnectionError as error:  # Ray answered on the port, then failed
             raise UsageError(f"--address {args.address}: {error}") from None
+
+
+def _reported(args: argparse.Namespace, policy, task_ids: list[str], result) -> int:
+    """The table, the files asked for, and the exit code (1 if episodes are missing)."""
+    from bbbench import evaluation  # lazy: only this command needs it
+    from bbbench.evaluation.video import record_episode  # lazy: only this command needs it
+
     document = result.document
     out = Console()
     if not out.is_terminal:  # a pipe or a file: wide enough that nothing is cut
