@@ -24,19 +24,7 @@ def add_parser(commands) -> None:
     )
     actions = board.add_subparsers(dest="action", required=True, metavar="ACTION")
 
-    def with_common(parser: argparse.ArgumentParser, plays: bool = True):
-        parser.add_argument(
-            "--root", default="leaderboards", help="the leaderboard folder (default leaderboards)"
-        )
-        if plays:
-            parser.add_argument(
-                "--workers", type=int, help="worker processes (default: every core)"
-            )
-            parser.add_argument("--backend", choices=("local", "ray"), default="local")
-            parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
-        return parser
-
-    building = with_common(
+    building = _with_common(
         actions.add_parser(
             "build", help="score every submission and write the board (JSON, Markdown, HTML)"
         )
@@ -45,14 +33,34 @@ def add_parser(commands) -> None:
         "--no-cache", action="store_true", help="play every episode again (ignore stored results)"
     )
     building.set_defaults(run=build)
-    checking = with_common(
+    checking = _with_common(
         actions.add_parser(
             "check",
             help="rebuild from scratch and fail (exit 1) if any checked-in file differs",
         )
     )
     checking.set_defaults(run=check)
-    adding = with_common(
+    _add_parser_of_add(actions)
+    showing = _with_common(actions.add_parser("show", help="print the ranked tables"), plays=False)
+    showing.add_argument("--track", choices=("single", "multi"), help="one track (default both)")
+    showing.set_defaults(run=show)
+
+
+def _with_common(parser: argparse.ArgumentParser, plays: bool = True):
+    """The options of every leaderboard action: the folder, and how episodes are played."""
+    parser.add_argument(
+        "--root", default="leaderboards", help="the leaderboard folder (default leaderboards)"
+    )
+    if plays:
+        parser.add_argument("--workers", type=int, help="worker processes (default: every core)")
+        parser.add_argument("--backend", choices=("local", "ray"), default="local")
+        parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    return parser
+
+
+def _add_parser_of_add(actions) -> None:
+    """`bbbench leaderboard add`: the policy and the submission's fields."""
+    adding = _with_common(
         actions.add_parser(
             "add",
             help="add a submission: check the policy, score it, write its folder and the board",
@@ -92,9 +100,6 @@ def add_parser(commands) -> None:
         "--vecnormalize", metavar="PKL", help="VecNormalize statistics the policy needs"
     )
     adding.set_defaults(run=add)
-    showing = with_common(actions.add_parser("show", help="print the ranked tables"), plays=False)
-    showing.add_argument("--track", choices=("single", "multi"), help="one track (default both)")
-    showing.set_defaults(run=show)
 
 
 def _options(args: argparse.Namespace) -> dict:

@@ -147,8 +147,7 @@ def train(
         statistics.parent.mkdir(exist_ok=True)
         write_atomic(statistics, kept_statistics)
 
-    policy = load_policy(out)
-    results = evaluate(policy, tasks, episodes=final_episodes).document
+    results = evaluate(load_policy(out), tasks, episodes=final_episodes).document
     record = {
         "tasks": tasks,
         "action_mode": mode,
@@ -163,15 +162,20 @@ def train(
         "recipe": plan.record(),
         **({"statistics": str(statistics)} if statistics is not None else {}),
     }
+    _write_logs(log_dir, callback.curve, tasks, algorithm, record, results)
+    return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
+
+
+def _write_logs(log_dir: Path, curve, tasks, algorithm, record, results) -> None:
+    """curve.json, curve.png, train.json and results.json, all at once."""
     write_all_atomic(
         {
-            log_dir / "curve.json": _dumps({"points": callback.curve}),
-            log_dir / "curve.png": _curve_png(callback.curve, tasks, algorithm),
+            log_dir / "curve.json": _dumps({"points": curve}),
+            log_dir / "curve.png": _curve_png(curve, tasks, algorithm),
             log_dir / "train.json": _dumps(record),
             log_dir / "results.json": _dumps(results),
         }
     )
-    return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
 
 
 def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
