@@ -205,6 +205,11 @@ class BalanceEnv(Env):
       Bumps-, Obstacles- and Slopes-v1 and -v2), and `env.spec` records it.
     - `height_scan`: False (default) or True, the ground heights ahead of the
       bot appended to the observation (see Height Scan above).
+    - Perturbations (`bbbench.tasks.perturbations`), set at every reset:
+      `payload_mass` (kg added to the torso, default 0) and `motor_strength` (a
+      multiplier on the servos' torque limit, default 1). Given at its default, a
+      perturbation makes the same task; otherwise `env.spec` records it and the
+      fingerprint changes.
 
     The pybullet world is created on the first `reset()`; a pickled copy of the
     env carries no world and builds its own on its next `reset()`.

@@ -23,6 +23,7 @@ from bbbench.robots import BalanceBot, BotState
 from bbbench.sim import World
 from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
 from bbbench.tasks.group import spawn_poses
+from bbbench.tasks.perturbations import PERTURBATIONS, perturbation
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
 from bbbench.terrain import Heightmap, load_ground
@@ -169,6 +170,8 @@ class Scene:
         # Bullet keeps contact points from step to step and warm-starts its solver from
         # them: drop the last episode's, with every bot clear of everything at once
         # (tests/test_determinism.py: an episode does not depend on the ones before it).
+        for change in task.perturbations:  # the one seam: each sets its values again
+            change.apply(self._bots, streams.perturbation)
         for bot in self._bots:
             bot.move_clear()
         self.world.detect_collisions()
@@ -330,6 +333,8 @@ def configure(
     terrain = task.difficulty is not None
     accepted = [f"action_mode={ACTION_MODES}", f"render_mode={(None, *render_modes)}"]
     accepted += [name for name in options if name != "difficulty" or terrain]
+    accepted += list(PERTURBATIONS)
+    perturbations = {k: unknown.pop(k) for k in list(unknown) if k in PERTURBATIONS}
     wrong = sorted(unknown)
     if options.get("difficulty") is not None and not terrain:
         wrong.append("difficulty")
@@ -342,6 +347,8 @@ def configure(
     for name, value in options.items():
         if value is not None:
             task = getattr(task, _DERIVE[name])(value)
+    for keyword, value in perturbations.items():
+        task = task.with_perturbation(perturbation(keyword, value))
     if action_mode not in ACTION_MODES:
         raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
     if render_mode is not None and render_mode not in render_modes:

@@ -175,6 +175,8 @@ class BalanceBot:
         # The hot path calls pybullet directly: BulletClient builds a partial per call.
         self._client_id = bullet_client_id(client)
         self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
+        self._torso_mass = client.getDynamicsInfo(self.body, -1)[0]  # kg, as the URDF says
+        self._payload = 0.0
         self._com_above_axle = model.com_above_axle
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
         self._set_aside = False
@@ -186,6 +188,17 @@ class BalanceBot:
         return self._client_id
 
     # -- acting ---------------------------------------------------------------
+
+    def set_payload(self, kg: float) -> None:
+        """Carry `kg` more at the torso's centre of mass (0: the bot as built)."""
+        if kg != self._payload:
+            self._client.changeDynamics(self.body, -1, mass=self._torso_mass + kg)
+            self._payload = kg
+
+    def set_motor_strength(self, factor: float) -> None:
+        """Servos `factor` times as strong as the URDF's torque limit (1: as built)."""
+        limit = self.model.motor_torque_limit * factor
+        self._motor_forces = (limit, limit)
 
     def command_wheel_speed(self, speed: float) -> float:
         """Drive both wheels' velocity servos at `speed` rad/s (forward-positive).

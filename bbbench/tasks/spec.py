@@ -9,7 +9,7 @@ import json
 import re
 from dataclasses import field
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, MODEL
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.group import Group
+from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
@@ -35,6 +36,7 @@ class SeedStreams(NamedTuple):
     command: np.random.Generator
     start: np.random.Generator
     sensors: np.random.Generator
+    perturbation: np.random.Generator  # added later: the streams before it draw as they did
 
 
 def seed_streams(episode_seed: int) -> SeedStreams:
@@ -49,7 +51,7 @@ _NOT_BEHAVIOUR_FIELDS = ("summary", "description", "version_history", "random_re
 # Options added after tasks were published (fields of the spec or of its components), with
 # the value that means "as before": hashed only when set otherwise, so that adding an
 # option moves no published fingerprint.
-_OPTIONS_ADDED_LATER = {"height_scan": False, "lateral_period": None}
+_OPTIONS_ADDED_LATER = {"height_scan": False, "lateral_period": None, "perturbations": ()}
 
 
 def _published_options(value):
@@ -103,6 +105,9 @@ class TaskSpec:
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
     # The observation ends with ground heights ahead of the bot (`tasks/observation.py`).
     height_scan: bool = False
+    # Reset-time changes of the robot or its world, each not at its default
+    # (`bbbench.tasks.perturbations`), in the order of their keywords.
+    perturbations: tuple[Any, ...] = ()
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
     # of the normalized score. Measured once (`bbbench dev random-reference`).
@@ -160,6 +165,18 @@ class TaskSpec:
         another observation space, and so a different fingerprint."""
         return dataclasses.replace(self, height_scan=height_scan)
 
+    def with_perturbation(self, component: Any) -> TaskSpec:
+        """The same task with `component` in place of the perturbation of its kind; one at
+        its default is dropped, so that it makes the very same task."""
+        kinds = {kind: keyword for keyword, kind in PERTURBATIONS.items()}
+        if type(component) not in kinds:
+            raise TypeError(f"{component!r} is not a perturbation ({', '.join(PERTURBATIONS)})")
+        kept = [p for p in self.perturbations if type(p) is not type(component)]
+        if not component.default:
+            kept.append(component)
+        kept.sort(key=lambda p: kinds[type(p)])
+        return dataclasses.replace(self, perturbations=tuple(kept))
+
     def with_time_limit(self, max_episode_steps: int) -> TaskSpec:
         """The same task with another time limit (a different fingerprint)."""
         return dataclasses.replace(self, max_episode_steps=max_episode_steps)
@@ -188,7 +205,7 @@ class TaskSpec:
                 self.reward,
                 self.group,
             )
-        ]
+        ] + [type(component).__name__ for component in self.perturbations]
         digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
         digest.update(MODEL.urdf_path.read_bytes())
         return digest.hexdigest()[:16]
