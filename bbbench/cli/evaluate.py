@@ -50,13 +50,14 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    policy, task_ids = _checked(args)
-    result = _played(args, policy, task_ids)
+    policy, task_ids, per_task = _checked(args)
+    result = _played(args, policy, task_ids, per_task)
     return _reported(args, policy, task_ids, result)
 
 
 def _checked(args: argparse.Namespace):
-    """The policy and the tasks, and every option checked, before any episode is played."""
+    """The policy, the tasks and the episodes per task, every option checked before any
+    episode is played."""
     from bbbench import evaluation  # lazy: only this command needs it
     from bbbench.evaluation.backends import (  # lazy: only this command needs it
         check_ray_address,
@@ -93,14 +94,13 @@ def _checked(args: argparse.Namespace):
     most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
     if args.episodes is not None and args.episodes > most:
         raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
-    return policy, task_ids
+    return policy, task_ids, args.episodes or most
 
 
-def _played(args: argparse.Namespace, policy, task_ids: list[str]):
+def _played(args: argparse.Namespace, policy, task_ids: list[str], per_task: int):
     """`evaluate`, with a progress bar on a terminal."""
     from bbbench import evaluation  # lazy: only this command needs it
 
-    per_task = args.episodes or min(len(bbbench.spec(t).eval_seeds) for t in task_ids)
     console = Console(stderr=True)
     with Progress(
         *Progress.get_default_columns(),

@@ -23,7 +23,7 @@ from bbbench.robots import BalanceBot, BotState
 from bbbench.sim import World
 from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
 from bbbench.tasks.group import spawn_poses
-from bbbench.tasks.perturbations import PERTURBATIONS, perturbation
+from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
 from bbbench.terrain import Heightmap, load_ground
@@ -348,7 +348,7 @@ def configure(
         if value is not None:
             task = getattr(task, _DERIVE[name])(value)
     for keyword, value in perturbations.items():
-        task = task.with_perturbation(perturbation(keyword, value))
+        task = task.with_perturbation(PERTURBATIONS[keyword](value))
     if action_mode not in ACTION_MODES:
         raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
     if render_mode is not None and render_mode not in render_modes:

@@ -105,5 +105,5 @@ def numpy_actor(model: SB3Zip, observation_space: spaces.Box, action_space: spac
         activation=model.activation or model.algorithm.activation,
         low=action_space.low.copy() if box else None,
         high=action_space.high.copy() if box else None,
-        **{"log_std": None, "epsilon": None, "quantiles": 1, "mean_clip": None, **layout},
+        **layout,
     )

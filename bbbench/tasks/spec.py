@@ -106,7 +106,7 @@ class TaskSpec:
     # The observation ends with ground heights ahead of the bot (`tasks/observation.py`).
     height_scan: bool = False
     # Reset-time changes of the robot or its world, each not at its default
-    # (`bbbench.tasks.perturbations`), in the order of their keywords.
+    # (`bbbench.tasks.perturbations`), sorted by keyword.
     perturbations: tuple[Any, ...] = ()
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
@@ -168,14 +168,12 @@ class TaskSpec:
     def with_perturbation(self, component: Any) -> TaskSpec:
         """The same task with `component` in place of the perturbation of its kind; one at
         its default is dropped, so that it makes the very same task."""
-        kinds = {kind: keyword for keyword, kind in PERTURBATIONS.items()}
-        if type(component) not in kinds:
+        if type(component) not in PERTURBATIONS.values():
             raise TypeError(f"{component!r} is not a perturbation ({', '.join(PERTURBATIONS)})")
         kept = [p for p in self.perturbations if type(p) is not type(component)]
         if not component.default:
             kept.append(component)
-        kept.sort(key=lambda p: kinds[type(p)])
-        return dataclasses.replace(self, perturbations=tuple(kept))
+        return dataclasses.replace(self, perturbations=tuple(sorted(kept, key=lambda p: p.keyword)))
 
     def with_time_limit(self, max_episode_steps: int) -> TaskSpec:
         """The same task with another time limit (a different fingerprint)."""
