@@ -31,6 +31,7 @@ from bbbench.terrain import Heightmap, load_ground
 # m: where a bot taken out of the episode is set aside, far beyond anything an episode
 # reaches; bot i at (SET_ASIDE_X + 10 i, 0, 10).
 SET_ASIDE_X = 1000.0
+_NEVER = -1  # the step of the next push when there is none: `steps` never equals it
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
@@ -99,13 +100,18 @@ class Scene:
         self.live: list[int] = []  # indices of the bots still in the episode, in order
         self.live_bots: list[BalanceBot] = []  # and those bots
         self._clear()
-        sensors = task.sensors
-        self._delay = sensors.delay_steps
+        self._delay = task.sensors.delay_steps
         # Decided by the task, not per step: perfect, undelayed sensors read the true state.
-        self.perfect_sensors = isinstance(sensors, PerfectSensors) and not self._delay
+        self.perfect_sensors = (
+            isinstance(task.sensors, PerfectSensors)
+            and not self._delay
+            and all(change.keyword != "sensor_noise" for change in task.perturbations)
+        )
 
     def _clear(self) -> None:
         """Forget the world's bodies (closed, or never built: a new or unpickled scene)."""
+        self._pushes: dict[int, list[tuple[int, float]]] = {}  # step: [(bot, N s)]
+        self._next_push = _NEVER  # the first step in `_pushes`
         self._ground = None
         self._bots: tuple[BalanceBot, ...] = ()
         self._first: BalanceBot | None = None  # bots[0], for the single-bot hot path
@@ -157,21 +163,21 @@ class Scene:
             task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
             for _ in range(n)
         ]
-        errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
+        self._errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
         self._targets = rows[0]  # floats, for the hot path
         # [step][bot], for several bots
         self._targets_by_step = (
             [list(column) for column in zip(*rows, strict=True)] if n > 1 else None
         )
-        self._errors = errors
+        self._pushes, self._next_push = {}, _NEVER
+        for change in task.perturbations:  # the one seam: each sets its values again
+            change.apply(self, streams.perturbation)
         self._episode = EpisodeDraw(
-            seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches
+            seed, rows, self._errors, getattr(ground, "heightmap", None), poses, pitches
         )
         # Bullet keeps contact points from step to step and warm-starts its solver from
         # them: drop the last episode's, with every bot clear of everything at once
         # (tests/test_determinism.py: an episode does not depend on the ones before it).
-        for change in task.perturbations:  # the one seam: each sets its values again
-            change.apply(self._bots, streams.perturbation)
         for bot in self._bots:
             bot.move_clear()
         self.world.detect_collisions()
@@ -212,6 +218,8 @@ class Scene:
                 f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
             )
         command = bot.command_wheel_speed(bot.wheel_command + self.change(action))
+        if self.steps == self._next_push:
+            self._push()
         self._world_step()
         self.steps = steps = self.steps + 1
         state = bot.read()
@@ -222,6 +230,8 @@ class Scene:
 
     def advance_live(self) -> list[BotState]:
         """Step the world once and read the live bots, in order."""
+        if self.steps == self._next_push:
+            self._push()
         self._world_step()
         self.steps += 1
         return [bot.read() for bot in self.live_bots]
@@ -252,6 +262,32 @@ class Scene:
             error = errors[min(step, len(errors) - 1)]
             reading = (reading[0] + error[0], reading[1] + error[1], reading[2] + error[2])
         return reading
+
+    # -- what perturbations set (`bbbench.tasks.perturbations`) ---------------------
+
+    @property
+    def sensor_errors(self) -> list[tuple[float, float, float]] | None:
+        """This episode's (pitch, pitch rate, wheel speed) sensor error at each step, bias
+        included (None: perfect sensors); a perturbation may replace it at reset."""
+        return self._errors
+
+    @sensor_errors.setter
+    def sensor_errors(self, errors: list[tuple[float, float, float]] | None) -> None:
+        self._errors = errors
+
+    def schedule_push(self, step: int, bot: int, impulse: float) -> None:
+        """Push bot `bot` with `impulse` N s along its heading just before world step
+        `step` of this episode (a bot out of the episode by then is not pushed)."""
+        self._pushes.setdefault(step, []).append((bot, impulse))
+        self._next_push = min(self._pushes)
+
+    def _push(self) -> None:
+        pushes = self._pushes.pop(self.steps)
+        live = set(self.live)
+        for index, impulse in pushes:
+            if index in live:
+                self._bots[index].push(impulse, self.task.control_dt)
+        self._next_push = min(self._pushes, default=_NEVER)
 
     def take_out(self, indices) -> None:
         """Take bots out of the episode: they collide with nothing and wait far away
@@ -287,6 +323,7 @@ class Scene:
         state = self.__dict__.copy()
         state.update(_ground=None, _bots=(), _first=None, _world_step=None, _episode=None)
         state.update(_follow=None, live=[], live_bots=[])
+        state.update(_pushes={}, _next_push=_NEVER)
         for key in ("_targets", "_targets_by_step", "_errors", "_last_reading"):
             state.pop(key, None)
         return state
@@ -355,6 +392,11 @@ def configure(
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
     if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):
         raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
+    if several_bots and "sensor_noise" in perturbations:
+        raise ValueError(
+            f"sensor_noise does not apply to {task.id}: multi-bot tasks observe through "
+            "perfect sensors only"
+        )
     return task
 
 

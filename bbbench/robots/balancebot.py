@@ -20,8 +20,11 @@ Conventions (the robot's own frame):
 
 from __future__ import annotations
 
+import collections
 import functools
 import math
+import os
+import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,7 +104,8 @@ MODEL = read_model()
 class BotState(NamedTuple):
     """One reading of the bot. Angles in rad, rates in rad/s, velocities in m/s."""
 
-    position: tuple[float, float, float]  # torso centre of mass, world frame (m)
+    # The torso's centre of mass as built (unmoved by `set_com_offset`), world frame (m)
+    position: tuple[float, float, float]
     orientation: tuple[float, float, float, float]  # torso quaternion (x, y, z, w)
     pitch: float
     pitch_rate: float
@@ -125,14 +129,35 @@ def spawn_pose(
     xy: tuple[float, float] = (0.0, 0.0),
     ground_height: float = 0.0,
     model: RobotModel = MODEL,
+    com_forward: float = 0.0,
 ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
     """Torso centre of mass and orientation with the wheels on the ground at `xy`, leaning
-    by `pitch` rad about the axle: the base pose pybullet's reset takes."""
+    by `pitch` rad about the axle: the base pose pybullet's reset takes. `com_forward`
+    (m): the centre of mass is that far ahead of the axle along the torso's y axis."""
     orientation = pybullet.getQuaternionFromEuler((-pitch, 0.0, yaw))
     axle = (xy[0], xy[1], ground_height + model.wheel_radius)
-    up = pybullet.getMatrixFromQuaternion(orientation)[2::3]  # body z axis in world
+    matrix = pybullet.getMatrixFromQuaternion(orientation)
+    up = matrix[2::3]  # body z axis in world
     com = tuple(a + model.com_above_axle * u for a, u in zip(axle, up, strict=True))
+    if com_forward:
+        forward = matrix[1::3]  # body y axis in world
+        com = tuple(c + com_forward * f for c, f in zip(com, forward, strict=True))
     return com, orientation
+
+
+@functools.cache
+def shifted_urdf(urdf_path: Path, com_forward: float) -> str:
+    """The URDF's text with the torso's centre of mass moved `com_forward` m along +y
+    (forward); its mass and inertia about the centre of mass are unchanged."""
+    tree = ET.parse(urdf_path)
+    robot = tree.getroot()
+    torso = robot.find("joint/parent").get("link")
+    origin = next(link for link in robot.iter("link") if link.get("name") == torso).find(
+        "inertial/origin"
+    )
+    x, y, z = (float(value) for value in origin.get("xyz").split())
+    origin.set("xyz", f"{x!r} {y + com_forward!r} {z!r}")
+    return ET.tostring(robot, encoding="unicode")
 
 
 # (group, mask) of a dynamic body's links as pybullet loads them: collide with everything.
@@ -157,30 +182,34 @@ class BalanceBot:
 
     def __init__(self, client: BulletClient, model: RobotModel = MODEL) -> None:
         self.model = model
-        self.body = client.loadURDF(
-            str(model.urdf_path),
-            basePosition=(0.0, 0.0, 0.0),
-            flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
-        )
-        names = {
-            client.getJointInfo(self.body, j)[1].decode(): j
-            for j in range(client.getNumJoints(self.body))
-        }
-        self.wheel_joints = tuple(names[name] for name in model.wheel_joint_names)
-        for joint in self.wheel_joints:
-            client.changeDynamics(
-                self.body, joint, contactProcessingThreshold=WHEEL_CONTACT_PROCESSING_THRESHOLD
-            )
         self._client = client
         # The hot path calls pybullet directly: BulletClient builds a partial per call.
         self._client_id = bullet_client_id(client)
-        self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
+        self._com_forward = 0.0  # m: the torso's centre of mass ahead of the URDF's
+        self.body = self._load(str(model.urdf_path))
         self._torso_mass = client.getDynamicsInfo(self.body, -1)[0]  # kg, as the URDF says
         self._payload = 0.0
         self._com_above_axle = model.com_above_axle
+        self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
+        self._delayed: collections.deque[float] | None = None  # servo targets not yet sent
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
         self._set_aside = False
         self.command_wheel_speed(0.0)
+
+    def _load(self, urdf_path: str) -> int:
+        client = self._client
+        body = client.loadURDF(
+            urdf_path, basePosition=(0.0, 0.0, 0.0), flags=pybullet.URDF_USE_INERTIA_FROM_FILE
+        )
+        names = {
+            client.getJointInfo(body, j)[1].decode(): j for j in range(client.getNumJoints(body))
+        }
+        self.wheel_joints = tuple(names[name] for name in self.model.wheel_joint_names)
+        for joint in self.wheel_joints:
+            client.changeDynamics(
+                body, joint, contactProcessingThreshold=WHEEL_CONTACT_PROCESSING_THRESHOLD
+            )
+        return body
 
     @property
     def client_id(self) -> int:
@@ -200,6 +229,53 @@ class BalanceBot:
         limit = self.model.motor_torque_limit * factor
         self._motor_forces = (limit, limit)
 
+    def set_com_offset(self, forward: float) -> None:
+        """Move the torso's centre of mass `forward` m ahead of the URDF's (0: as built).
+
+        pybullet fixes a body's centre of mass when it loads it, so a new value reloads
+        the body from the shifted URDF, with the payload as it was; the body id is the
+        one freed, so the world's pair order stays. Call it before `reset()`.
+        """
+        if forward == self._com_forward:
+            return
+        client = self._client
+        client.removeBody(self.body)
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "shifted.urdf")
+            with open(path, "w") as file:
+                file.write(shifted_urdf(self.model.urdf_path, forward))
+            self.body = self._load(path)
+        client.changeDynamics(self.body, -1, mass=self._torso_mass + self._payload)
+        self._com_forward = forward
+        self._set_aside = False  # a new body collides with everything
+        self.command_wheel_speed(self.wheel_command)
+
+    def set_action_delay(self, steps: int) -> None:
+        """Send each wheel-speed command to the servos `steps` commands later (0: at
+        once). `wheel_command` stays the command asked for; the servos hold the one
+        asked for `steps` commands before it (0 rad/s for the first `steps` after a reset).
+        """
+        self._delayed = collections.deque([0.0] * steps) if steps else None
+
+    def push(self, impulse: float, duration: float) -> None:
+        """Push the torso horizontally along its heading with `impulse` N s (negative:
+        backwards), as a force at its centre of mass over the next `duration` s (one
+        world step: pybullet clears external forces after each)."""
+        client_id = self._client_id
+        position, orientation = pybullet.getBasePositionAndOrientation(self.body, client_id)
+        matrix = pybullet.getMatrixFromQuaternion(orientation)
+        fx, fy = matrix[1], matrix[4]  # the body's y axis (forward), horizontal part
+        length = math.hypot(fx, fy) or 1.0
+        force = impulse / duration / length
+        pybullet.applyExternalForce(
+            self.body,
+            -1,
+            (force * fx, force * fy, 0.0),
+            position,
+            pybullet.WORLD_FRAME,
+            physicsClientId=client_id,
+        )
+
     def command_wheel_speed(self, speed: float) -> float:
         """Drive both wheels' velocity servos at `speed` rad/s (forward-positive).
 
@@ -213,11 +289,15 @@ class BalanceBot:
             speed = -limit
         elif speed != speed:
             raise ValueError("wheel speed command is NaN; expected a number of rad/s")
+        held = speed
+        if self._delayed is not None:  # `set_action_delay`: the servos get an older one
+            self._delayed.append(speed)
+            held = self._delayed.popleft()
         pybullet.setJointMotorControlArray(
             self.body,
             self.wheel_joints,
             pybullet.VELOCITY_CONTROL,
-            targetVelocities=(speed, -speed),
+            targetVelocities=(held, -held),
             forces=self._motor_forces,
             physicsClientId=self._client_id,
         )
@@ -245,7 +325,7 @@ class BalanceBot:
             for link in (-1, *self.wheel_joints):
                 client.setCollisionFilterGroupMask(body, link, *_DYNAMIC_COLLISION_FILTER)
             self._set_aside = False
-        com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model)
+        com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model, self._com_forward)
         # Bullet keeps the contact points of touching bodies from step to step and
         # warm-starts its solver from them: points left from the last episode would
         # change this one's first steps. Collision detection with the bot clear of
@@ -259,6 +339,8 @@ class BalanceBot:
         client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         for joint in self.wheel_joints:
             client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
+        if self._delayed is not None:
+            self._delayed = collections.deque([0.0] * len(self._delayed))
         self.command_wheel_speed(0.0)
 
     def move_clear(self) -> None:
@@ -303,6 +385,12 @@ class BalanceBot:
         d = self._com_above_axle
         vx -= d * (wy * r22 - wz * r12)
         vy -= d * (wz * r02 - wx * r22)
+        e = self._com_forward
+        if e:  # `set_com_offset`: the axle is also e behind the centre of mass, along y
+            vx -= e * (wy * r21 - wz * r11)
+            vy -= e * (wz * r01 - wx * r21)
+            px, py, pz = position
+            position = (px - e * r01, py - e * r11, pz - e * r21)  # as if unshifted
         length = math.hypot(r01, r11)  # horizontal length of the forward axis
         # Pointing straight up or down there is no heading: say +y.
         heading = (r01 / length, r11 / length) if length > 1e-9 else (0.0, 1.0)

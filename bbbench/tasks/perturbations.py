@@ -2,15 +2,20 @@
 
 A perturbation is a frozen component of the `TaskSpec` (`TaskSpec.perturbations`), made
 from one keyword argument of the env (`gym.make(id, payload_mass=0.5)`). At every reset
-`Scene` calls each one's `apply(bots, rng)` once, after the episode's draws and before
-the bots are placed: `bots` are the scene's `BalanceBot`s, `rng` the episode's own
-perturbation stream (`SeedStreams.perturbation`, a stream of its own, so that the
-draws of every other stream are unchanged). `apply` sets absolute values, so applying
-it again at the next reset changes nothing that the last one set.
+`Scene` calls each one's `apply(scene, rng)` once, after the episode's draws and before
+the bots are placed: `scene` gives its bots, its ground, the episode's sensor errors and
+its schedule of pushes, `rng` is the episode's own perturbation stream
+(`SeedStreams.perturbation`, a stream of its own, so that the draws of every other
+stream are unchanged). `apply` sets absolute values, so applying it again at the next
+reset changes nothing that the last one set. What acts during the episode (a delayed
+command, a push) is set up here and costs the step loop one comparison.
 
 A task keeps only the perturbations that are not at their default: a keyword given at
 its default makes the very same task, and so the same fingerprint. A task without
 perturbations behaves as it did before they existed (tests/test_perturbations.py).
+
+The axes, their units, ranges and the reasons for the standard grids are tabled in the
+single-bot env's docstring (`bbbench.envs.balance.BalanceEnv`) and the README.
 
 Adding a perturbation is one component here, listed in `PERTURBATIONS`, and its test (a
 `RobotSetting` when it sets one value on each bot).
@@ -20,23 +25,33 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+import textwrap
 from typing import Any, ClassVar
 
 import numpy as np
 
 from bbbench.parameters import parameters
+from bbbench.tasks.sensors import NoisySensors, PerfectSensors
+
+# Seconds between two pushes: each waits U(2, 4) s after the last (the first, after the
+# start), as legged_gym pushes its robots at random intervals.
+PUSH_INTERVAL = (2.0, 4.0)
 
 
-class RobotSetting:
-    """A perturbation that sets one value on every bot at each reset: its single field,
-    checked to lie in [`low`, `high`], passed to the bot's method `setter`."""
+class Perturbation:
+    """A component with one field, the value of its env keyword, checked to lie in
+    [`low`, `high`] (`(low`: above `low`), a whole number when `whole`."""
 
     keyword: ClassVar[str]  # its env keyword
     meaning: ClassVar[str]  # what its value is, for error messages
     low: ClassVar[float]
     high: ClassVar[float]
-    setter: ClassVar[str]  # the BalanceBot method that sets it
+    low_open: ClassVar[bool] = False  # `low` itself is refused
+    whole: ClassVar[bool] = False  # a count of steps
+    unit: ClassVar[str]  # for the table of axes
+    # The values `bbbench sweep` and the board's robustness profile play, and why.
+    grid: ClassVar[tuple[float, ...]]
+    reason: ClassVar[str]
 
     @property
     def value(self) -> float:
@@ -44,24 +59,37 @@ class RobotSetting:
 
     def __post_init__(self) -> None:
         value, where = self.value, f"{self.keyword} must be"
+        kind = "a whole number" if self.whole else "a number"
         if (
             isinstance(value, bool)
             or not isinstance(value, int | float)
             or not math.isfinite(value)
+            or (self.whole and value != int(value))
         ):
-            raise ValueError(f"{where} a number ({self.meaning}), got {value!r}")
-        if not self.low <= value <= self.high:
+            raise ValueError(f"{where} {kind} ({self.meaning}), got {value!r}")
+        if not (self.low < value if self.low_open else self.low <= value) or value > self.high:
+            bracket = "(" if self.low_open else "["
             raise ValueError(
-                f"{where} in [{self.low:g}, {self.high:g}] ({self.meaning}), got {value!r}"
+                f"{where} in {bracket}{self.low:g}, {self.high:g}] ({self.meaning}), got {value!r}"
             )
 
-    @property
-    def default(self) -> bool:
-        """Whether it leaves the bot as built (the field's default)."""
+    def leaves_as_built(self, task: Any) -> bool:
+        """Whether it leaves `task` as built (for most, its field's default): such a
+        component is not kept in the spec."""
         return self.value == dataclasses.fields(self)[0].default
 
-    def apply(self, bots: Sequence[Any], rng: np.random.Generator) -> None:
-        for bot in bots:
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        """Set the perturbation on `scene` for the episode starting."""
+        raise NotImplementedError
+
+
+class RobotSetting(Perturbation):
+    """A perturbation that sets its value on every bot, through the bot's method `setter`."""
+
+    setter: ClassVar[str]  # the BalanceBot method that sets it
+
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        for bot in scene.bots:
             getattr(bot, self.setter)(self.value)
 
 
@@ -74,6 +102,27 @@ class PayloadMass(RobotSetting):
     meaning = "kg added to the torso"
     low, high = 0.0, 10.0
     setter = "set_payload"
+    unit = "kg on the torso"
+    grid = (0.0, 1.0, 2.0, 3.0, 4.0)
+    reason = (
+        "up to four times the 1 kg bot: over 0-1 kg no policy measured lost score; PPO "
+        "falls from 2 kg on, PD from 8"
+    )
+
+
+@parameters
+class ComOffset(RobotSetting):
+    """`com_offset`: the torso's centre of mass moved forward (m; negative: backward).
+    Its mass and inertia are unchanged; the readings stay those of the torso as built."""
+
+    metres: float = 0.0
+    keyword = "com_offset"
+    meaning = "m the torso's centre of mass moves forward"
+    low, high = -0.2, 0.2
+    setter = "set_com_offset"
+    unit = "m, centre of mass forward"
+    grid = (-0.05, -0.025, 0.0, 0.025, 0.05)
+    reason = "legged_gym's and Isaac Lab's ±5 cm; at 2.5 cm PD keeps a quarter of its score"
 
 
 @parameters
@@ -83,9 +132,119 @@ class MotorStrength(RobotSetting):
     factor: float = 1.0
     keyword = "motor_strength"
     meaning = "times the servos' torque limit"
-    low, high = 0.05, 10.0
+    low, high, low_open = 0.0, 10.0, True
     setter = "set_motor_strength"
+    unit = "times the servos' torque limit"
+    grid = (0.1, 0.2, 0.5, 0.8, 1.2)
+    reason = (
+        "down to a tenth: over 0.5-1.2 no policy measured lost score; PPO falls at 0.2, "
+        "PD and LQR at 0.1"
+    )
+
+
+@parameters
+class ActionDelay(RobotSetting):
+    """`action_delay`: control steps between a wheel-speed command and the servos acting
+    on it. The observation's wheel command is the one asked for; the servos hold the
+    one asked for `steps` steps before (0 rad/s for the first `steps` of an episode)."""
+
+    steps: int = 0
+    keyword = "action_delay"
+    meaning = "control steps between a command and the servos"
+    low, high, whole = 0, 100, True
+    setter = "set_action_delay"
+    unit = "control steps of 10 ms"
+    grid = (0, 1, 2, 3, 5)
+    reason = "the real-world RL suite's 3-9 steps; PPO falls from 2 on, PD from 15"
+
+
+@parameters
+class Friction(Perturbation):
+    """`friction`: a multiplier on the ground's lateral friction (and so the wheels' grip)."""
+
+    factor: float = 1.0
+    keyword = "friction"
+    meaning = "times the ground's lateral friction"
+    low, high, low_open = 0.0, 10.0, True
+    unit = "times the ground's friction"
+    grid = (0.2, 0.3, 0.5, 1.0, 1.5)
+    reason = "legged_gym's 0.1-2 about the 0.8 grip as built; below 0.5 the wheels slip"
+
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        scene.ground.set_friction(self.factor)
+
+
+@parameters
+class SensorNoise(Perturbation):
+    """`sensor_noise`: a multiplier on the sensors' bias and noise. On a task with perfect
+    sensors it scales `NoisySensors`' defaults (the tutorial's noise), drawn from the
+    perturbation stream; on a task with noisy sensors, the task's own errors."""
+
+    factor: float = 0.0  # as built on perfect sensors; 1 is as built on noisy ones
+    keyword = "sensor_noise"
+    meaning = "times the sensors' bias and noise"
+    low, high = 0.0, 10.0
+    unit = "times the sensors' noise"
+    grid = (0.0, 0.5, 1.0, 2.0, 3.0)
+    reason = (
+        "1 is the tutorial's noise (NoisySensors', and on perfect sensors the same), 3 about "
+        "the real-world RL suite's largest"
+    )
+
+    def leaves_as_built(self, task: Any) -> bool:
+        return self.factor == (0.0 if isinstance(task.sensors, PerfectSensors) else 1.0)
+
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        errors = scene.sensor_errors
+        if errors is None:
+            errors = NoisySensors().episode_errors(rng, scene.task.max_episode_steps)
+        f = self.factor
+        scene.sensor_errors = [(f * a, f * b, f * c) for a, b, c in errors]
+
+
+@parameters
+class Push(Perturbation):
+    """`push`: N s, a horizontal impulse on the torso, forward or back with equal odds,
+    every `PUSH_INTERVAL` s (each bot its own times and directions)."""
+
+    impulse: float = 0.0
+    keyword = "push"
+    meaning = "N s pushing the torso every 2-4 s"
+    low, high = 0.0, 10.0
+    unit = "N s every 2-4 s"
+    grid = (0.0, 0.25, 0.5, 0.75, 1.0)
+    reason = "1 N s changes the 1 kg bot's speed by about 1 m/s; at 2 N s every policy falls"
+
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        dt, steps = scene.task.control_dt, scene.task.max_episode_steps
+        for index in range(len(scene.bots)):
+            when = rng.uniform(*PUSH_INTERVAL)
+            while (step := round(when / dt)) < steps:
+                scene.schedule_push(step, index, self.impulse * rng.choice((-1.0, 1.0)))
+                when += rng.uniform(*PUSH_INTERVAL)
 
 
 # Each perturbation by its env keyword: `PERTURBATIONS[keyword](value)` is the component.
-PERTURBATIONS = {kind.keyword: kind for kind in (PayloadMass, MotorStrength)}
+PERTURBATIONS = {
+    kind.keyword: kind
+    for kind in (PayloadMass, ComOffset, Friction, MotorStrength, ActionDelay, SensorNoise, Push)
+}
+
+
+def axes_markdown() -> str:
+    """The table of the axes, and why each grid: the README and `BalanceEnv`'s docstring
+    hold it verbatim (tests/test_perturbations.py)."""
+    rows = [
+        "| keyword | unit | default | accepted | standard grid |",
+        "|---|---|---|---|---|",
+    ]
+    for keyword, kind in PERTURBATIONS.items():
+        default = "0 or 1" if kind is SensorNoise else f"{dataclasses.fields(kind)[0].default:g}"
+        accepted = f"{'(' if kind.low_open else '['}{kind.low:g}, {kind.high:g}]"
+        grid = ", ".join(f"{value:g}" for value in kind.grid)
+        rows.append(f"| `{keyword}` | {kind.unit} | {default} | {accepted} | {grid} |")
+    reasons = [
+        textwrap.fill(f"- `{keyword}`: {kind.reason}.", 88, subsequent_indent="  ")
+        for keyword, kind in PERTURBATIONS.items()
+    ]
+    return "\n".join([*rows, "", *reasons])

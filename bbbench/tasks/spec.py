@@ -67,6 +67,21 @@ def _published_options(value):
     return value
 
 
+def _components(value) -> list[Any]:
+    """Every component (frozen dataclass) in `value`, itself included, depth first in field
+    order, but for the later options at their defaults (hashed as if they were not there)."""
+    if isinstance(value, list | tuple):
+        return [component for item in value for component in _components(item)]
+    if not dataclasses.is_dataclass(value) or isinstance(value, type):
+        return []
+    found = [value]
+    for field_ in dataclasses.fields(value):
+        item, name = getattr(value, field_.name), field_.name
+        if not (name in _OPTIONS_ADDED_LATER and item == _OPTIONS_ADDED_LATER[name]):
+            found += _components(item)
+    return found
+
+
 _TASK_ID = re.compile(r"(?:(?P<namespace>[\w.-]+)/)?(?P<name>[\w.-]+?)-v(?P<version>\d+)")
 
 
@@ -166,12 +181,12 @@ class TaskSpec:
         return dataclasses.replace(self, height_scan=height_scan)
 
     def with_perturbation(self, component: Any) -> TaskSpec:
-        """The same task with `component` in place of the perturbation of its kind; one at
-        its default is dropped, so that it makes the very same task."""
+        """The same task with `component` in place of the perturbation of its kind; one that
+        leaves the task as built (at its default) is dropped: it makes the very same task."""
         if type(component) not in PERTURBATIONS.values():
             raise TypeError(f"{component!r} is not a perturbation ({', '.join(PERTURBATIONS)})")
         kept = [p for p in self.perturbations if type(p) is not type(component)]
-        if not component.default:
+        if not component.leaves_as_built(self):
             kept.append(component)
         return dataclasses.replace(self, perturbations=tuple(sorted(kept, key=lambda p: p.keyword)))
 
@@ -192,18 +207,21 @@ class TaskSpec:
             for key, value in _published_options(dataclasses.asdict(self)).items()
             if key not in _NOT_BEHAVIOUR_FIELDS
         }
-        # Class names tell apart components whose fields happen to match.
-        behaviour["components"] = [
+        # Class names tell apart components whose fields happen to match: those of the
+        # first published specs, in their order, then every other component found.
+        published = [
+            self.terrain,
+            getattr(self.terrain, "generator", None),
+            self.command,
+            self.sensors,
+            self.reward,
+            self.group,
+        ]
+        behaviour["components"] = [type(component).__name__ for component in published] + [
             type(component).__name__
-            for component in (
-                self.terrain,
-                getattr(self.terrain, "generator", None),
-                self.command,
-                self.sensors,
-                self.reward,
-                self.group,
-            )
-        ] + [type(component).__name__ for component in self.perturbations]
+            for component in _components(self)[1:]  # [0] is the spec itself
+            if not any(component is known for known in published)
+        ]
         digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
         digest.update(MODEL.urdf_path.read_bytes())
         return digest.hexdigest()[:16]

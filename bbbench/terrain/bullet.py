@@ -140,13 +140,31 @@ def _png(image: np.ndarray) -> bytes:
 _SPAWN_RADIUS = 0.15  # m
 
 
-class BulletPlane:
+class _Ground:
+    """What both grounds share: their bodies' friction, scaled as a whole."""
+
+    def _keep_friction(self, client: BulletClient, bodies: list[int], friction: float) -> None:
+        self._client, self._bodies, self._friction = client, bodies, friction
+        self._friction_factor = 1.0
+
+    def set_friction(self, factor: float) -> None:
+        """Every ground body's lateral friction `factor` times the task's (1: as built).
+        Bullet multiplies the frictions of two bodies in contact: the wheels' grip on the
+        ground scales by `factor` too."""
+        if factor != self._friction_factor:
+            for body in self._bodies:
+                self._client.changeDynamics(body, -1, lateralFriction=self._friction * factor)
+            self._friction_factor = factor
+
+
+class BulletPlane(_Ground):
     """Flat ground in a world; the same every episode."""
 
     period = None  # nothing to follow the bot: the plane has no edge
 
     def __init__(self, client: BulletClient, terrain: FlatGround) -> None:
         self.body = add_ground_plane(client, terrain.friction)
+        self._keep_friction(client, [self.body], terrain.friction)
 
     def reset(self, rng) -> float:
         """Nothing to draw: the spawn height is 0."""
@@ -221,7 +239,7 @@ def add_flat_surround(
     return bodies
 
 
-class BulletHeightfield:
+class BulletHeightfield(_Ground):
     """Procedural ground in a world: a new heightmap each episode, flat ground around it."""
 
     def __init__(self, client: BulletClient, terrain: HeightfieldTerrain) -> None:
@@ -232,6 +250,7 @@ class BulletHeightfield:
         self.body = self.field.body
         self.period = terrain.lateral_period
         self.surround = add_flat_surround(client, terrain.bounds, sides=self.period is None)
+        self._keep_friction(client, [self.body, *self.surround], GROUND_FRICTION)
         self.heightmap: Heightmap | None = None
         self._client = client
         self._texture: int | None = None
