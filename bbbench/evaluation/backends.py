@@ -22,8 +22,9 @@ from multiprocessing.connection import Connection, wait
 
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.play import PlayedEpisode
+from bbbench.tasks.spec import TaskSpec
 
-Job = tuple[str, tuple[int, ...]]  # (task ID, episode seeds played together)
+Job = tuple[TaskSpec, tuple[int, ...]]  # (task, episode seeds played together)
 Results = list[PlayedEpisode] | None  # a job's episodes; None if its worker died twice
 OnResult = Callable[[int, Results], None]
 BACKENDS = ("local", "ray")
@@ -96,8 +97,8 @@ def _serve(
     keep_freed_memory()
     try:
         while (job := connection.recv()) is not None:
-            index, task_id, seeds = job
-            connection.send((index, runner.play(task_id, seeds)))
+            index, task, seeds = job
+            connection.send((index, runner.play(task, seeds)))
     except (EOFError, KeyboardInterrupt):
         pass
     finally:
@@ -115,7 +116,7 @@ class _Worker:
         child.close()
         self.job: tuple[int, str, tuple[int, ...]] | None = None
 
-    def send(self, job: tuple[int, str, tuple[int, ...]]) -> None:
+    def send(self, job: tuple[int, TaskSpec, tuple[int, ...]]) -> None:
         self.job = job
         self.connection.send(job)
 
@@ -196,7 +197,7 @@ def run_local(
     return results
 
 
-def _next_job(stretches: list[deque], slot: int) -> tuple[int, str, tuple[int, ...]]:
+def _next_job(stretches: list[deque], slot: int) -> tuple[int, TaskSpec, tuple[int, ...]]:
     """The next job of worker `slot`: the first of its stretch, else the last of the
     longest stretch left."""
     if stretches[slot]:
@@ -237,8 +238,8 @@ class _RayWorker:
         keep_freed_memory()
         self.runner = runner
 
-    def play(self, index: int, task_id: str, seeds: tuple[int, ...]) -> list[PlayedEpisode]:
-        return self.runner.play(task_id, seeds)
+    def play(self, index: int, task: TaskSpec, seeds: tuple[int, ...]) -> list[PlayedEpisode]:
+        return self.runner.play(task, seeds)
 
 
 def run_ray(

@@ -4,15 +4,16 @@
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from bbbench.envs.factory import make, make_parallel
+from bbbench.envs.balance import BalanceEnv
+from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation.play import Lockstep, MultiEpisode, PlayedEpisode
 from bbbench.policies.policy import Actor
+from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import spec
 
 # Tags the episode's action generator, so it never equals a generator the env draws from.
@@ -41,19 +42,22 @@ class LockstepPlayer:
     actors: dict[str, Actor]  # task ID -> the policy's actor for one bot of it
     action_mode: str
     sampled: bool  # act from the episode's generator (stochastic or random policies)
-    height_scan: bool = False  # single-bot envs observe the ground ahead (height_scan=True)
-    _envs: dict[str, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
+    height_scan: bool = False  # a task given by ID is observed with the ground ahead
+    _envs: dict[TaskSpec, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
 
-    def play(self, task_id: str, seeds: Sequence[int]) -> list[PlayedEpisode]:
-        task = spec(task_id)
-        if task_id not in self._envs:
+    def play(self, task: str | TaskSpec, seeds: Sequence[int]) -> list[PlayedEpisode]:
+        """Episodes `seeds` of `task`: a task ID, or a spec (a perturbed one, another
+        difficulty or number of bots: what `bbbench sweep` plays)."""
+        if isinstance(task, str):
+            task = spec(task).with_height_scan(self.height_scan)
+        if task not in self._envs:
             self.close()
-        envs = self._envs.setdefault(task_id, [])
+        envs = self._envs.setdefault(task, [])
         lanes = 1 if task.multi_agent else len(seeds)
         while len(envs) < lanes:
-            envs.append(self._make(task_id))
+            envs.append(self._make(task))
         rngs = [action_generator(seed) for seed in seeds] if self.sampled else None
-        actor = self.actors[task_id]
+        actor = self.actors[task.id]
         if task.multi_agent:
             return [
                 MultiEpisode(envs[0], actor, seed, None if rngs is None else rngs[i]).play()
@@ -63,16 +67,13 @@ class LockstepPlayer:
 
     def worlds(self) -> dict[str, int]:
         """How many envs the runner keeps open, by task (those of one task at a time)."""
-        return {task_id: len(envs) for task_id, envs in self._envs.items()}
+        return {task.id: len(envs) for task, envs in self._envs.items()}
 
-    def _make(self, task_id: str) -> Any:
-        if spec(task_id).multi_agent:
-            return make_parallel(task_id, action_mode=self.action_mode)
-        # The env itself: the loop below keeps the time limit, as TimeLimit would.
-        scan = {"height_scan": True} if self.height_scan else {}
-        with warnings.catch_warnings():  # older versions are scored on purpose, for comparison
-            warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
-            return make(task_id, action_mode=self.action_mode, **scan).unwrapped
+    def _make(self, task: TaskSpec) -> Any:
+        if task.multi_agent:
+            return MultiBalanceEnv(task, action_mode=self.action_mode)
+        # The env itself, without gymnasium's wrappers: the loop keeps the time limit.
+        return BalanceEnv(task, action_mode=self.action_mode)
 
     def close(self) -> None:
         for envs in self._envs.values():

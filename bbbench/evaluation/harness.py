@@ -14,6 +14,7 @@ from bbbench.evaluation.results import document
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import Policy
 from bbbench.policies.registry import fitting_tasks
+from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 
 LOCKSTEP = 8  # single-bot episodes a worker plays side by side
@@ -69,6 +70,35 @@ def evaluate(
     `on_result(n, results)` is called as each group of n episodes ends (results
     None if its worker died twice).
     """
+    # A policy that observes the ground ahead plays every task with the height scan on.
+    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in task_ids]
+    played = play_tasks(policy, tasks, episodes, workers, backend, address, stochastic, on_result)
+    results = dict(zip(task_ids, played.episodes, strict=True))
+    return Evaluation(results_document(policy, results, stochastic), played.missing, played.steps)
+
+
+@dataclasses.dataclass(frozen=True)
+class Played:
+    """What `play_tasks` returns: per task, its episodes in seed order (None: missing)."""
+
+    episodes: list[list[PlayedEpisode | None]]
+    missing: list[tuple[str, int]]  # (task ID, seed) of episodes whose worker died twice
+    steps: int  # environment steps played (bot-steps on multi-bot tasks count once)
+
+
+def play_tasks(
+    policy: Policy,
+    tasks: Sequence[TaskSpec],
+    episodes: int | None = None,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    stochastic: bool = False,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+) -> Played:
+    """The episodes of `evaluate`, for task specs: the suite's, or variants of them (a
+    perturbation, another difficulty or number of bots: `bbbench sweep`), all on one pool
+    of workers. Each task plays its first `episodes` eval seeds."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if episodes is not None and episodes < 1:
@@ -78,17 +108,18 @@ def evaluate(
         raise ValueError(f"workers must be at least 1, got {workers}")
     if address is None:  # this machine: more processes than cores only cost memory
         workers = min(workers, default_workers())
-    # A policy that observes the ground ahead plays every task with the height scan on.
-    tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in task_ids]
     seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
     jobs = [
-        (task.id, tuple(task_seeds[start : start + LOCKSTEP]))
+        (task, tuple(task_seeds[start : start + LOCKSTEP]))
         for task, task_seeds in zip(tasks, seeds, strict=True)
         for start in range(0, len(task_seeds), LOCKSTEP)
     ]
+    task_ids = dict.fromkeys(task.id for task in tasks)
     runner = LockstepPlayer(
-        actors={task.id: policy.actor(task.id, deterministic=not stochastic) for task in tasks},
+        actors={
+            task_id: policy.actor(task_id, deterministic=not stochastic) for task_id in task_ids
+        },
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,
         height_scan=policy.height_scan,
@@ -102,17 +133,23 @@ def evaluate(
         done = run_ray(runner, jobs, workers, report, address=address)
     else:
         done = run_local(runner, jobs, workers, report)
-    by_seed = {}
-    for (task_id, group), played in zip(jobs, done, strict=True):
-        for i, seed in enumerate(group):
-            by_seed[task_id, seed] = None if played is None else played[i]
-    results = {
-        task.id: [by_seed[task.id, seed] for seed in ts]
-        for task, ts in zip(tasks, seeds, strict=True)
-    }
-    missing = [key for key, result in by_seed.items() if result is None]
-    steps = sum(result.length for result in by_seed.values() if result is not None)
-    return Evaluation(results_document(policy, results, stochastic), missing, steps)
+    by_job = iter(done)
+    results: list[list[PlayedEpisode | None]] = []
+    for task_seeds in seeds:
+        episodes_of_task: list[PlayedEpisode | None] = []
+        for start in range(0, len(task_seeds), LOCKSTEP):
+            group = next(by_job)
+            size = len(task_seeds[start : start + LOCKSTEP])
+            episodes_of_task += [None] * size if group is None else group
+        results.append(episodes_of_task)
+    missing = [
+        (task.id, seed)
+        for task, task_seeds, played in zip(tasks, seeds, results, strict=True)
+        for seed, episode in zip(task_seeds, played, strict=True)
+        if episode is None
+    ]
+    steps = sum(episode.length for played in results for episode in played if episode is not None)
+    return Played(results, missing, steps)
 
 
 def results_document(

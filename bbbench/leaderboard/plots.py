@@ -123,3 +123,50 @@ def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) 
         axes.grid(axis="y", alpha=0.3)
         axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
         return _svg(figure)
+
+
+def score_curves(panels: Sequence[dict[str, Any]], columns: int = 3):
+    """Small multiples of normalized score against a parameter: one panel per
+    `{"title", "xlabel", "lines": [(label, xs, scores, lows, highs), ...]}`, each line
+    with its 95% interval as a band; a line's colour is the same in every panel.
+    Returns the figure (`svg_text`, `png_bytes`)."""
+    labels = list(dict.fromkeys(line[0] for panel in panels for line in panel["lines"]))
+    colors = dict(zip(labels, _colors(len(labels)), strict=True))
+    columns = min(columns, len(panels))
+    rows = -(-len(panels) // columns)
+    with _style():
+        figure = _figure(2.6 * columns + 1.8, max(2.3 * rows, _legend_height(len(labels))))
+        grid = figure.subplots(rows, columns, squeeze=False, sharey=True)
+        for axes, panel in zip(grid.flat, panels, strict=False):
+            for label, xs, scores, lows, highs in panel["lines"]:
+                color = colors[label]
+                axes.fill_between(xs, lows, highs, color=color, alpha=0.18, linewidth=0)
+                axes.plot(xs, scores, "o-", color=color, label=label, markersize=3)
+            axes.set_title(panel["title"])
+            axes.set_xlabel(panel["xlabel"])
+            axes.axhline(0.0, color="black", linewidth=0.6)
+            axes.grid(alpha=0.3)
+        for axes in grid[:, 0]:
+            axes.set_ylabel("normalized score (95% CI)")
+        for axes in list(grid.flat)[len(panels) :]:
+            axes.set_visible(False)
+        legend = {}
+        for axes in grid.flat:
+            for handle, name in zip(*axes.get_legend_handles_labels(), strict=True):
+                legend.setdefault(name, handle)
+        figure.legend(legend.values(), legend.keys(), loc="outside right upper", frameon=False)
+    return figure
+
+
+def svg_text(figure) -> str:
+    """The figure as SVG, the same bytes on every build."""
+    with _style():
+        return _svg(figure)
+
+
+def png_bytes(figure) -> bytes:
+    """The figure as PNG, without the metadata that would change between builds."""
+    buffer = io.BytesIO()
+    with _style():
+        figure.savefig(buffer, format="png", dpi=150, metadata={"Software": None})
+    return buffer.getvalue()

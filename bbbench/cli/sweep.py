@@ -1,0 +1,242 @@
+"""`bbbench sweep`: policies' scores at each value of one axis (a robustness profile)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress
+from rich.table import Table
+
+import bbbench
+from bbbench.cli.common import UsageError, say_normalization
+from bbbench.files import check_output_path, write_atomic
+from bbbench.policies import PolicyError, load_policy
+from bbbench.tasks.suite import latest_version
+
+PLOT_FORMATS = (".svg", ".png")
+PROFILE_TASK = "bbbench/VelocityTracking-v1"  # a perturbation's default task (its latest version)
+
+
+def add_parser(commands) -> None:
+    from bbbench.evaluation.sweep import AXES  # lazy: the suite's modules, not the CLI's
+
+    sweep = commands.add_parser(
+        "sweep",
+        help="score policies at each value of one axis: a robustness profile",
+        description="Play the same evaluation seeds at each value of one axis and report, per "
+        "value, the aggregate of the results document, and per task the robustness score "
+        "(the mean normalized score over the values) and the worst case (their minimum). "
+        f"Axes: {', '.join(AXES)}. Without --values, the axis's standard grid; without "
+        "--task, VelocityTracking for a perturbation, the terrain tasks for difficulty and "
+        "the multi-bot tasks for n_bots (each the latest version the policies fit).",
+    )
+    sweep.add_argument(
+        "policy", nargs="+", metavar="POLICY", help="a .zip or a built-in, several to overlay"
+    )
+    sweep.add_argument("--axis", required=True, help="the parameter to vary")
+    sweep.add_argument(
+        "--values", metavar="V1,V2,...", help="the values to play (default: the standard grid)"
+    )
+    sweep.add_argument("--task", action="extend", nargs="+", metavar="ID", help="task ID(s)")
+    sweep.add_argument(
+        "--episodes", type=int, help="the first N eval seeds at each value (default: all)"
+    )
+    sweep.add_argument("--workers", type=int, help="worker processes (default: every core)")
+    sweep.add_argument("--backend", choices=("local", "ray"), default="local")
+    sweep.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    sweep.add_argument("--json", metavar="OUT", help="write the sweep document here")
+    sweep.add_argument(
+        "--plot", metavar="OUT", help="draw normalized score against the axis (.svg or .png)"
+    )
+    sweep.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from bbbench.evaluation.results import dumps  # lazy: only this command needs it
+    from bbbench.evaluation.sweep import sweep  # lazy: only this command needs it
+
+    policies, axis, values, task_ids = _checked(args)
+    console = Console(stderr=True)
+    pairs = len(values) * len(task_ids)
+    with Progress(
+        *Progress.get_default_columns(),
+        MofNCompleteColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    ) as progress:
+        total = args.episodes_per_pair * pairs * len(policies)
+        bar = progress.add_task(f"{axis}: {pairs} (value, task) pair(s)", total=total)
+        try:
+            document = sweep(
+                policies,
+                axis,
+                values,
+                task_ids,
+                episodes=args.episodes,
+                workers=args.workers,
+                backend=args.backend,
+                address=args.address,
+                on_result=lambda count, played: progress.advance(bar, count),
+            )
+        except PolicyError as error:
+            raise UsageError(str(error)) from None
+        except ConnectionError as error:
+            raise UsageError(f"--address {args.address}: {error}") from None
+    out = Console() if Console().is_terminal else Console(width=120)
+    for entry in document["policies"]:
+        out.print(_table(document, entry))
+    if args.json is not None:
+        write_atomic(args.json, dumps(document).encode())
+        args.written.append(args.json)
+        print(f"wrote {args.json}")
+    if args.plot is not None:
+        write_atomic(args.plot, _plot(document, Path(args.plot).suffix.lower()))
+        args.written.append(args.plot)
+        print(f"wrote {args.plot}")
+    missing = sum(
+        len(point["missing"])
+        for entry in document["policies"]
+        for task in entry["tasks"]
+        for point in task["points"]
+    )
+    if missing:
+        print(f"bbbench: {missing} episode(s) missing, their worker died twice", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _checked(args: argparse.Namespace):
+    """The policies, the axis, its values and the tasks, every pair checked before any
+    episode is played."""
+    from bbbench.evaluation import select_tasks  # lazy: only this command needs it
+    from bbbench.evaluation.backends import check_ray_address  # lazy: only this command
+    from bbbench.evaluation.sweep import (  # lazy: only this command needs it
+        check_axis,
+        parse_values,
+        standard_grid,
+        sweep_tasks,
+    )
+
+    if args.episodes is not None and args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    try:
+        axis = check_axis(args.axis)
+        values = standard_grid(axis) if args.values is None else parse_values(axis, args.values)
+        if args.json is not None:
+            check_output_path(args.json, "--json")
+        if args.plot is not None:
+            check_output_path(args.plot, "--plot")
+            if Path(args.plot).suffix.lower() not in PLOT_FORMATS:
+                raise ValueError(
+                    f"--plot {args.plot}: the figure is written as .svg or .png, by its name"
+                )
+        if args.backend == "ray":
+            check_ray_address(args.address)
+        policies = [load_policy(name) for name in args.policy]
+        requested = args.task or _default_tasks(axis, policies)
+        for policy in policies:  # each fits every task, and every pair can be made
+            task_ids = select_tasks(policy, requested)
+            sweep_tasks(task_ids, axis, values, policy.height_scan)
+    except (PolicyError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    for policy in policies:
+        say_normalization(policy)
+    most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
+    if args.episodes is not None and args.episodes > most:
+        raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
+    args.episodes_per_pair = args.episodes or most
+    return policies, axis, list(values), task_ids
+
+
+def _default_tasks(axis: str, policies) -> list[str]:
+    """The tasks the axis is swept on when none is given."""
+    from bbbench.policies.registry import fitting_tasks  # lazy: only this command needs it
+
+    if axis not in ("difficulty", "n_bots"):
+        return [latest_version(PROFILE_TASK)]
+    latest = [bbbench.spec(task_id) for task_id in bbbench.list_tasks(latest=True)]
+    if axis == "difficulty":
+        applies = [task.id for task in latest if task.difficulty is not None]
+    else:
+        applies = [task.id for task in latest if task.multi_agent]
+    fits = [t for t in applies if all(t in fitting_tasks(policy) for policy in policies)]
+    if not fits:
+        kind = "terrain" if axis == "difficulty" else "multi-bot"
+        raise ValueError(
+            f"{axis} applies to the {kind} tasks ({', '.join(applies)}), and the policies do "
+            "not all fit one of them: give --task"
+        )
+    return fits
+
+
+def _table(document: dict, entry: dict) -> Table:
+    policy = entry["policy"]
+    title = (
+        f"{policy['name']} ({policy['algorithm']}): normalized score [95% CI] by "
+        f"{document['axis']} ({document['unit']})"
+    )
+    table = Table(title=title, title_justify="left", min_width=len(title))
+    table.add_column(document["axis"], justify="right", no_wrap=True)
+    for task in entry["tasks"]:
+        table.add_column(task["task"].removeprefix("bbbench/"), justify="right", no_wrap=True)
+    for row, value in enumerate(document["values"]):
+        cells = []
+        for task in entry["tasks"]:
+            score = task["points"][row]["aggregate"]
+            normalized = score.get("normalized_score")
+            if normalized is None:
+                cells.append("-" if not score["episodes"] else f"{score['mean']:.2f} (return)")
+                continue
+            low, high = score["normalized_ci"]
+            cells.append(f"{normalized:.3f} [{low:.3f}, {high:.3f}]")
+        table.add_row(f"{value:g}", *cells)
+    over = "the standard grid" if document["standard_grid"] else "these values"
+    lines = []
+    for task in entry["tasks"]:
+        robustness = task["robustness"]
+        if robustness is not None:
+            lines.append(
+                f"{task['task'].removeprefix('bbbench/')}: robustness {robustness['score']:.3f}, "
+                f"worst case {robustness['worst_case']:.3f} at {robustness['worst_value']:g}"
+            )
+    if lines:
+        table.caption = f"Over {over}: " + "; ".join(lines)
+        table.caption_justify = "left"
+    return table
+
+
+def _plot(document: dict, suffix: str) -> bytes:
+    from bbbench.leaderboard.plots import png_bytes, score_curves, svg_text  # lazy: matplotlib
+
+    panels = []
+    for i, task_id in enumerate(t["task"] for t in document["policies"][0]["tasks"]):
+        lines = []
+        for entry in document["policies"]:
+            points = entry["tasks"][i]["points"]
+            scored = [p for p in points if p["aggregate"].get("normalized_score") is not None]
+            lines.append(
+                (
+                    entry["policy"]["name"],
+                    [p["value"] for p in scored],
+                    [p["aggregate"]["normalized_score"] for p in scored],
+                    [p["aggregate"]["normalized_ci"][0] for p in scored],
+                    [p["aggregate"]["normalized_ci"][1] for p in scored],
+                )
+            )
+        panels.append(
+            {
+                "title": task_id.removeprefix("bbbench/"),
+                "xlabel": f"{document['axis']} ({document['unit']})",
+                "lines": lines,
+            }
+        )
+    figure = score_curves(panels)
+    return svg_text(figure).encode() if suffix == ".svg" else png_bytes(figure)

@@ -1,0 +1,213 @@
+"""`sweep`: policies' evaluation episodes at each value of one axis, through the harness.
+
+An axis is a perturbation (`bbbench.tasks.perturbations`: `payload_mass`, `push`, ...),
+`difficulty` on terrain tasks or `n_bots` on multi-bot tasks. Each (value, task) pair is
+the task's spec with that value, played on the same evaluation seeds by the harness's
+own player (`play_tasks`: workers, Ray, lockstep, safe loading), all pairs of a policy on
+one pool of workers. Per pair the document holds the aggregate block of the results
+document; per (policy, task) the robustness score, the mean normalized score over the
+values, and the worst case, their minimum (RRLS's two figures), which are the profile's
+when the values are the axis's standard grid.
+
+from bbbench.evaluation.sweep import sweep
+from bbbench.policies import load_policy
+
+document = sweep([load_policy("pd")], "push", task_ids=["bbbench/VelocityTracking-v1"])
+document["policies"][0]["tasks"][0]["robustness"]
+"""
+
+from __future__ import annotations
+
+import difflib
+import operator
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+import bbbench
+from bbbench.evaluation import stats
+from bbbench.evaluation.harness import play_tasks
+from bbbench.evaluation.play import PlayedEpisode
+from bbbench.evaluation.results import HARNESS_VERSION, aggregate
+from bbbench.policies.policy import Policy
+from bbbench.tasks.group import MAX_BOTS, MIN_BOTS
+from bbbench.tasks.perturbations import PERTURBATIONS
+from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.suite import list_tasks, spec
+
+SCHEMA = "bbbench-sweep/1"
+# The standard grids of the two axes that are not perturbations.
+DIFFICULTY_GRID = (0.0, 0.25, 0.5, 0.75, 1.0)
+N_BOTS_GRID = (2, 4, 8, 16)
+AXES = (*PERTURBATIONS, "difficulty", "n_bots")
+
+
+def check_axis(axis: str) -> str:
+    """`axis`, or a ValueError that names the closest axis and lists them all."""
+    if axis in AXES:
+        return axis
+    closest = difflib.get_close_matches(axis, AXES, n=1, cutoff=0.5)
+    hint = f"did you mean {closest[0]!r}? " if closest else ""
+    raise ValueError(f"unknown axis {axis!r}: {hint}the axes are {', '.join(AXES)}")
+
+
+def standard_grid(axis: str) -> tuple[float, ...]:
+    """The values the robustness profile plays on `axis`."""
+    if axis == "difficulty":
+        return DIFFICULTY_GRID
+    if axis == "n_bots":
+        return N_BOTS_GRID
+    return PERTURBATIONS[check_axis(axis)].grid
+
+
+def unit(axis: str) -> str:
+    if axis == "difficulty":
+        return "terrain difficulty, 0 to 1"
+    if axis == "n_bots":
+        return "bots in the world"
+    return PERTURBATIONS[axis].unit
+
+
+def whole(axis: str) -> bool:
+    """Whether the axis counts (steps, bots): its values are whole numbers."""
+    return axis == "n_bots" or (PERTURBATIONS.get(axis) is not None and PERTURBATIONS[axis].whole)
+
+
+def parse_values(axis: str, text: str) -> list[float]:
+    """'0,0.5,1' as the axis's values, or a ValueError that says what is expected."""
+    values = []
+    for item in text.split(","):
+        try:
+            value = float(item)
+        except ValueError:
+            raise ValueError(
+                f"--values {text!r}: {item.strip()!r} is not a number; give numbers separated "
+                f"by commas, e.g. {','.join(f'{v:g}' for v in standard_grid(axis))}"
+            ) from None
+        if whole(axis):
+            if value != int(value):
+                raise ValueError(f"{axis} is a whole number ({unit(axis)}), got {item.strip()}")
+            value = int(value)
+        values.append(value)
+    if len(set(values)) != len(values):
+        raise ValueError(f"--values {text!r}: a value is given twice")
+    return sorted(values)
+
+
+def variant(task: TaskSpec, axis: str, value: float) -> TaskSpec:
+    """`task` with `value` on `axis`, or a ValueError: the axis does not apply to it, or
+    the value lies outside the parameter's physical range."""
+    if axis == "difficulty":
+        if task.difficulty is None:
+            terrain = ", ".join(
+                t for t in list_tasks(latest=True) if spec(t).difficulty is not None
+            )
+            raise ValueError(
+                f"difficulty does not apply to {task.id}: it is on flat ground (the terrain "
+                f"tasks: {terrain})"
+            )
+        return task.with_difficulty(value)
+    if axis == "n_bots":
+        if not task.multi_agent:
+            multi = ", ".join(list_tasks(latest=True, multi_agent=True))
+            raise ValueError(
+                f"n_bots does not apply to {task.id}: it has one bot (the multi-bot tasks: {multi})"
+            )
+        if not MIN_BOTS <= value <= MAX_BOTS:
+            raise ValueError(f"n_bots must be from {MIN_BOTS} to {MAX_BOTS}, got {value}")
+        return task.with_n_bots(operator.index(value))
+    if axis == "sensor_noise" and task.multi_agent:
+        raise ValueError(
+            f"sensor_noise does not apply to {task.id}: multi-bot tasks observe through "
+            "perfect sensors only"
+        )
+    return task.with_perturbation(PERTURBATIONS[check_axis(axis)](value))
+
+
+def sweep_tasks(
+    task_ids: Sequence[str], axis: str, values: Sequence[float], height_scan: bool = False
+) -> list[TaskSpec]:
+    """Every (value, task) pair's spec, value by value: checks every pair before any
+    episode is played."""
+    tasks = [spec(task_id).with_height_scan(height_scan) for task_id in task_ids]
+    return [variant(task, axis, value) for value in values for task in tasks]
+
+
+def sweep(
+    policies: Sequence[Policy],
+    axis: str,
+    values: Sequence[float] | None = None,
+    task_ids: Sequence[str] = ("bbbench/VelocityTracking-v1",),
+    episodes: int | None = None,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+) -> dict[str, Any]:
+    """Each policy's first `episodes` eval seeds (default: all) of each task at each value
+    of `axis` (default: its standard grid), as the sweep document (deterministic actions).
+    `on_result(n, results)` is called as each group of n episodes ends."""
+    axis = check_axis(axis)
+    values = list(standard_grid(axis) if values is None else values)
+    entries = []
+    for policy in policies:
+        tasks = sweep_tasks(task_ids, axis, values, policy.height_scan)
+        played = play_tasks(policy, tasks, episodes, workers, backend, address, False, on_result)
+        by_pair = iter(zip(tasks, played.episodes, strict=True))
+        points: dict[str, list[dict[str, Any]]] = {task_id: [] for task_id in task_ids}
+        for value in values:
+            for task_id in task_ids:
+                task, results = next(by_pair)
+                points[task_id].append(_point(task, value, results))
+        entries.append(
+            {
+                "policy": policy.record(),
+                "tasks": [
+                    {"task": spec(task_id).id, "points": rows, "robustness": _robustness(rows)}
+                    for task_id, rows in points.items()
+                ],
+            }
+        )
+    return {
+        "schema": SCHEMA,
+        "bbbench_version": bbbench.__version__,
+        "harness_version": HARNESS_VERSION,
+        "axis": axis,
+        "unit": unit(axis),
+        "values": values,
+        "standard_grid": tuple(values) == tuple(standard_grid(axis)),
+        "deterministic": True,
+        "statistics": {
+            "interval": "percentile, stratified bootstrap (rliable)",
+            "confidence": stats.CONFIDENCE,
+            "reps": stats.BOOTSTRAP_REPS,
+            "seed": stats.BOOTSTRAP_SEED,
+        },
+        "policies": entries,
+    }
+
+
+def _point(task: TaskSpec, value: float, results: list[PlayedEpisode | None]) -> dict[str, Any]:
+    seeds = task.eval_seeds[: len(results)]
+    return {
+        "value": value,
+        "fingerprint": task.fingerprint,
+        "seeds": [seeds[0], seeds[-1]],  # the first and last: they run in a row
+        "missing": [s for s, r in zip(seeds, results, strict=True) if r is None],
+        "aggregate": aggregate(task, [r for r in results if r is not None]),
+    }
+
+
+def _robustness(points: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+    """The mean normalized score over the points, and the worst point; None for a task
+    without a random reference (no normalized score)."""
+    scores = [point["aggregate"].get("normalized_score") for point in points]
+    if any(score is None for score in scores):
+        return None
+    worst = int(np.argmin(scores))
+    return {
+        "score": float(np.mean(scores)),
+        "worst_case": scores[worst],
+        "worst_value": points[worst]["value"],
+    }
