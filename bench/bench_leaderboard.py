@@ -10,11 +10,13 @@ episodes, and the time of `bbbench leaderboard check`.
    eval POLICY --json OUT` (every task it fits, every eval seed), timed from start to
    exit; summed over the entries. The bench checks that each writes the very
    results document the build wrote.
-3. check: `bbbench leaderboard check` on the copy (a rebuild from scratch, compared).
+3. check: `bbbench leaderboard check --full` on the copy (a rebuild from scratch,
+   compared); `bench/bench_check.py` times the default check.
 
-Both play the same episodes, so build's throughput over eval's is eval's total time
-over build's. The runs alternate, round by round, and each ratio is computed within
-its round (the machine is shared and noisy).
+Since issue 27 the build also plays each entry's robustness profile, which `bbbench
+eval` does not: the throughput ratio is build's episodes per second over eval's (the
+episodes each played are printed). The runs alternate, round by round, and each ratio
+is computed within its round (the machine is shared and noisy).
 """
 
 from __future__ import annotations
@@ -42,6 +44,21 @@ def policy_argument(folder: Path) -> str:
     return metadata.get("builtin") or str(folder / "policy.zip")
 
 
+def episodes(results: Path) -> dict[str, int]:
+    """The episodes `bbbench eval` plays for the entries ("eval"), and the build with their
+    robustness profiles ("all")."""
+    counts = {"eval": 0, "all": 0}
+    for path in results.glob("*.json"):
+        document = json.loads(path.read_text())
+        if path.name.endswith(".profile.json"):
+            counts["all"] += sum(len(p["episodes"]) for a in document["axes"] for p in a["points"])
+        else:
+            played = sum(len(block["episodes"]) for block in document["tasks"])
+            counts["eval"] += played
+            counts["all"] += played
+    return counts
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", default="leaderboards", type=Path)
@@ -52,7 +69,10 @@ def main() -> None:
     shutil.copytree(args.root / "submissions", board / "submissions")
     folders = sorted(p for p in (board / "submissions").iterdir() if p.is_dir())
     print(f"{len(folders)} entries: {', '.join(p.name for p in folders)}")
-    print("| round | build (s) | eval, summed over entries (s) | **build / eval throughput** |")
+    print(
+        "| round | build (s, episodes) | eval, summed over entries (s, episodes) "
+        "| **build / eval throughput** |"
+    )
     print("|---|---|---|---|")
     for round_ in range(1, args.rounds + 1):
         build = timed([*BBBENCH, "leaderboard", "build", "--no-cache", "--root", str(board)])
@@ -63,8 +83,14 @@ def main() -> None:
             written = (board / "results" / f"{folder.name}.json").read_bytes()
             if out.read_bytes() != written:
                 raise SystemExit(f"{folder.name}: eval and build wrote different results")
-        print(f"| {round_} | {build:.1f} | {evals:.1f} | **{evals / build:.3f}** |", flush=True)
-    check = timed([*BBBENCH, "leaderboard", "check", "--root", str(board)])
+        played = episodes(board / "results")
+        ratio = (played["all"] / build) / (played["eval"] / evals)
+        print(
+            f"| {round_} | {build:.1f}, {played['all']} | {evals:.1f}, {played['eval']} "
+            f"| **{ratio:.3f}** |",
+            flush=True,
+        )
+    check = timed([*BBBENCH, "leaderboard", "check", "--full", "--root", str(board)])
     print(f"\ncheck of the same board: {check:.1f} s")
     shutil.rmtree(work)
 

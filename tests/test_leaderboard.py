@@ -18,6 +18,7 @@ import bbbench
 from bbbench import leaderboard
 from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
+from bbbench.evaluation.profile import Protocol
 from bbbench.leaderboard import Board, SubmissionError
 from bbbench.leaderboard.submissions import FIELDS, read_submission
 from bbbench.policies import load_policy
@@ -35,7 +36,10 @@ BOARD = Board(
         "bbbench/MultiBalance-v0",
     ),
     episodes=4,
+    # Two axes, two seeds: a profile in seconds (the board's: seven axes, 20 seeds).
+    profile=Protocol(episodes=2, axes=("action_delay", "push")),
 )
+PROFILE = 2 * 5 * 2  # a profile's episodes on BOARD: 2 axes, 5 values each, 2 seeds
 GENERATED = ("bbbench-v0.json", "README.md", "index.html")
 
 
@@ -101,7 +105,8 @@ def test_builds_are_byte_identical_twice_and_with_two_workers(built, board, tmp_
     fresh = tmp_path / "fresh"
     shutil.copytree(built / "submissions", fresh / "submissions")
     rebuilt = leaderboard.build(fresh, BOARD, workers=2, cache=False)
-    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4  # ppo plays no multi-bot task
+    # ppo plays no multi-bot task; each of the three has a profile
+    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
     assert files(fresh) == files(built)
 
 
@@ -127,8 +132,11 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     document = json.loads((built / "bbbench-v0.json").read_text())
     jsonschema.Draft202012Validator(schema, registry=registry()).validate(document)
     results = json.loads((DOCS / "results-schema.json").read_text())
+    profiles = json.loads((DOCS / "profile-schema.json").read_text())
     for path in (built / "results").glob("*.json"):
-        jsonschema.validate(json.loads(path.read_text()), results)
+        is_profile = path.name.endswith(".profile.json")
+        jsonschema.validate(json.loads(path.read_text()), profiles if is_profile else results)
+    assert len(list((built / "results").glob("*.profile.json"))) == 3
     submission_schema = json.loads((DOCS / "submission-schema.json").read_text())
     for path in (built / "submissions").glob("*/submission.json"):
         jsonschema.validate(json.loads(path.read_text()), submission_schema)
@@ -165,8 +173,73 @@ def test_the_submission_schema_and_the_checks_in_code_name_the_same_fields():
 def test_check_passes_on_a_fresh_build(board):
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.problems == []
-    assert checked.episodes == 44
+    assert checked.rescored == []
+    # One episode per (entry, task) and per (entry, profile point): pd and random play the
+    # four tasks, ppo three; each profile has 2 x 5 points.
+    assert checked.spot_checked == checked.episodes == (4 + 4 + 3) + 3 * 10
     assert checked.entries == 3
+    full = leaderboard.check(board, BOARD, workers=1, full=True)
+    assert full.problems == []
+    assert full.episodes == 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
+
+
+def forge(board: Path, slug: str, task_id: str, seed: int) -> None:
+    """Change one recorded episode of `slug` and rebuild every number from the records, as
+    a forger who knows the board's arithmetic would: only a replay can tell."""
+    path = board / "results" / f"{slug}.json"
+    document = json.loads(path.read_text())
+    block = next(block for block in document["tasks"] if block["task"] == task_id)
+    record = next(record for record in block["episodes"] if record["seed"] == seed)
+    record["return"] += 1.0
+    path.write_text(dumps(document))
+    leaderboard.build(board, BOARD, workers=1)  # aggregates, ranks, pages from the records
+
+
+def test_a_forged_episode_is_caught_when_the_spot_check_draws_it(board):
+    task_id, seed = "bbbench/FlatBalance-v0", bbbench.spec("bbbench/FlatBalance-v0").eval_seeds[2]
+    forge(board, "pd", task_id, seed)
+    every = leaderboard.check(board, BOARD, workers=1, spot=BOARD.episodes)  # draws them all
+    assert len(every.problems) == 1
+    assert every.problems[0].startswith(f"pd: {task_id} seed {seed}: recorded return ")
+    # Drawn at random: caught when its seed is drawn (1 in 4 here), and only then.
+    caught = []
+    for draw in range(12):
+        problems = leaderboard.check(board, BOARD, workers=1, rng=np.random.default_rng(draw))
+        caught.append(any(f"seed {seed}" in problem for problem in problems.problems))
+    assert any(caught)
+    assert not all(caught)
+
+
+def test_a_tampered_aggregate_is_always_caught(board):
+    path = board / "results" / "random.profile.json"
+    document = json.loads(path.read_text())
+    document["axes"][0]["points"][1]["aggregate"]["mean"] += 0.001
+    path.write_text(dumps(document))
+    for draw in range(2):
+        problems = leaderboard.check(board, BOARD, workers=1, rng=np.random.default_rng(draw))
+        assert len(problems.problems) == 1
+        assert "random.profile.json.axes[" in problems.problems[0]
+        assert ".aggregate.mean: checked in" in problems.problems[0]
+
+
+def test_figures_are_compared_only_under_the_pinned_plotting_stack(board, monkeypatch):
+    page = board / "index.html"
+    page.write_text(page.read_text().replace("<svg", "<svg data-other-matplotlib", 1))
+    assert leaderboard.check(board, BOARD, workers=1).problems != []
+    monkeypatch.setitem(leaderboard.checking.PLOTTING_STACK, "matplotlib", "0.0.1")
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.problems == []
+    assert checked.notes == [
+        "figures not compared (index.html): they are drawn byte for byte by matplotlib 0.0.1 "
+        f"only, and this is matplotlib {leaderboard.checking._plotting_stack()['matplotlib']}"
+    ]
+
+
+def test_the_pinned_plotting_stack_is_the_constraints_files():
+    constraints = (Path(__file__).parents[1] / "constraints.txt").read_text().splitlines()
+    pins = dict(line.split("==") for line in constraints if "==" in line)
+    for package, version in leaderboard.checking.PLOTTING_STACK.items():
+        assert pins[package] == version
 
 
 def test_check_names_an_edited_number(board):
@@ -184,17 +257,36 @@ def test_check_names_a_swapped_policy_file(board, tmp_path):
     other = tmp_path / "other.zip"
     PPO("MlpPolicy", bbbench.make("bbbench/FlatBalance-v0"), n_steps=64, device="cpu").save(other)
     shutil.copyfile(other, board / "submissions" / "ppo" / "policy.zip")
-    problems = leaderboard.check(board, BOARD, workers=1).problems
-    assert problems == [problems[0]]
-    assert "ppo/policy.zip: SHA-256" in problems[0]
-    assert "the policy file changed" in problems[0]
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.rescored == ["ppo"]  # a changed submission is re-scored in full
+    assert "ppo/policy.zip: SHA-256" in checked.problems[0]
+    assert "the policy file changed" in checked.problems[0]
+    assert any("results/ppo.json" in problem for problem in checked.problems[1:])
 
 
 def test_check_names_a_submission_added_without_a_rebuild(board):
     write_submission(board, "twin", submission(name="Twin"))
-    problems = leaderboard.check(board, BOARD, workers=1).problems
-    assert len(problems) == 1
-    assert "submissions/twin: a submission that is not on the board" in (problems[0])
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.rescored == ["twin"]
+    assert "submissions/twin: a submission that is not on the board" in checked.problems[0]
+    assert any("results/twin.json: missing" in problem for problem in checked.problems)
+
+
+def test_a_changed_submission_is_re_scored_in_full_even_after_a_rebuild_of_its_metadata(board):
+    """The entry's recorded inputs key no longer matches: its stored episodes are not
+    trusted, whatever the rest of the board says."""
+    path = board / "submissions" / "pd" / "submission.json"
+    path.write_text(json.dumps(submission(notes="trained longer")))
+    document_path = board / "bbbench-v0.json"
+    document = json.loads(document_path.read_text())
+    for track in document["tracks"]:
+        for entry in track["entries"]:
+            if entry["slug"] == "pd":
+                entry["submission"]["notes"] = "trained longer"
+    document_path.write_text(dumps(document))
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.rescored == ["pd"]
+    assert any(".inputs: checked in" in problem for problem in checked.problems)
 
 
 def test_check_names_a_task_whose_behaviour_changed(board, monkeypatch):
@@ -220,7 +312,7 @@ def test_add_plays_only_the_new_submission(board):
     built = leaderboard.add(
         board, "pd", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
     )
-    assert built.played == sum(counted) == 4 * 4  # pd on the 4 tasks, nothing else
+    assert built.played == sum(counted) == 4 * 4 + PROFILE  # pd on the 4 tasks, its profile
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
 
@@ -300,9 +392,16 @@ def test_show_prints_the_ranked_tables(command_board, capsys):
 
 def test_build_and_check_from_the_command(command_board, capsys):
     assert main(["leaderboard", "build", "--root", str(command_board), "--workers", "1"]) == 0
-    assert "44 episodes (0 played, 44 from stored results)" in capsys.readouterr().out
+    episodes = 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
+    assert f"{episodes} episodes (0 played, {episodes} from stored results)" in (
+        capsys.readouterr().out
+    )
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
-    assert capsys.readouterr().out.startswith("leaderboard check ok: 3 entries, 4 tasks, 44 ")
+    out = capsys.readouterr().out
+    assert out.startswith("leaderboard check ok: 3 entries, 4 tasks; every number recomputed")
+    assert "re-scored in full (inputs changed): none; 41 episodes of the others replayed" in out
+    assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
+    assert f"{episodes} episodes played again" in capsys.readouterr().out
     (command_board / "README.md").write_text("edited\n")
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 1
     assert "README.md: differs from the rebuild from line 1" in capsys.readouterr().out
@@ -450,7 +549,7 @@ def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
         assert details.is_displayed()
         assert "</script><b>bold</b>" in details.text  # shown as text, not markup
         assert "<img src=x onerror=alert(1)>" in row.text
-        for plot in ("interval-estimates", "performance-profiles", "per-task"):
+        for plot in ("interval-estimates", "performance-profiles", "per-task", "robustness"):
             figure = chromium.find_element("id", f"{track['track']}-{plot}")
             svg = figure.find_element("css selector", "svg")
             assert svg.size["width"] > 200

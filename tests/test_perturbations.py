@@ -291,3 +291,20 @@ def test_the_table_of_axes_in_the_readme_and_the_docstring_is_the_modules():
     for kind in PERTURBATIONS.values():
         for value in kind.grid:
             kind(value)  # every grid value is accepted
+
+
+def test_push_recovery_shoves_harder_each_time_and_its_keyword_keeps_the_growth():
+    task = bbbench.spec("bbbench/PushRecovery-v0")
+    (push,) = task.perturbations
+    assert push.growth > 0
+    env = gym.make(task.id).unwrapped
+    env.reset(seed=SEED)
+    sizes = [abs(impulse) for _, _, impulse in env.scene.episode.pushes]
+    assert len(sizes) >= 4
+    assert sizes == sorted(sizes)
+    assert sizes[0] >= push.impulse
+    assert sizes[-1] > push.impulse + push.growth * 10  # the last, after more than 10 s
+    softer = gym.make(task.id, push=0.2).unwrapped.task
+    assert softer.perturbations == (type(push)(0.2, push.growth),)
+    assert softer.fingerprint != task.fingerprint
+    assert gym.make(task.id, push=push.impulse).unwrapped.task == task  # as built

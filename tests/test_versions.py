@@ -132,7 +132,9 @@ def test_a_new_multi_bot_version_observes_and_terminates_as_its_predecessor(new,
 
 
 # PD's episodes as published on every ID before the reward's new versions: the first 8
-# evaluation episodes of each, from the board's results document of that time.
+# evaluation episodes of each, from the board's results document of that time (one
+# MultiBumps-v0 episode corrected to what its seed plays in a fresh world: the file's
+# "source" says why).
 PUBLISHED_PD = json.loads((Path(__file__).parent / "data" / "pd_published.json").read_text())
 
 

@@ -36,8 +36,17 @@ def add_parser(commands) -> None:
     checking = _with_common(
         actions.add_parser(
             "check",
-            help="rebuild from scratch and fail (exit 1) if any checked-in file differs",
+            help="check every number against the records, re-score changed entries, replay a "
+            "random sample of the others; fail (exit 1) if any checked-in file differs",
+            description="Compute every aggregate, rank and file of the board again from its "
+            "per-episode records and compare them byte for byte; re-score in full every entry "
+            "whose inputs changed (its files, the versions, the tasks, the robustness "
+            "protocol); replay one episode drawn at random from each task and each profile "
+            "point of the others. --full plays every episode again.",
         )
+    )
+    checking.add_argument(
+        "--full", action="store_true", help="play every episode of every entry again"
     )
     checking.set_defaults(run=check)
     _add_parser_of_add(actions)
@@ -183,22 +192,33 @@ def check(args: argparse.Namespace) -> int:
     try:
         with progress:
             checked = leaderboard.check(
-                root, leaderboard.DEFAULT_BOARD, on_episodes=on_episodes, **options
+                root, leaderboard.DEFAULT_BOARD, on_episodes=on_episodes, full=args.full, **options
             )
     except leaderboard.SubmissionError as error:
         raise UsageError(str(error)) from None
     except leaderboard.BuildError as error:
         print(f"bbbench: {error}", file=sys.stderr)
         return 1
+    for note in checked.notes:
+        print(f"bbbench: {note}", file=sys.stderr)
     if checked.problems:
         print(f"leaderboard check FAILED: {root} is not what its submissions give:")
         for problem in checked.problems:
             print(f"  {problem}")
         print("Rebuild with `bbbench leaderboard build` and commit what it writes.")
         return 1
+    if args.full:
+        how = f"{checked.episodes} episodes played again"
+    else:
+        rescored = ", ".join(checked.rescored) or "none"
+        how = (
+            f"every number recomputed from the records; re-scored in full (inputs changed): "
+            f"{rescored}; {checked.spot_checked} episodes of the others replayed at random, "
+            f"{leaderboard.SPOT_EPISODES} per task and per profile point"
+        )
     print(
-        f"leaderboard check ok: {checked.entries} entries, {checked.tasks} tasks, "
-        f"{checked.episodes} episodes re-scored, {checked.seconds:.0f} s"
+        f"leaderboard check ok: {checked.entries} entries, {checked.tasks} tasks; {how}; "
+        f"{checked.seconds:.0f} s"
     )
     return 0
 

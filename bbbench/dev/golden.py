@@ -92,12 +92,15 @@ def _multi_rollout_hash(task: TaskSpec) -> str:
 
 def _generated(episode: EpisodeDraw) -> list[np.ndarray]:
     """What an episode's seed drew, as the golden hash takes it: targets (bot by bot),
-    sensor errors, terrain heights."""
+    sensor errors, terrain heights, and the pushes (step, bot, impulse) when there are any
+    (a short rollout falls before the first)."""
     values = [episode.targets.ravel()]
     if episode.sensor_errors is not None:
         values.append(episode.sensor_errors.ravel())
     if episode.heightmap is not None:
         values.append(episode.heightmap.heights.ravel())
+    if episode.pushes:
+        values.append(np.array(episode.pushes, dtype=np.float64).ravel())
     return values
 
 

@@ -240,7 +240,8 @@ class BalanceEnv(Env):
 
     Each task's own class, made from its row of the suite, documents it
     (`help(env.unwrapped)`, or `bbbench list TASK`): `bbbench.envs.tasks.FlatBalanceEnv`,
-    `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`, `SlopesEnv`.
+    `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`, `SlopesEnv`,
+    `PushRecoveryEnv`.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 100}

@@ -95,10 +95,12 @@ def play_tasks(
     address: str | None = None,
     stochastic: bool = False,
     on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+    seeds: Sequence[Sequence[int]] | None = None,
 ) -> Played:
     """The episodes of `evaluate`, for task specs: the suite's, or variants of them (a
     perturbation, another difficulty or number of bots: `bbbench sweep`), all on one pool
-    of workers. Each task plays its first `episodes` eval seeds."""
+    of workers. Each task plays its first `episodes` eval seeds, or `seeds[i]` (any of
+    its eval seeds, in any order: an episode depends on its seed alone)."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if episodes is not None and episodes < 1:
@@ -108,7 +110,8 @@ def play_tasks(
         raise ValueError(f"workers must be at least 1, got {workers}")
     if address is None:  # this machine: more processes than cores only cost memory
         workers = min(workers, default_workers())
-    seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
+    if seeds is None:
+        seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
     jobs = [
         (task, tuple(task_seeds[start : start + LOCKSTEP]))

@@ -24,8 +24,10 @@ SCHEMA = "bbbench-results/1"
 # leaderboard reuses a stored task result only when it matches (with the policy's hash,
 # the task's fingerprint and the seeds). 2: networks computed with `bbbench.portable` (each
 # layer's output the float32 nearest the exact value, on every CPU), where 1 used numpy's
-# `@` and `tanh` (which round by CPU).
-HARNESS_VERSION = 2
+# `@` and `tanh` (which round by CPU). 3: a multi-bot episode plays as in a fresh world
+# whatever its env played before (`Scene.reset`); under 2, an episode after one in which
+# a bot was taken out could differ (1 of 8 PD episodes of MultiBumps-v1 in a row).
+HARNESS_VERSION = 3
 
 
 def normalized(value: float, task: TaskSpec) -> float | None:

@@ -6,20 +6,22 @@ A leaderboard folder (`leaderboards/` in the repository) holds:
     submissions/<slug>/submission.json   metadata (docs/submission-schema.json)
     submissions/<slug>/policy.zip        the policy, unless it names a built-in
     results/<slug>.json                  its `bbbench eval --json` document
+    results/<slug>.profile.json          its robustness profile (`bbbench.evaluation.profile`)
     bbbench-v0.json                      the ranked board (docs/leaderboard-schema.json)
     README.md, index.html                the board as people read it
 
 Everything but `submissions/` is generated, with the same bytes on every build
-(no dates, fixed bootstrap seeds, deterministic SVG), so `check` can rebuild
-from scratch and compare.
+(no dates, fixed bootstrap seeds, deterministic SVG), so `check` can compute it
+again from the episode records and compare, re-score what changed, and replay a
+random sample of the rest (`check(full=True)`: everything).
 
     from bbbench.leaderboard import build, check
     build("leaderboards")
-    check("leaderboards").problems  # [] when every checked-in number is re-scored exactly
+    check("leaderboards").problems  # [] when every checked-in number is what it should be
 """
 
 from bbbench.leaderboard.board import Board, BuildError
-from bbbench.leaderboard.checking import Checked, check
+from bbbench.leaderboard.checking import SPOT_EPISODES, Checked, check
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, Built, build, generate, write
 from bbbench.leaderboard.submissions import MAX_POLICY_BYTES, SubmissionError
 from bbbench.leaderboard.submit import add
@@ -28,6 +30,7 @@ __all__ = [
     "DEFAULT_BOARD",
     "DOCUMENT",
     "MAX_POLICY_BYTES",
+    "SPOT_EPISODES",
     "Board",
     "BuildError",
     "Built",

@@ -21,13 +21,24 @@ import numpy as np
 
 import bbbench
 from bbbench.evaluation import PlayedEpisode, evaluate, results_document, stats
+from bbbench.evaluation.profile import (
+    PROFILE_TASKS,
+    PROTOCOL,
+    Protocol,
+    profile,
+    profile_document,
+    profile_task,
+    stored_records,
+)
+from bbbench.evaluation.profile import SCHEMA as PROFILE_SCHEMA
 from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
-from bbbench.leaderboard.submissions import Submission, SubmissionError
+from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
-from bbbench.tasks.suite import list_tasks, spec
+from bbbench.tasks.suite import latest_version, list_tasks, spec
 
 SCHEMA = "bbbench-leaderboard/1"
+PROFILE_SUFFIX = ".profile.json"  # results/<slug>.profile.json: an entry's robustness profile
 TRACKS = {"single": "single-bot tasks", "multi": "multi-bot tasks (one policy shared by every bot)"}
 RANK_RULE = (
     "entries are ordered by the IQM of normalized scores over the track's ranked tasks; "
@@ -50,6 +61,8 @@ class Board:
         default_factory=lambda: tuple(list_tasks(latest=True))
     )
     episodes: int | None = None
+    # The robustness profile every entry gets (None: none).
+    profile: Protocol | None = PROTOCOL
 
     def seeds(self, task_id: str) -> list[int]:
         return list(spec(task_id).eval_seeds[: self.episodes])
@@ -70,12 +83,38 @@ class Board:
 
 @dataclasses.dataclass(frozen=True)
 class Scored:
-    """A submission and its results document; `played`: episodes played to get it (the
-    rest came from stored results)."""
+    """A submission, its results document and its robustness profile (None for a policy
+    that fits no profile task); `played`: episodes played to get them (the rest came from
+    stored results)."""
 
     submission: Submission
     results: dict[str, Any]
     played: int
+    profile: dict[str, Any] | None = None
+
+
+def inputs_key(submission: Submission, board: Board) -> str:
+    """SHA-256 of everything an entry's numbers depend on: its submission's files, the
+    harness's, bbbench's and the simulator's versions, the board's tasks (fingerprint and
+    seeds) and the robustness protocol. The board records it per entry (`inputs`), so that
+    a check finds a changed or new entry without the repository's history."""
+    files = [submission.folder / SUBMISSION_FILE, submission.policy_file]
+    files.append(submission.normalization_file)
+    inputs = {
+        "files": {
+            path.name: hashlib.sha256(path.read_bytes()).hexdigest()
+            for path in files
+            if path is not None and path.is_file()
+        },
+        "harness_version": HARNESS_VERSION,
+        "bbbench_version": bbbench.__version__,
+        "pybullet_version": package_metadata.version("pybullet"),
+        "tasks": {t: [spec(t).fingerprint, seeds_hash(board.seeds(t))] for t in board.tasks},
+        "profile": None
+        if board.profile is None
+        else [board.profile.record(latest_version(task_id)) for task_id in PROFILE_TASKS],
+    }
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
 def score(
@@ -86,23 +125,35 @@ def score(
     backend: str = "local",
     address: str | None = None,
     on_episodes: Callable[[int], None] | None = None,
+    keys: dict[str, str | None] | None = None,
 ) -> list[Scored]:
-    """Each submission's results document on the board's tasks it fits. With `stored`
-    (the folder of results documents, `<root>/results`), a task whose stored result has
-    the same key (policy file's SHA-256 and statistics, task fingerprint, seeds, harness
-    and bbbench versions) is not played again."""
+    """Each submission's results document on the board's tasks it fits, and its profile.
+    With `stored` (the folder of results documents, `<root>/results`), a task whose stored
+    result has the same key (policy file's SHA-256 and statistics, task fingerprint, seeds,
+    harness and bbbench versions) is not played again, nor a profile of the same policy
+    and protocol; with `keys` (slug -> the inputs key the board recorded), an entry's
+    stored results are used only when its key is today's (`inputs_key`)."""
     scored = []
     for submission in submissions:
         policy = submission.load_policy()
+        if keys is not None and keys.get(submission.slug) != inputs_key(submission, board):
+            stored_here = None  # changed or new since its results were stored: play it all
+        else:
+            stored_here = stored
         task_ids = [t for t in board.tasks if policy.mismatch(t) is None]
         if not task_ids:
             raise SubmissionError(
                 f"{submission.policy_file or submission.folder}: the policy "
                 f"({policy.spaces_text()}) fits none of the board's tasks"
             )
-        reused = {} if stored is None else _stored_episodes(stored, submission.slug, policy, board)
+        reused = (
+            {}
+            if stored_here is None
+            else _stored_episodes(stored_here, submission.slug, policy, board)
+        )
         pending = [t for t in task_ids if t not in reused]
         played: dict[str, list[PlayedEpisode]] = {}
+        on_result = None if on_episodes is None else lambda n, _: on_episodes(n)
         if pending:
             evaluation = evaluate(
                 policy,
@@ -111,21 +162,59 @@ def score(
                 workers=workers,
                 backend=backend,
                 address=address,
-                on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
+                on_result=on_result,
             )
             if evaluation.missing:
                 lost = ", ".join(f"{task} seed {seed}" for task, seed in evaluation.missing)
                 raise BuildError(f"{submission.slug}: episodes lost (worker died twice): {lost}")
             played = _episodes(evaluation.document)
         results = {t: reused[t] if t in reused else played[t] for t in task_ids}
+        protocol, robustness, profiled = board.profile, None, 0
+        if protocol is not None and stored_here is not None:
+            robustness = _stored_profile(stored_here, submission.slug, policy, protocol)
+        if protocol is not None and robustness is None and profile_task(policy) is not None:
+            robustness = profile(policy, workers, backend, address, on_result, protocol)
+            profiled = sum(len(records) for records in stored_records(robustness))
         scored.append(
             Scored(
                 submission,
                 results_document(policy, results),
-                sum(len(played[t]) for t in pending),
+                sum(len(played[t]) for t in pending) + profiled,
+                robustness,
             )
         )
     return scored
+
+
+def _stored_profile(
+    folder: Path, slug: str, policy: Policy, protocol: Protocol
+) -> dict[str, Any] | None:
+    """`folder/<slug>.profile.json` when it is today's profile of `policy`: the same
+    policy, protocol and versions, and every point the spec it played then."""
+    try:
+        old = json.loads((folder / f"{slug}{PROFILE_SUFFIX}").read_text())
+        task_id = profile_task(policy)
+        if (
+            task_id is None
+            or old["schema"] != PROFILE_SCHEMA
+            or old["harness_version"] != HARNESS_VERSION
+            or old["bbbench_version"] != bbbench.__version__
+            or old["policy"] != policy.record()
+            or old["protocol"] != protocol.record(task_id)
+        ):
+            return None
+        points = [point for block in old["axes"] for point in block["points"]]
+        specs = protocol.specs(task_id, policy.height_scan)
+        seeds = list(spec(task_id).eval_seeds[: protocol.episodes])
+        if len(points) != len(specs) or any(
+            point["fingerprint"] != task.fingerprint or point["seeds"] != seeds
+            for point, (_, _, task) in zip(points, specs, strict=False)
+        ):
+            return None
+        records = stored_records(old)
+        return profile_document(old["policy"], task_id, policy.height_scan, records, protocol)
+    except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
+        return None
 
 
 def _episodes(document: dict[str, Any]) -> dict[str, list[PlayedEpisode]]:
@@ -232,6 +321,7 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
                 "rank": rank,
                 "rank_group": group,
                 "slug": member.slug,
+                "inputs": inputs_key(member.scored.submission, board),
                 "submission": member.scored.submission.metadata,
                 "policy": member.scored.results["policy"],
                 "height_scan": any(b.get("height_scan", False) for b in member.blocks.values()),
@@ -242,6 +332,7 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
                     if task_id in member.blocks
                 },
                 "overall": member.overall,
+                "robustness": _robustness(member),
                 "versus_next": versus,
             }
         )
@@ -263,6 +354,34 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
             for task_id in board.track_tasks(track)
         ],
         "entries": entries,
+    }
+
+
+def _robustness(member: _Member) -> dict[str, Any] | None:
+    """The entry's profile as the board shows it: its two figures, and per axis the
+    normalized score at each grid value (None: the policy fits no profile task)."""
+    document = member.scored.profile
+    if document is None:
+        return None
+    return {
+        **document["robustness"],
+        "task": document["protocol"]["task"],
+        "profile": f"results/{member.slug}{PROFILE_SUFFIX}",
+        "axes": {
+            block["axis"]: {
+                "score": block["score"],
+                "worst_case": block["worst_case"],
+                "points": [
+                    [
+                        point["value"],
+                        point["aggregate"]["normalized_score"],
+                        *point["aggregate"]["normalized_ci"],
+                    ]
+                    for point in block["points"]
+                ],
+            }
+            for block in document["axes"]
+        },
     }
 
 

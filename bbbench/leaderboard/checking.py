@@ -1,4 +1,6 @@
-"""`bbbench leaderboard check`: rebuild the board from scratch and compare, byte for byte."""
+"""`bbbench leaderboard check`: every number of the board computed again from its records and
+compared byte for byte, changed entries re-scored in full, the others spot-checked by
+replaying episodes drawn at random (or, with `full`, every episode played again)."""
 
 from __future__ import annotations
 
@@ -7,25 +9,41 @@ import hashlib
 import json
 import time
 from collections.abc import Callable
+from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
 
-from bbbench.leaderboard.board import Board
+import numpy as np
+
+from bbbench.evaluation.harness import play_tasks
+from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, read_submissions
+from bbbench.leaderboard.views import README_FIGURE
 from bbbench.tasks.suite import spec
+
+# Episodes replayed per (entry, task) and per (entry, profile point) by the default check,
+# drawn afresh at every run: a forged episode among a task's n recorded ones is caught with
+# probability SPOT_EPISODES / n at each run (1% of a task's 100, 5% of a point's 20).
+SPOT_EPISODES = 1
+# The figures' bytes are the same for one matplotlib only: the version constraints.txt pins.
+PLOTTING_STACK = {"matplotlib": "3.11.2"}
+FIGURE_FILES = ("index.html", README_FIGURE)  # the board's files that hold figures
 
 
 @dataclasses.dataclass(frozen=True)
 class Checked:
-    """What `check` found: readable problems (none: the board is exact)."""
+    """What `check` found: readable problems (none: the board is exact), and what it did."""
 
     problems: list[str]
     entries: int
     tasks: int
-    episodes: int
+    episodes: int  # episodes played: every episode of the re-scored entries, and the spot-checks
     seconds: float
+    rescored: list[str] = dataclasses.field(default_factory=list)  # slugs played in full
+    spot_checked: int = 0  # episodes replayed by the spot-check
+    notes: list[str] = dataclasses.field(default_factory=list)  # what was skipped, and why
 
 
 def check(
@@ -35,13 +53,26 @@ def check(
     backend: str = "local",
     address: str | None = None,
     on_episodes: Callable[[int], None] | None = None,
+    full: bool = False,
+    spot: int = SPOT_EPISODES,
+    rng: np.random.Generator | None = None,
 ) -> Checked:
-    """Rebuild the board in `root` from its submissions, from scratch (no stored
-    result reused), and compare every generated file with the one checked in.
+    """Check the board in `root` against its submissions.
 
     What can be told without playing is told first, and then nothing is played: a
-    missing board, a task whose fingerprint changed, a submission added or removed
-    without a rebuild, a policy file or metadata changed since the build.
+    missing board, a task whose fingerprint changed, an entry whose submission is gone.
+    Then, by default:
+
+    - every aggregate, rank and generated file is computed again from the per-episode
+      records and compared byte for byte (a tampered aggregate is always caught);
+    - every entry whose inputs changed (`inputs_key`: its files, the versions, the tasks,
+      the protocol) or that is new is re-scored in full, and compared the same way;
+    - `spot` episodes of every other entry per task and per profile point, drawn from
+      `rng` (default: fresh at every run), are replayed and compared with their records.
+
+    With `full`, every episode of every entry is played again (the check before this
+    one). The figures are compared only under the pinned plotting stack
+    (`PLOTTING_STACK`); otherwise a note says they were skipped.
     """
     began = time.perf_counter()
     root = Path(root)
@@ -51,29 +82,129 @@ def check(
     except (OSError, ValueError) as error:
         problem = f"{root / DOCUMENT}: cannot be read ({error}): run `bbbench leaderboard build`"
         return Checked([problem], len(submissions), 0, 0, time.perf_counter() - began)
-    problems = _stale_inputs(root, recorded, submissions, board)
-    episodes = 0
-    if not problems:
-        built = generate(
-            root,
-            board,
-            cache=False,
-            workers=workers,
-            backend=backend,
-            address=address,
-            on_episodes=on_episodes,
+    problems, changed = _stale_inputs(root, recorded, submissions, board)
+    if problems:
+        return Checked(problems, len(submissions), len(board.tasks), 0, time.perf_counter() - began)
+    play = {"workers": workers, "backend": backend, "address": address}
+    keys = {
+        entry["slug"]: entry.get("inputs")
+        for track in recorded.get("tracks", [])
+        for entry in track["entries"]
+    }
+    built = generate(root, board, cache=not full, on_episodes=on_episodes, keys=keys, **play)
+    notes = []
+    files = built.files
+    stack = _plotting_stack()
+    skipped = [name for name in files if name in FIGURE_FILES]
+    if stack != PLOTTING_STACK and skipped:
+        files = {name: data for name, data in files.items() if name not in FIGURE_FILES}
+        notes.append(
+            f"figures not compared ({', '.join(skipped)}): they are drawn byte for byte by "
+            f"{_versions(PLOTTING_STACK)} only, and this is {_versions(stack)}"
         )
-        problems = differences(root, built.files)
-        episodes = built.episodes
+    problems = changed + differences(root, files)
+    rescored = [entry.submission.slug for entry in built.scored if entry.played]
+    spot_checked = 0
+    if not full and not problems:
+        others = [entry for entry in built.scored if not entry.played]
+        rng = np.random.default_rng() if rng is None else rng
+        problems, spot_checked = _spot_check(others, board, spot, rng, on_episodes, play)
     return Checked(
-        problems, len(submissions), len(board.tasks), episodes, time.perf_counter() - began
+        problems,
+        len(submissions),
+        len(board.tasks),
+        built.played + spot_checked,
+        time.perf_counter() - began,
+        rescored,
+        spot_checked,
+        notes,
     )
+
+
+def _plotting_stack() -> dict[str, str | None]:
+    found = {}
+    for package in PLOTTING_STACK:
+        try:
+            found[package] = package_metadata.version(package)
+        except package_metadata.PackageNotFoundError:
+            found[package] = None
+    return found
+
+
+def _versions(stack: dict[str, str | None]) -> str:
+    return ", ".join(f"{name} {version or '(none)'}" for name, version in stack.items())
+
+
+def _spot_check(
+    entries: list[Scored],
+    board: Board,
+    spot: int,
+    rng: np.random.Generator,
+    on_episodes: Callable[[int], None] | None,
+    play: dict[str, Any],
+) -> tuple[list[str], int]:
+    """Replay `spot` episodes drawn from `rng` of each entry's every task and profile
+    point; the records that differ from the replay, and how many were replayed."""
+    problems, replayed = [], 0
+    for entry in entries:
+        policy = entry.submission.load_policy()
+        strata = [  # (spec, {seed: the recorded episode})
+            (
+                spec(block["task"]).with_height_scan(policy.height_scan),
+                {record["seed"]: record for record in block["episodes"]},
+            )
+            for block in entry.results["tasks"]
+        ]
+        if entry.profile is not None:
+            task_id = entry.profile["protocol"]["task"]
+            points = [p for block in entry.profile["axes"] for p in block["points"]]
+            strata += [
+                (task, {record["seed"]: record for record in point["episodes"]})
+                for (_, _, task), point in zip(
+                    board.profile.specs(task_id, policy.height_scan), points, strict=True
+                )
+            ]
+        drawn = [
+            sorted(int(s) for s in rng.choice(list(records), min(spot, len(records)), False))
+            for _, records in strata
+        ]
+        played = play_tasks(
+            policy,
+            [task for task, _ in strata],
+            on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
+            seeds=drawn,
+            **play,
+        )
+        for (task, records), seeds, episodes in zip(strata, drawn, played.episodes, strict=True):
+            for seed, episode in zip(seeds, episodes, strict=True):
+                replay = None if episode is None else episode.record()
+                if replay != records[seed]:
+                    problems.append(
+                        f"{entry.submission.slug}: {_stratum(task)} seed {seed}: recorded "
+                        f"{_said(records[seed])}, replayed {_said(replay)}"
+                    )
+            replayed += len(seeds)
+    return problems, replayed
+
+
+def _stratum(task) -> str:
+    changes = ", ".join(f"{p.keyword}={p.value:g}" for p in task.perturbations)
+    return task.id + (f" ({changes})" if changes else "")
+
+
+def _said(record: dict[str, Any] | None) -> str:
+    if record is None:
+        return "nothing (its worker died twice)"
+    return f"return {record['return']!r} in {record['length']} steps"
 
 
 def _stale_inputs(
     root: Path, recorded: dict[str, Any], submissions: list[Submission], board: Board
-) -> list[str]:
-    problems = []
+) -> tuple[list[str], list[str]]:
+    """What can be told without playing: the problems that end the check at once (the
+    board's tasks, entries whose submission is gone), and the submissions changed since
+    the build (said beside what their full re-score finds)."""
+    problems, changed = [], []
     tasks = {task["task"]: task for track in recorded.get("tracks", []) for task in track["tasks"]}
     for task_id in board.tasks:
         if task_id not in tasks:
@@ -96,7 +227,7 @@ def _stale_inputs(
         entry = entries.get(submission.slug)
         where = f"{root / SUBMISSIONS / submission.slug}"
         if entry is None:
-            problems.append(
+            changed.append(
                 f"{where}: a submission that is not on the board: run `bbbench leaderboard "
                 f"build` and commit what it writes"
             )
@@ -104,19 +235,19 @@ def _stale_inputs(
         if submission.policy_file is not None:
             sha = hashlib.sha256(submission.policy_file.read_bytes()).hexdigest()
             if sha != entry["policy"]["sha256"]:
-                problems.append(
+                changed.append(
                     f"{submission.policy_file}: SHA-256 {sha[:16]}..., the board was built "
                     f"from {str(entry['policy']['sha256'])[:16]}...: the policy file changed"
                 )
         if entry["submission"] != submission.metadata:
-            changed = sorted(
+            fields = sorted(
                 key
                 for key in {*entry["submission"], *submission.metadata}
                 if entry["submission"].get(key) != submission.metadata.get(key)
             )
-            problems.append(
+            changed.append(
                 f"{where}/{SUBMISSION_FILE}: changed since the board was built "
-                f"(field {', '.join(repr(key) for key in changed)})"
+                f"(field {', '.join(repr(key) for key in fields)})"
             )
     slugs = {submission.slug for submission in submissions}
     problems += [
@@ -124,4 +255,4 @@ def _stale_inputs(
         for slug in entries
         if slug not in slugs
     ]
-    return problems
+    return problems, changed

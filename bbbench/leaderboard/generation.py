@@ -8,11 +8,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
 from bbbench.files import write_all_atomic
-from bbbench.leaderboard.board import Board, Scored, leaderboard_document, score
+from bbbench.leaderboard.board import PROFILE_SUFFIX, Board, Scored, leaderboard_document, score
 from bbbench.leaderboard.submissions import Submission, read_submissions
-from bbbench.leaderboard.views import markdown, page, with_baselines
+from bbbench.leaderboard.views import (
+    README_FIGURE,
+    markdown,
+    page,
+    readme_robustness_figure,
+    with_baselines,
+)
 
 DOCUMENT = "bbbench-v0.json"
 RESULTS = "results"
@@ -29,6 +36,7 @@ class Built:
     document: dict[str, Any]
     played: int  # episodes played (the rest came from stored results)
     episodes: int  # episodes on the board
+    scored: list[Scored]  # each entry's submission, results, profile and episodes played
 
 
 def generate(
@@ -40,10 +48,12 @@ def generate(
     address: str | None = None,
     on_episodes: Callable[[int], None] | None = None,
     extra: Submission | None = None,
+    keys: dict[str, str | None] | None = None,
 ) -> Built:
     """Score the submissions in `root` (and `extra`, one not yet written there) and
     generate every file of the board, in memory. With `cache`, a task result stored
-    in `root/results` is reused when its key matches."""
+    in `root/results` is reused when its key matches, and with `keys` (slug -> the
+    inputs key the board recorded) only for an entry whose inputs are unchanged."""
     root = Path(root)
     submissions = read_submissions(root / SUBMISSIONS)
     if extra is not None:
@@ -56,6 +66,7 @@ def generate(
         backend=backend,
         address=address,
         on_episodes=on_episodes,
+        keys=keys,
     )
     built = _files(scored, board)
     readme = root.parent / "README.md"  # the project's, where the board sits in a repository
@@ -63,22 +74,31 @@ def generate(
         text = with_baselines(readme.read_text(encoding="utf-8"), built.document)
         if text is not None:
             built.files["../README.md"] = text.encode()
+    if (root / README_FIGURE).parent.is_dir():
+        figure = readme_robustness_figure(built.document)
+        if figure is not None:
+            built.files[README_FIGURE] = figure.encode()
     return built
 
 
 def _files(scored: list[Scored], board: Board) -> Built:
     document = leaderboard_document(scored, board)
     results = {entry.submission.slug: entry.results for entry in scored}
+    profiles = {e.submission.slug: e.profile for e in scored if e.profile is not None}
     files = {
         DOCUMENT: dumps(document).encode(),
         "README.md": markdown(document).encode(),
         "index.html": page(document, results).encode(),
         **{f"{RESULTS}/{slug}.json": dumps(doc).encode() for slug, doc in results.items()},
+        **{
+            f"{RESULTS}/{slug}{PROFILE_SUFFIX}": dumps(doc).encode()
+            for slug, doc in profiles.items()
+        },
     }
     episodes = sum(
         block["aggregate"]["episodes"] for doc in results.values() for block in doc["tasks"]
-    )
-    return Built(files, document, sum(entry.played for entry in scored), episodes)
+    ) + sum(len(records) for doc in profiles.values() for records in stored_records(doc))
+    return Built(files, document, sum(entry.played for entry in scored), episodes, scored)
 
 
 def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Built:

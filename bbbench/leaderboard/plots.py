@@ -125,11 +125,12 @@ def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) 
         return _svg(figure)
 
 
-def score_curves(panels: Sequence[dict[str, Any]], columns: int = 3):
+def score_curves(panels: Sequence[dict[str, Any]], columns: int = 3, bands: bool = True):
     """Small multiples of normalized score against a parameter: one panel per
-    `{"title", "xlabel", "lines": [(label, xs, scores, lows, highs), ...]}`, each line
-    with its 95% interval as a band; a line's colour is the same in every panel.
-    Returns the figure (`svg_text`, `png_bytes`)."""
+    `{"title", "xlabel", "lines": [(label, xs, scores, lows, highs), ...]}` (and "built",
+    the value the task is built with, drawn as a dotted line), each line with its 95%
+    interval as a band unless `bands` is False; a line's colour is the same in every
+    panel. Returns the figure (`svg_text`, `png_bytes`)."""
     labels = list(dict.fromkeys(line[0] for panel in panels for line in panel["lines"]))
     colors = dict(zip(labels, _colors(len(labels)), strict=True))
     columns = min(columns, len(panels))
@@ -138,16 +139,20 @@ def score_curves(panels: Sequence[dict[str, Any]], columns: int = 3):
         figure = _figure(2.6 * columns + 1.8, max(2.3 * rows, _legend_height(len(labels))))
         grid = figure.subplots(rows, columns, squeeze=False, sharey=True)
         for axes, panel in zip(grid.flat, panels, strict=False):
-            for label, xs, scores, lows, highs in panel["lines"]:
+            for i, (label, xs, scores, lows, highs) in enumerate(panel["lines"]):
                 color = colors[label]
-                axes.fill_between(xs, lows, highs, color=color, alpha=0.18, linewidth=0)
-                axes.plot(xs, scores, "o-", color=color, label=label, markersize=3)
+                if bands:
+                    axes.fill_between(xs, lows, highs, color=color, alpha=0.18, linewidth=0)
+                style = ("o-", "o--")[i // 20 % 2]  # past 20 lines, colours come back dashed
+                axes.plot(xs, scores, style, color=color, label=label, markersize=3)
+            if panel.get("built") is not None:
+                axes.axvline(panel["built"], color="grey", linewidth=0.8, linestyle=":")
             axes.set_title(panel["title"])
             axes.set_xlabel(panel["xlabel"])
             axes.axhline(0.0, color="black", linewidth=0.6)
             axes.grid(alpha=0.3)
         for axes in grid[:, 0]:
-            axes.set_ylabel("normalized score (95% CI)")
+            axes.set_ylabel("normalized score" + (" (95% CI)" if bands else ""))
         for axes in list(grid.flat)[len(panels) :]:
             axes.set_visible(False)
         legend = {}

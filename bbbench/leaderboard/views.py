@@ -6,12 +6,14 @@ is escaped."""
 
 from __future__ import annotations
 
+import dataclasses
 import html
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from bbbench.leaderboard import plots
 from bbbench.leaderboard.board import performance_profile
+from bbbench.tasks.perturbations import PERTURBATIONS
 
 HOW_TO_READ = """\
 Every entry is re-scored by CI from the files in `submissions/` (`bbbench leaderboard
@@ -24,7 +26,13 @@ random policy's mean return, 1 the task's maximum return. **Overall** is the IQM
 95% interval of P(upper > lower), rliable's probability of improvement, lies
 above 0.5. A superseded task version leaves the board; its last numbers stay in
 the repository's history. Per task: normalized score of the mean return, and in
-brackets the success rate (episodes with no fall)."""
+brackets the success rate (episodes with no fall). **Robustness** (not part of the
+rank): the entry's profile under one fixed protocol, the latest VelocityTracking (a
+multi-bot entry: MultiBalance) on 20 evaluation seeds at each value of each
+perturbation's standard grid (payload, centre of mass, friction, motor strength,
+action delay, sensor noise, pushes): the mean over the axes of each axis's mean
+normalized score, and in brackets the worst case, the least normalized score at any
+point (`bbbench sweep` plays any axis of it)."""
 
 
 def _fixed(value: float, digits: int = 3) -> str:
@@ -53,6 +61,13 @@ def _overall(entry: dict[str, Any]) -> str:
         return "-"
     low, high = score["normalized_iqm_ci"]
     return f"{_fixed(score['normalized_iqm'])} [{_fixed(low)}, {_fixed(high)}]"
+
+
+def _robustness(entry: dict[str, Any]) -> str:
+    profile = entry["robustness"]
+    if profile is None:
+        return "-"
+    return f"{_fixed(profile['score'])} ({_fixed(profile['worst_case'])})"
 
 
 def _task_cell(entry: dict[str, Any], task_id: str) -> str:
@@ -88,6 +103,7 @@ def _header_name(track: dict[str, Any], task_id: str) -> str:
 def rows(track: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     """The ranked table of a track as text: header and rows (Markdown and terminal)."""
     header = ["rank", "name", "algorithm", "training steps", "overall [95% CI]"]
+    header += ["robustness (worst)"]
     header += [_header_name(track, task_id) for task_id in _columns(track)]
     header += ["P(> next) [95% CI]"]
     body = [
@@ -97,6 +113,7 @@ def rows(track: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
             entry["submission"]["algorithm"],
             _steps(entry),
             _overall(entry),
+            _robustness(entry),
             *(_task_cell(entry, task_id) for task_id in _columns(track)),
             _versus(entry),
         ]
@@ -308,6 +325,7 @@ def _table(track: dict[str, Any]) -> str:
         ("Algorithm", "text", ""),
         ("Training steps", "number", ""),
         ("Overall [95% CI]", "number", ""),
+        ("Robustness (worst)", "number", ""),
         *(
             (_header_name(track, t), "number", "" if _is_ranked(track, t) else "old")
             for t in columns
@@ -328,6 +346,10 @@ def _table(track: dict[str, Any]) -> str:
             (submission["algorithm"], _e(submission["algorithm"])),
             (submission["training"]["env_steps"], _e(_steps(entry))),
             (score.get("normalized_iqm"), _e(_overall(entry))),
+            (
+                None if entry["robustness"] is None else entry["robustness"]["score"],
+                _score_cell(_robustness(entry)),
+            ),
         ]
         for task_id in columns:
             block = entry["tasks"].get(task_id)
@@ -346,6 +368,44 @@ def _table(track: dict[str, Any]) -> str:
         f'<div class="scroll"><table class="board" id="table-{_e(track["track"])}">'
         f"<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
     )
+
+
+def robustness_panels(entries: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The board's robustness figure: a panel per axis, a line per entry."""
+    axes = list(dict.fromkeys(axis for e in entries for axis in e["robustness"]["axes"]))
+    panels = []
+    for axis in axes:
+        lines = []
+        for entry in entries:
+            points = entry["robustness"]["axes"].get(axis)
+            if points is not None:
+                values, scores, lows, highs = zip(*points["points"], strict=True)
+                lines.append((entry["submission"]["name"], values, scores, lows, highs))
+        kind = PERTURBATIONS[axis]
+        panels.append(
+            {
+                "title": axis,
+                "xlabel": kind.unit,
+                "lines": lines,
+                "built": dataclasses.fields(kind)[0].default,
+            }
+        )
+    return panels
+
+
+README_FIGURE = "../docs/images/robustness.svg"  # beside the board: the project's README's
+
+
+def readme_robustness_figure(document: dict[str, Any]) -> str | None:
+    """The main README's robustness figure: PD, LQR and the best-ranked PPO entry of the
+    single-bot track on every axis, with 95% intervals; None without them."""
+    entries = next(t for t in document["tracks"] if t["track"] == "single")["entries"]
+    profiled = [e for e in entries if e["robustness"] is not None]
+    chosen = [e for slug in ("pd", "lqr") for e in profiled if e["slug"] == slug]
+    chosen += [e for e in profiled if e["submission"]["algorithm"] == "PPO"][:1]
+    if len(chosen) < 3:
+        return None
+    return plots.svg_text(plots.score_curves(robustness_panels(chosen), columns=4))
 
 
 def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> str:
@@ -379,6 +439,20 @@ def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> str
                 plots.per_task_scores(entries, _columns(track)),
             ),
         ]
+        profiled = [entry for entry in entries if entry["robustness"] is not None]
+        if profiled:
+            played = sorted({_name(entry["robustness"]["task"]) for entry in profiled})
+            figures.append(
+                (
+                    "robustness",
+                    f"Robustness profiles on {' and '.join(played)} (each entry on the first it "
+                    "fits): the normalized score (20 evaluation seeds) at each value of each "
+                    "perturbation's standard grid; the dotted line is the task as built.",
+                    plots.svg_text(
+                        plots.score_curves(robustness_panels(profiled), columns=4, bands=False)
+                    ),
+                )
+            )
         figures_html = "".join(
             f'<figure class="plot" id="{track["track"]}-{name}">'
             f"<figcaption>{_e(caption)}</figcaption>{svg}</figure>"

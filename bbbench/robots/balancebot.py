@@ -343,6 +343,11 @@ class BalanceBot:
             self._delayed = collections.deque([0.0] * len(self._delayed))
         self.command_wheel_speed(0.0)
 
+    @property
+    def is_set_aside(self) -> bool:
+        """Whether `set_aside` took the bot out (until its next `reset`)."""
+        return self._set_aside
+
     def move_clear(self) -> None:
         """Move the bot clear of everything (its own spot, far from the world)."""
         x, y, z = _CLEAR_OF_EVERYTHING
@@ -354,7 +359,10 @@ class BalanceBot:
         """Take the bot out of the world until its next `reset()`: it collides with
         nothing and is moved to `place`, far from everything (it falls freely there).
 
-        Cheaper than removing the body: its id, and so the world's pair order, stay.
+        Cheaper than removing the body, but not without a trace: pybullet re-adds a
+        link's collider to the world when its filter changes, and where the colliders
+        and their broadphase proxies sit decides the order the solver meets contacts in.
+        `Scene.reset` builds a fresh world after an episode that set a bot aside.
         """
         client, body = self._client, self.body
         for link in (-1, *self.wheel_joints):

@@ -72,11 +72,14 @@ class Perturbation:
             raise ValueError(
                 f"{where} in {bracket}{self.low:g}, {self.high:g}] ({self.meaning}), got {value!r}"
             )
+        # One spelling per value (1 and 1.0 make the same task, and the same fingerprint).
+        name = dataclasses.fields(self)[0].name
+        object.__setattr__(self, name, int(value) if self.whole else float(value))
 
     def leaves_as_built(self, task: Any) -> bool:
-        """Whether it leaves `task` as built (for most, its field's default): such a
-        component is not kept in the spec."""
-        return self.value == dataclasses.fields(self)[0].default
+        """Whether it leaves `task` as built (for most, every field at its default): such
+        a component is not kept in the spec."""
+        return self == type(self)()
 
     def apply(self, scene: Any, rng: np.random.Generator) -> None:
         """Set the perturbation on `scene` for the episode starting."""
@@ -205,9 +208,12 @@ class SensorNoise(Perturbation):
 @parameters
 class Push(Perturbation):
     """`push`: N s, a horizontal impulse on the torso, forward or back with equal odds,
-    every `PUSH_INTERVAL` s (each bot its own times and directions)."""
+    every `PUSH_INTERVAL` s (each bot its own times and directions). With `growth`, each
+    push is `growth` N s stronger per second of the episode (PushRecovery's shoves); the
+    `push` keyword sets `impulse`, the first push's, and keeps the task's growth."""
 
     impulse: float = 0.0
+    growth: float = 0.0  # N s per s of the episode
     keyword = "push"
     meaning = "N s pushing the torso every 2-4 s"
     low, high = 0.0, 10.0
@@ -215,12 +221,20 @@ class Push(Perturbation):
     grid = (0.0, 0.25, 0.5, 0.75, 1.0)
     reason = "1 N s changes the 1 kg bot's speed by about 1 m/s; at 2 N s every policy falls"
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        growth = self.growth
+        if isinstance(growth, bool) or not isinstance(growth, int | float) or not growth >= 0:
+            raise ValueError(f"push growth must be a number >= 0 (N s per s), got {growth!r}")
+        object.__setattr__(self, "growth", float(growth))
+
     def apply(self, scene: Any, rng: np.random.Generator) -> None:
         dt, steps = scene.task.control_dt, scene.task.max_episode_steps
         for index in range(len(scene.bots)):
             when = rng.uniform(*PUSH_INTERVAL)
             while (step := round(when / dt)) < steps:
-                scene.schedule_push(step, index, self.impulse * rng.choice((-1.0, 1.0)))
+                size = self.impulse + self.growth * step * dt
+                scene.schedule_push(step, index, size * rng.choice((-1.0, 1.0)))
                 when += rng.uniform(*PUSH_INTERVAL)
 
 

@@ -182,10 +182,15 @@ class TaskSpec:
 
     def with_perturbation(self, component: Any) -> TaskSpec:
         """The same task with `component` in place of the perturbation of its kind; one that
-        leaves the task as built (at its default) is dropped: it makes the very same task."""
+        leaves the task as built (at its default) is dropped: it makes the very same task.
+        A task that has one of the kind keeps its other fields (PushRecovery's growth)."""
         if type(component) not in PERTURBATIONS.values():
             raise TypeError(f"{component!r} is not a perturbation ({', '.join(PERTURBATIONS)})")
         kept = [p for p in self.perturbations if type(p) is not type(component)]
+        own = [p for p in self.perturbations if type(p) is type(component)]
+        if own:  # the task has one (PushRecovery's pushes): the new value, its other fields
+            value = dataclasses.fields(component)[0].name
+            component = dataclasses.replace(own[0], **{value: getattr(component, value)})
         if not component.leaves_as_built(self):
             kept.append(component)
         return dataclasses.replace(self, perturbations=tuple(sorted(kept, key=lambda p: p.keyword)))

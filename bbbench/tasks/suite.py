@@ -13,6 +13,7 @@ from bbbench.tasks.actions import action_space
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
 from bbbench.tasks.observation import agent_observation_space, observation_space
+from bbbench.tasks.perturbations import Push
 from bbbench.tasks.reward import StayUpReward
 from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
@@ -281,6 +282,26 @@ SUITE.update(
         for task_id, version, random_return in _STAY_UP
     )
 )
+
+# Tasks first published on the shared reward.
+_PUSH_RECOVERY = TaskSpec(
+    id="bbbench/PushRecovery-v0",
+    summary="stay up and in place while shoved, harder each time, every 2-4 s",
+    description="""\
+FlatBalance's flat ground, target (0 m/s) and perfect sensors, with shoves: every 2-4 s
+(each wait drawn from the episode's seed) the torso is pushed horizontally, forward or
+back with equal odds, by an impulse that grows over the episode, 0.5 N s plus 0.068 N s
+per second (0.5 N s at the start, about 1.5 N s at the end; 1 N s changes the 1 kg bot's
+speed by about 1 m/s). The pushes are the `push` perturbation with a growth
+(`bbbench.tasks.perturbations.Push`): the keyword `push=` sets the first push's impulse
+and keeps the growth. Calibrated against PD, which stays up through 47 of the 100
+evaluation episodes (docs/tasks.md, "PushRecovery").""",
+    reward=StayUpReward(),
+    perturbations=(Push(impulse=0.5, growth=0.068),),
+    version_history=("v0: initial release, on the shared reward (StayUpReward).",),
+    random_return=4.932770048552165,  # the random policy falls before the first push
+)
+SUITE[_PUSH_RECOVERY.id] = _PUSH_RECOVERY
 
 
 def entry_point(task_id: str) -> str:

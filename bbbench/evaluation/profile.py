@@ -1,0 +1,174 @@
+"""Robustness profiles: one fixed, cheap protocol that gives every policy a measured
+profile on the standard axes (`bbbench.tasks.perturbations`).
+
+The protocol (`PROTOCOL`, a `Protocol`): a single-bot policy plays the latest VelocityTracking, a
+multi-bot policy the latest MultiBalance (where `sensor_noise` does not apply), at each
+value of each axis's standard grid, on the first `PROFILE_EPISODES` evaluation seeds,
+with deterministic actions; every (axis, value) point through the harness's player, all
+on one pool of workers. Per axis the robustness score is the mean normalized score over
+its grid and the worst case the least; the profile's own are the mean of the axes'
+scores (each axis weighs the same) and the least point of all.
+
+The profile document (`bbbench-profile/1`) keeps every episode's record, so that its
+aggregates can be computed again from it (`profile_document`), as the leaderboard's
+check does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import bbbench
+from bbbench.evaluation.harness import play_tasks
+from bbbench.evaluation.play import PlayedEpisode
+from bbbench.evaluation.results import HARNESS_VERSION, aggregate
+from bbbench.evaluation.sweep import variant
+from bbbench.policies.policy import Policy
+from bbbench.tasks.perturbations import PERTURBATIONS
+from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.suite import latest_version, spec
+
+SCHEMA = "bbbench-profile/1"
+PROFILE_EPISODES = 20
+# Bumped when the protocol plays anything else: a stored profile is reused only when its
+# protocol matches.
+PROTOCOL_VERSION = 1
+PROFILE_TASKS = ("bbbench/VelocityTracking-v1", "bbbench/MultiBalance-v1")  # newest played
+
+
+@dataclasses.dataclass(frozen=True)
+class Protocol:
+    """What a profile plays: the first `episodes` eval seeds at each value of each of
+    `axes` (those that apply to the task). The board's is `PROTOCOL`; a smaller one
+    makes a board for tests."""
+
+    episodes: int = PROFILE_EPISODES
+    axes: tuple[str, ...] = tuple(PERTURBATIONS)
+
+    def record(self, task_id: str) -> dict[str, Any]:
+        """What a profile on `task_id` plays, as the profile document records it."""
+        return {
+            "version": PROTOCOL_VERSION,
+            "task": task_id,
+            "episodes": self.episodes,
+            "axes": {axis: list(PERTURBATIONS[axis].grid) for axis in self.applying(task_id)},
+        }
+
+    def applying(self, task_id: str) -> list[str]:
+        """The axes that apply to the task: all, but `sensor_noise` on a multi-bot task
+        (it observes through perfect sensors only)."""
+        multi = spec(task_id).multi_agent
+        return [axis for axis in self.axes if not (multi and axis == "sensor_noise")]
+
+    def specs(self, task_id: str, height_scan: bool = False) -> list[tuple[str, float, TaskSpec]]:
+        """Every (axis, value, spec) point of the protocol on `task_id`, axis by axis."""
+        task = spec(task_id).with_height_scan(height_scan)
+        return [
+            (axis, value, variant(task, axis, value))
+            for axis in self.applying(task_id)
+            for value in PERTURBATIONS[axis].grid
+        ]
+
+
+PROTOCOL = Protocol()
+
+
+def profile_task(policy: Policy) -> str | None:
+    """The task the protocol profiles `policy` on: the first of `PROFILE_TASKS` (newest
+    version) it fits; None if it fits none."""
+    for task_id in PROFILE_TASKS:
+        latest = latest_version(task_id)
+        if policy.mismatch(latest) is None:
+            return latest
+    return None
+
+
+def profile(
+    policy: Policy,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+    protocol: Protocol = PROTOCOL,
+) -> dict[str, Any]:
+    """Play the protocol with `policy` and return its profile document; `ValueError` if
+    it fits no profile task, `RuntimeError` if an episode is lost (worker died twice)."""
+    task_id = profile_task(policy)
+    if task_id is None:
+        raise ValueError(f"{policy.name} fits none of the profile's tasks {PROFILE_TASKS}")
+    tasks = [task for _, _, task in protocol.specs(task_id, policy.height_scan)]
+    played = play_tasks(
+        policy, tasks, protocol.episodes, workers, backend, address, False, on_result
+    )
+    if played.missing:
+        raise RuntimeError(f"{policy.name}: profile episodes lost (worker died twice)")
+    records = [[episode.record() for episode in episodes] for episodes in played.episodes]
+    return profile_document(policy.record(), task_id, policy.height_scan, records, protocol)
+
+
+def profile_document(
+    policy: dict[str, Any],
+    task_id: str,
+    height_scan: bool,
+    records: Sequence[Sequence[dict[str, Any]]],
+    protocol: Protocol = PROTOCOL,
+) -> dict[str, Any]:
+    """The profile document of `policy` (its record) on `task_id`, from each point's
+    episode records (in `protocol.specs` order): everything else in it is computed from
+    them."""
+    points = protocol.specs(task_id, height_scan)
+    axes: dict[str, list[dict[str, Any]]] = {}
+    for (axis, value, task), point_records in zip(points, records, strict=True):
+        episodes = [PlayedEpisode.from_record(record) for record in point_records]
+        axes.setdefault(axis, []).append(
+            {
+                "value": value,
+                "fingerprint": task.fingerprint,
+                "seeds": [episode.seed for episode in episodes],
+                "aggregate": aggregate(task, episodes),
+                "episodes": [episode.record() for episode in episodes],
+            }
+        )
+    blocks = [
+        {"axis": axis, "unit": PERTURBATIONS[axis].unit, "points": rows, **_robustness(rows)}
+        for axis, rows in axes.items()
+    ]
+    return {
+        "schema": SCHEMA,
+        "bbbench_version": bbbench.__version__,
+        "harness_version": HARNESS_VERSION,
+        "policy": policy,
+        "protocol": protocol.record(task_id),
+        **({"height_scan": True} if height_scan else {}),
+        "axes": blocks,
+        "robustness": summary(blocks),
+    }
+
+
+def _robustness(points: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    scores = [point["aggregate"]["normalized_score"] for point in points]
+    worst = min(range(len(scores)), key=scores.__getitem__)
+    return {
+        "score": sum(scores) / len(scores),
+        "worst_case": scores[worst],
+        "worst_value": points[worst]["value"],
+    }
+
+
+def summary(axes: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The profile's two figures: the mean of the axes' robustness scores, and the least
+    point of all (with its axis and value)."""
+    worst = min(axes, key=lambda block: block["worst_case"])
+    return {
+        "score": sum(block["score"] for block in axes) / len(axes),
+        "worst_case": worst["worst_case"],
+        "worst_axis": worst["axis"],
+        "worst_value": worst["worst_value"],
+    }
+
+
+def stored_records(document: dict[str, Any]) -> list[list[dict[str, Any]]]:
+    """Each point's episode records, in `Protocol.specs` order."""
+    return [point["episodes"] for block in document["axes"] for point in block["points"]]
