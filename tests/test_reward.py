@@ -51,7 +51,10 @@ def test_the_latest_version_of_every_task_plays_the_new_reward():
     latest: dict[str, str] = {}
     for task_id in sorted(SUITE, key=lambda task_id: bbbench.spec(task_id).version):
         latest[bbbench.spec(task_id).name] = task_id
-    assert sorted(latest.values()) == sorted(SUCCESSORS)
+    # The successors of the published tasks, and the tasks first published on it.
+    first_on_it = {"bbbench/PushRecovery-v0"}
+    assert sorted(latest.values()) == sorted({*SUCCESSORS, *first_on_it})
+    assert all(isinstance(bbbench.spec(task).reward, StayUpReward) for task in latest.values())
 
 
 # -- a. each step earns between 0 and 0.1; 0.1 only upright and on target ----------------

@@ -45,9 +45,14 @@ class LockstepPlayer:
     height_scan: bool = False  # a task given by ID is observed with the ground ahead
     _envs: dict[TaskSpec, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
 
-    def play(self, task: str | TaskSpec, seeds: Sequence[int]) -> list[PlayedEpisode]:
+    def play(
+        self, task: str | TaskSpec | tuple[TaskSpec, ...], seeds: Sequence[int]
+    ) -> list[PlayedEpisode]:
         """Episodes `seeds` of `task`: a task ID, or a spec (a perturbed one, another
-        difficulty or number of bots: what `bbbench sweep` plays)."""
+        difficulty or number of bots: what `bbbench sweep` plays), or one single-bot spec
+        per seed, of one task ID, side by side (`play_pairs`: a spot-check's draws)."""
+        if isinstance(task, tuple):
+            return self._play_side_by_side(task, seeds)
         if isinstance(task, str):
             task = spec(task).with_height_scan(self.height_scan)
         if task not in self._envs:
@@ -64,6 +69,21 @@ class LockstepPlayer:
                 for i, seed in enumerate(seeds)
             ]
         return Lockstep(envs[:lanes], actor, seeds, task.max_episode_steps, rngs).play()
+
+    def _play_side_by_side(
+        self, tasks: tuple[TaskSpec, ...], seeds: Sequence[int]
+    ) -> list[PlayedEpisode]:
+        """Lane i plays `seeds[i]` of `tasks[i]`, in an env of its own made for it: one actor
+        for every lane (the specs share a task ID), each lane's episode its seed's alone."""
+        self.close()
+        envs = [self._make(task) for task in tasks]
+        try:
+            rngs = [action_generator(seed) for seed in seeds] if self.sampled else None
+            limit = tasks[0].max_episode_steps
+            return Lockstep(envs, self.actors[tasks[0].id], seeds, limit, rngs).play()
+        finally:
+            for env in envs:
+                env.close()
 
     def worlds(self) -> dict[str, int]:
         """How many envs the runner keeps open, by task (those of one task at a time)."""

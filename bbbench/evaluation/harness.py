@@ -169,3 +169,49 @@ def results_document(
     ]
     deterministic = not (stochastic or policy.random_actions)
     return document(policy.record(), tasks, seeds, played, deterministic)
+
+
+def play_pairs(
+    policy: Policy,
+    pairs: Sequence[tuple[TaskSpec, int]],
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+) -> list[PlayedEpisode | None]:
+    """One episode per (spec, seed) pair, in order (None: lost), deterministic actions.
+    Single-bot pairs of one task ID (whatever their perturbations) run side by side in
+    groups of `LOCKSTEP`, so the network runs once per step for the group; an episode
+    depends on its spec and seed alone, so the groups change no result."""
+    jobs: list[tuple[list[int], Any, tuple[int, ...]]] = []  # (pair indices, task(s), seeds)
+    for key in dict.fromkeys((task.id, task.multi_agent) for task, _ in pairs):
+        indices = [i for i, (task, _) in enumerate(pairs) if (task.id, task.multi_agent) == key]
+        size = 1 if key[1] else LOCKSTEP
+        for start in range(0, len(indices), size):
+            chunk = indices[start : start + size]
+            tasks = tuple(pairs[i][0] for i in chunk)
+            jobs.append((chunk, tasks[0] if key[1] else tasks, tuple(pairs[i][1] for i in chunk)))
+    workers = default_workers() if workers is None else workers
+    if address is None:
+        workers = min(workers, default_workers())
+    runner = LockstepPlayer(
+        actors={t.id: policy.actor(t.id, deterministic=True) for t, _ in pairs},
+        action_mode=policy.action_mode,
+        sampled=policy.random_actions,
+        height_scan=policy.height_scan,
+    )
+    plain = [(task, seeds) for _, task, seeds in jobs]
+
+    def report(index: int, played: list[PlayedEpisode] | None) -> None:
+        if on_result is not None:
+            on_result(len(plain[index][1]), played)
+
+    if backend == "ray":
+        done = run_ray(runner, plain, workers, report, address=address)
+    else:
+        done = run_local(runner, plain, workers, report)
+    results: list[PlayedEpisode | None] = [None] * len(pairs)
+    for (indices, _, _), played in zip(jobs, done, strict=True):
+        for position, index in enumerate(indices):
+            results[index] = None if played is None else played[position]
+    return results

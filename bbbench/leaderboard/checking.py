@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bbbench.evaluation.harness import play_tasks
+from bbbench.evaluation.harness import play_pairs
 from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
@@ -168,15 +168,20 @@ def _spot_check(
             sorted(int(s) for s in rng.choice(list(records), min(spot, len(records)), False))
             for _, records in strata
         ]
-        played = play_tasks(
-            policy,
-            [task for task, _ in strata],
-            on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
-            seeds=drawn,
-            **play,
+        pairs = [
+            (task, seed) for (task, _), seeds in zip(strata, drawn, strict=True) for seed in seeds
+        ]
+        played = iter(
+            play_pairs(
+                policy,
+                pairs,
+                on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
+                **play,
+            )
         )
-        for (task, records), seeds, episodes in zip(strata, drawn, played.episodes, strict=True):
-            for seed, episode in zip(seeds, episodes, strict=True):
+        for (task, records), seeds in zip(strata, drawn, strict=True):
+            for seed in seeds:
+                episode = next(played)
                 replay = None if episode is None else episode.record()
                 if replay != records[seed]:
                     problems.append(
