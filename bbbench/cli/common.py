@@ -19,6 +19,16 @@ def check_seed(value: int, flag: str = "--seed") -> int:
     return value
 
 
+def check_play_options(args) -> None:
+    """`--episodes`, `--workers` and `--address` as every command that plays takes them."""
+    if args.episodes is not None and args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+
+
 def say_normalization(policy) -> None:
     if policy.normalization_source:
         print(f"bbbench: {policy.normalization_source}", file=sys.stderr)

@@ -9,7 +9,13 @@ from rich.console import Console
 from rich.progress import MofNCompleteColumn, Progress
 
 import bbbench
-from bbbench.cli.common import UsageError, builtin_policies, results_table, say_normalization
+from bbbench.cli.common import (
+    UsageError,
+    builtin_policies,
+    check_play_options,
+    results_table,
+    say_normalization,
+)
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 
@@ -65,12 +71,7 @@ def _checked(args: argparse.Namespace):
     )
     from bbbench.evaluation.video import check_video_path  # lazy: only this command needs it
 
-    if args.episodes is not None and args.episodes < 1:
-        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
-    if args.workers is not None and args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
-    if args.address and args.backend != "ray":
-        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    check_play_options(args)
     cores = default_workers()
     if args.workers is not None and args.workers > cores and not args.address:
         # evaluate() caps them; the command says so

@@ -11,7 +11,7 @@ from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 
 import bbbench
-from bbbench.cli.common import UsageError, say_normalization
+from bbbench.cli.common import UsageError, check_play_options, say_normalization
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 from bbbench.tasks.suite import latest_version
@@ -121,12 +121,7 @@ def _checked(args: argparse.Namespace):
         sweep_tasks,
     )
 
-    if args.episodes is not None and args.episodes < 1:
-        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
-    if args.workers is not None and args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
-    if args.address and args.backend != "ray":
-        raise UsageError("--address names a Ray cluster: use it with --backend ray")
+    check_play_options(args)
     try:
         axis = check_axis(args.axis)
         values = standard_grid(axis) if args.values is None else parse_values(axis, args.values)

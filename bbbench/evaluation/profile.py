@@ -24,7 +24,7 @@ import bbbench
 from bbbench.evaluation.harness import play_tasks
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
-from bbbench.evaluation.sweep import variant
+from bbbench.evaluation.sweep import robustness, variant
 from bbbench.policies.policy import Policy
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.spec import TaskSpec
@@ -132,7 +132,7 @@ def profile_document(
             }
         )
     blocks = [
-        {"axis": axis, "unit": PERTURBATIONS[axis].unit, "points": rows, **_robustness(rows)}
+        {"axis": axis, "unit": PERTURBATIONS[axis].unit, "points": rows, **robustness(rows)}
         for axis, rows in axes.items()
     ]
     return {
@@ -144,16 +144,6 @@ def profile_document(
         **({"height_scan": True} if height_scan else {}),
         "axes": blocks,
         "robustness": summary(blocks),
-    }
-
-
-def _robustness(points: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    scores = [point["aggregate"]["normalized_score"] for point in points]
-    worst = min(range(len(scores)), key=scores.__getitem__)
-    return {
-        "score": sum(scores) / len(scores),
-        "worst_case": scores[worst],
-        "worst_value": points[worst]["value"],
     }
 
 

@@ -164,7 +164,7 @@ def sweep(
             {
                 "policy": policy.record(),
                 "tasks": [
-                    {"task": spec(task_id).id, "points": rows, "robustness": _robustness(rows)}
+                    {"task": spec(task_id).id, "points": rows, "robustness": robustness(rows)}
                     for task_id, rows in points.items()
                 ],
             }
@@ -199,7 +199,7 @@ def _point(task: TaskSpec, value: float, results: list[PlayedEpisode | None]) ->
     }
 
 
-def _robustness(points: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+def robustness(points: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
     """The mean normalized score over the points, and the worst point; None for a task
     without a random reference (no normalized score)."""
     scores = [point["aggregate"].get("normalized_score") for point in points]
