@@ -17,9 +17,11 @@ from bbbench.dev.random_reference import measure
 from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.backends import _next_job
 from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.harness import play_draws, play_tasks
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
 from bbbench.policies.builtin import PDPolicy
 from bbbench.policies.policy import PDActor
+from bbbench.tasks.perturbations import ComOffset, Push
 
 FLAT = "bbbench/FlatBalance-v0"
 VELOCITY = "bbbench/VelocityTracking-v0"
@@ -102,6 +104,27 @@ def test_a_runner_holds_the_worlds_of_one_task_at_a_time_and_results_do_not_chan
         assert runner.play(FLAT, flat_seeds) == first
     finally:
         runner.close()
+
+
+def test_draws_of_several_policies_on_one_pool_play_as_each_policy_alone():
+    """`play_draws` (the spot-check) plays every policy's draws on one pool, in worlds
+    kept from one policy's group to the next: each episode is the one its policy plays
+    alone, in fresh worlds."""
+    pd, lqr = load_policy("pd"), load_policy("lqr")
+    tasks = [bbbench.spec(VELOCITY).with_perturbation(Push(0.5)), bbbench.spec(VELOCITY)]
+    tasks.append(tasks[0].with_perturbation(ComOffset(0.03)))
+    seeds = [bbbench.spec(VELOCITY).eval_seeds[i] for i in (3, 0, 5)]
+    draws = [
+        (policy, task, seed)
+        for policy in (pd, lqr)
+        for task, seed in zip(tasks, seeds, strict=True)
+    ]
+    draws.append((pd, bbbench.spec(MULTI), bbbench.spec(MULTI).eval_seeds[1]))
+    together = play_draws(draws, workers=1)
+    for (policy, task, seed), episode in zip(draws, together, strict=True):
+        alone = play_tasks(policy, [task], seeds=[[seed]], workers=1).episodes[0][0]
+        assert episode.record() == alone.record()
+    assert together[0].record() != together[3].record()  # PD's and LQR's differ
 
 
 def test_multi_bot_episodes_score_per_bot():

@@ -19,6 +19,16 @@ def check_seed(value: int, flag: str = "--seed") -> int:
     return value
 
 
+def add_play_options(parser, episodes: str | None = None) -> None:
+    """The options of every command that plays episodes: `--episodes` (when `episodes`
+    says which it plays), `--workers`, `--backend` and `--address`."""
+    if episodes is not None:
+        parser.add_argument("--episodes", type=int, help=episodes)
+    parser.add_argument("--workers", type=int, help="worker processes (default: every core)")
+    parser.add_argument("--backend", choices=("local", "ray"), default="local")
+    parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+
+
 def check_play_options(args) -> None:
     """`--episodes`, `--workers` and `--address` as every command that plays takes them."""
     if args.episodes is not None and args.episodes < 1:

@@ -11,6 +11,7 @@ from rich.progress import MofNCompleteColumn, Progress
 import bbbench
 from bbbench.cli.common import (
     UsageError,
+    add_play_options,
     builtin_policies,
     check_play_options,
     results_table,
@@ -33,12 +34,7 @@ def add_parser(commands) -> None:
     evaluate.add_argument(
         "--task", action="extend", nargs="+", metavar="ID", help="task ID(s); default: all it fits"
     )
-    evaluate.add_argument(
-        "--episodes", type=int, help="the first N eval seeds of each task (default: all)"
-    )
-    evaluate.add_argument("--workers", type=int, help="worker processes (default: every core)")
-    evaluate.add_argument("--backend", choices=("local", "ray"), default="local")
-    evaluate.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    add_play_options(evaluate, episodes="the first N eval seeds of each task (default: all)")
     evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
     evaluate.add_argument(
         "--vecnormalize",

@@ -12,7 +12,7 @@ from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 from rich.text import Text
 
-from bbbench.cli.common import UsageError
+from bbbench.cli.common import UsageError, add_play_options
 
 
 def add_parser(commands) -> None:
@@ -61,9 +61,7 @@ def _with_common(parser: argparse.ArgumentParser, plays: bool = True):
         "--root", default="leaderboards", help="the leaderboard folder (default leaderboards)"
     )
     if plays:
-        parser.add_argument("--workers", type=int, help="worker processes (default: every core)")
-        parser.add_argument("--backend", choices=("local", "ray"), default="local")
-        parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+        add_play_options(parser)
     return parser
 
 

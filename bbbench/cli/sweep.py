@@ -11,7 +11,12 @@ from rich.progress import MofNCompleteColumn, Progress
 from rich.table import Table
 
 import bbbench
-from bbbench.cli.common import UsageError, check_play_options, say_normalization
+from bbbench.cli.common import (
+    UsageError,
+    add_play_options,
+    check_play_options,
+    say_normalization,
+)
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 from bbbench.tasks.suite import latest_version
@@ -41,12 +46,7 @@ def add_parser(commands) -> None:
         "--values", metavar="V1,V2,...", help="the values to play (default: the standard grid)"
     )
     sweep.add_argument("--task", action="extend", nargs="+", metavar="ID", help="task ID(s)")
-    sweep.add_argument(
-        "--episodes", type=int, help="the first N eval seeds at each value (default: all)"
-    )
-    sweep.add_argument("--workers", type=int, help="worker processes (default: every core)")
-    sweep.add_argument("--backend", choices=("local", "ray"), default="local")
-    sweep.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
+    add_play_options(sweep, episodes="the first N eval seeds at each value (default: all)")
     sweep.add_argument("--json", metavar="OUT", help="write the sweep document here")
     sweep.add_argument(
         "--plot", metavar="OUT", help="draw normalized score against the axis (.svg or .png)"
@@ -153,15 +153,12 @@ def _checked(args: argparse.Namespace):
 
 def _default_tasks(axis: str, policies) -> list[str]:
     """The tasks the axis is swept on when none is given."""
-    from bbbench.policies.registry import fitting_tasks  # lazy: only this command needs it
+    from bbbench.evaluation.sweep import applying_tasks  # lazy: only this command needs it
+    from bbbench.policies.registry import fitting_tasks
 
     if axis not in ("difficulty", "n_bots"):
         return [latest_version(PROFILE_TASK)]
-    latest = [bbbench.spec(task_id) for task_id in bbbench.list_tasks(latest=True)]
-    if axis == "difficulty":
-        applies = [task.id for task in latest if task.difficulty is not None]
-    else:
-        applies = [task.id for task in latest if task.multi_agent]
+    applies = applying_tasks(axis)
     fits = [t for t in applies if all(t in fitting_tasks(policy) for policy in policies)]
     if not fits:
         kind = "terrain" if axis == "difficulty" else "multi-bot"

@@ -23,7 +23,7 @@ from bbbench.robots import BalanceBot, BotState
 from bbbench.sim import World
 from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
 from bbbench.tasks.group import spawn_poses
-from bbbench.tasks.perturbations import PERTURBATIONS
+from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
 from bbbench.terrain import Heightmap, load_ground
@@ -107,7 +107,7 @@ class Scene:
         self.perfect_sensors = (
             isinstance(task.sensors, PerfectSensors)
             and not self._delay
-            and all(change.keyword != "sensor_noise" for change in task.perturbations)
+            and not any(change.observed for change in task.perturbations)
         )
 
     def _clear(self) -> None:
@@ -407,11 +407,9 @@ def configure(
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
     if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):
         raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
-    if several_bots and "sensor_noise" in perturbations:
-        raise ValueError(
-            f"sensor_noise does not apply to {task.id}: multi-bot tasks observe through "
-            "perfect sensors only"
-        )
+    refused = [refusal(keyword, task) for keyword in perturbations]
+    if any(refused):
+        raise ValueError(next(reason for reason in refused if reason))
     return task
 
 

@@ -20,7 +20,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
 
-from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.episodes import LockstepPlayer, Players
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.tasks.spec import TaskSpec
 
@@ -81,7 +81,7 @@ def _die_with_parent(parent: int) -> None:
 
 def _serve(
     connection: Connection,
-    runner: LockstepPlayer,
+    runner: LockstepPlayer | Players,
     parent: int,
     inherited: Sequence[Connection] = (),
 ) -> None:
@@ -106,7 +106,9 @@ def _serve(
 
 
 class _Worker:
-    def __init__(self, context, runner: LockstepPlayer, siblings: Sequence[_Worker] = ()) -> None:
+    def __init__(
+        self, context, runner: LockstepPlayer | Players, siblings: Sequence[_Worker] = ()
+    ) -> None:
         self.connection, child = context.Pipe()
         inherited = [w.connection for w in siblings] if context.get_start_method() == "fork" else []
         self.process = context.Process(
@@ -133,7 +135,7 @@ class _Worker:
 
 
 def run_local(
-    runner: LockstepPlayer, jobs: Sequence[Job], workers: int, on_result: OnResult
+    runner: LockstepPlayer | Players, jobs: Sequence[Job], workers: int, on_result: OnResult
 ) -> list[Results]:
     """Run `jobs` on `workers` processes; each process keeps its envs between episodes.
 
@@ -234,7 +236,7 @@ def check_ray_address(address: str | None) -> None:
 class _RayWorker:
     """A Ray actor: one `LockstepPlayer`, kept between episodes like a local worker."""
 
-    def __init__(self, runner: LockstepPlayer) -> None:
+    def __init__(self, runner: LockstepPlayer | Players) -> None:
         keep_freed_memory()
         self.runner = runner
 
@@ -243,7 +245,7 @@ class _RayWorker:
 
 
 def run_ray(
-    runner: LockstepPlayer,
+    runner: LockstepPlayer | Players,
     jobs: Sequence[Job],
     workers: int,
     on_result: OnResult,

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -26,11 +26,39 @@ def action_generator(seed: int) -> np.random.Generator:
     return np.random.default_rng([_ACTION_STREAM, seed])
 
 
+class Worlds:
+    """The envs a worker keeps between jobs: those of the last key asked for (an action
+    mode and the task, or the tasks side by side). Asking for another key closes them:
+    each world holds some 30 MB, and jobs come task by task."""
+
+    def __init__(self) -> None:
+        self._key: Any = None
+        self._envs: list[Any] = []
+
+    def get(self, key: Any, count: int, make: Callable[[int], Any]) -> list[Any]:
+        """`count` envs for `key`, those kept when the key is the last one's; env i is
+        `make(i)` when made."""
+        if key != self._key:
+            self.close()
+            self._key = key
+        while len(self._envs) < count:
+            self._envs.append(make(len(self._envs)))
+        return self._envs[:count]
+
+    def held(self) -> tuple[Any, int]:
+        """The key of the envs kept, and how many there are."""
+        return self._key, len(self._envs)
+
+    def close(self) -> None:
+        for env in self._envs:
+            env.close()
+        self._key, self._envs = None, []
+
+
 @dataclasses.dataclass
 class LockstepPlayer:
     """Plays episodes of several tasks with one policy, keeping the envs of the task
-    it plays between episodes (jobs come task by task; each world holds some 30 MB,
-    so the worlds of the task before are closed).
+    it plays between episodes (`Worlds`: those of one task at a time).
 
     `play(task_id, seeds)` plays a group of single-bot episodes in lockstep, one
     env each, so the policy's network runs once per step for the whole group;
@@ -43,51 +71,41 @@ class LockstepPlayer:
     action_mode: str
     sampled: bool  # act from the episode's generator (stochastic or random policies)
     height_scan: bool = False  # a task given by ID is observed with the ground ahead
-    _envs: dict[TaskSpec, list[Any]] = dataclasses.field(default_factory=dict, repr=False)
+    store: Worlds = dataclasses.field(default_factory=Worlds, repr=False, compare=False)
 
     def play(
         self, task: str | TaskSpec | tuple[TaskSpec, ...], seeds: Sequence[int]
     ) -> list[PlayedEpisode]:
         """Episodes `seeds` of `task`: a task ID, or a spec (a perturbed one, another
         difficulty or number of bots: what `bbbench sweep` plays), or one single-bot spec
-        per seed, of one task ID, side by side (`play_pairs`: a spot-check's draws)."""
-        if isinstance(task, tuple):
-            return self._play_side_by_side(task, seeds)
-        if isinstance(task, str):
-            task = spec(task).with_height_scan(self.height_scan)
-        if task not in self._envs:
-            self.close()
-        envs = self._envs.setdefault(task, [])
-        lanes = 1 if task.multi_agent else len(seeds)
-        while len(envs) < lanes:
-            envs.append(self._make(task))
+        per seed, of one task ID, side by side (a spot-check's draws)."""
+        if isinstance(task, tuple):  # lane i plays seeds[i] of task[i], in an env of its own
+            envs = self.store.get(
+                (self.action_mode, task), len(task), lambda i: self._make(task[i])
+            )
+            first = task[0]
+        else:
+            if isinstance(task, str):
+                task = spec(task).with_height_scan(self.height_scan)
+            lanes = 1 if task.multi_agent else len(seeds)
+            envs = self.store.get((self.action_mode, task), lanes, lambda _: self._make(task))
+            first = task
         rngs = [action_generator(seed) for seed in seeds] if self.sampled else None
-        actor = self.actors[task.id]
-        if task.multi_agent:
+        actor = self.actors[first.id]
+        if first.multi_agent:
             return [
                 MultiEpisode(envs[0], actor, seed, None if rngs is None else rngs[i]).play()
                 for i, seed in enumerate(seeds)
             ]
-        return Lockstep(envs[:lanes], actor, seeds, task.max_episode_steps, rngs).play()
-
-    def _play_side_by_side(
-        self, tasks: tuple[TaskSpec, ...], seeds: Sequence[int]
-    ) -> list[PlayedEpisode]:
-        """Lane i plays `seeds[i]` of `tasks[i]`, in an env of its own made for it: one actor
-        for every lane (the specs share a task ID), each lane's episode its seed's alone."""
-        self.close()
-        envs = [self._make(task) for task in tasks]
-        try:
-            rngs = [action_generator(seed) for seed in seeds] if self.sampled else None
-            limit = tasks[0].max_episode_steps
-            return Lockstep(envs, self.actors[tasks[0].id], seeds, limit, rngs).play()
-        finally:
-            for env in envs:
-                env.close()
+        return Lockstep(envs, actor, seeds, first.max_episode_steps, rngs).play()
 
     def worlds(self) -> dict[str, int]:
         """How many envs the runner keeps open, by task (those of one task at a time)."""
-        return {task.id: len(envs) for task, envs in self._envs.items()}
+        key, count = self.store.held()
+        if key is None:
+            return {}
+        tasks = key[1] if isinstance(key[1], tuple) else (key[1],)
+        return {tasks[0].id: count}
 
     def _make(self, task: TaskSpec) -> Any:
         if task.multi_agent:
@@ -96,10 +114,37 @@ class LockstepPlayer:
         return BalanceEnv(task, action_mode=self.action_mode)
 
     def close(self) -> None:
-        for envs in self._envs.values():
-            for env in envs:
-                env.close()
-        self._envs.clear()
+        self.store.close()
 
     def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "_envs": {}}
+        return {**self.__dict__, "store": Worlds()}
+
+
+@dataclasses.dataclass
+class Players:
+    """Several policies' `LockstepPlayer`s as one runner, for one pool of workers: job
+    `(k, task)` is played by the k-th. They share one `Worlds`, so that jobs of several
+    policies on the same tasks, one after another, play in the same envs (an episode
+    depends on its task and seed alone, not on the env's history)."""
+
+    players: tuple[LockstepPlayer, ...]
+
+    def __post_init__(self) -> None:
+        self._share()
+
+    def _share(self) -> None:
+        store = Worlds()
+        for player in self.players:
+            player.store = store
+
+    def play(self, job: tuple[int, Any], seeds: Sequence[int]) -> list[PlayedEpisode]:
+        k, task = job
+        return self.players[k].play(task, seeds)
+
+    def close(self) -> None:
+        for player in self.players:
+            player.close()
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._share()

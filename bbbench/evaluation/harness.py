@@ -4,11 +4,11 @@ backend (this process, worker processes, or Ray), as a results document."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 from bbbench.evaluation.backends import BACKENDS, default_workers, run_local, run_ray
-from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.episodes import LockstepPlayer, Players
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import document
 from bbbench.policies.errors import PolicyError
@@ -101,15 +101,8 @@ def play_tasks(
     perturbation, another difficulty or number of bots: `bbbench sweep`), all on one pool
     of workers. Each task plays its first `episodes` eval seeds, or `seeds[i]` (any of
     its eval seeds, in any order: an episode depends on its seed alone)."""
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if episodes is not None and episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
-    workers = default_workers() if workers is None else workers
-    if workers < 1:
-        raise ValueError(f"workers must be at least 1, got {workers}")
-    if address is None:  # this machine: more processes than cores only cost memory
-        workers = min(workers, default_workers())
     if seeds is None:
         seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
@@ -118,24 +111,8 @@ def play_tasks(
         for task, task_seeds in zip(tasks, seeds, strict=True)
         for start in range(0, len(task_seeds), LOCKSTEP)
     ]
-    task_ids = dict.fromkeys(task.id for task in tasks)
-    runner = LockstepPlayer(
-        actors={
-            task_id: policy.actor(task_id, deterministic=not stochastic) for task_id in task_ids
-        },
-        action_mode=policy.action_mode,
-        sampled=stochastic or policy.random_actions,
-        height_scan=policy.height_scan,
-    )
-
-    def report(index: int, played: list[PlayedEpisode] | None) -> None:
-        if on_result is not None:
-            on_result(len(jobs[index][1]), played)
-
-    if backend == "ray":
-        done = run_ray(runner, jobs, workers, report, address=address)
-    else:
-        done = run_local(runner, jobs, workers, report)
+    runner = _player(policy, dict.fromkeys(task.id for task in tasks), stochastic)
+    done = _run(runner, jobs, workers, backend, address, on_result)
     by_job = iter(done)
     results: list[list[PlayedEpisode | None]] = []
     for task_seeds in seeds:
@@ -171,47 +148,94 @@ def results_document(
     return document(policy.record(), tasks, seeds, played, deterministic)
 
 
-def play_pairs(
-    policy: Policy,
-    pairs: Sequence[tuple[TaskSpec, int]],
+def play_draws(
+    draws: Sequence[tuple[Policy, TaskSpec, int]],
     workers: int | None = None,
     backend: str = "local",
     address: str | None = None,
     on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
 ) -> list[PlayedEpisode | None]:
-    """One episode per (spec, seed) pair, in order (None: lost), deterministic actions.
-    Single-bot pairs of one task ID (whatever their perturbations) run side by side in
-    groups of `LOCKSTEP`, so the network runs once per step for the group; an episode
-    depends on its spec and seed alone, so the groups change no result."""
-    jobs: list[tuple[list[int], Any, tuple[int, ...]]] = []  # (pair indices, task(s), seeds)
-    for key in dict.fromkeys((task.id, task.multi_agent) for task, _ in pairs):
-        indices = [i for i, (task, _) in enumerate(pairs) if (task.id, task.multi_agent) == key]
-        size = 1 if key[1] else LOCKSTEP
+    """One episode per (policy, spec, seed) draw, in order (None: lost), deterministic
+    actions, all on one pool of workers: what a spot-check replays.
+
+    A policy's single-bot draws of one task ID (whatever their perturbations) run side
+    by side in groups of `LOCKSTEP`, so its network runs once per step for the group.
+    The groups are cut from the specs in the order they first appear, and the jobs are
+    sent group by group, policy after policy: policies that draw the same specs play them
+    one after another in the same worlds, built once (a world takes some 30 ms to build,
+    half of a short episode). An episode depends on its spec and seed alone, so neither
+    the groups nor the worlds change a result."""
+    policies: list[Policy] = []
+    index: dict[int, int] = {}  # id(policy): its place in `policies`
+    for policy, _, _ in draws:
+        if id(policy) not in index:
+            index[id(policy)] = len(policies)
+            policies.append(policy)
+    first = {task: n for n, task in enumerate(dict.fromkeys(task for _, task, _ in draws))}
+    groups: dict[tuple[int, str, bool], list[int]] = {}  # (policy, task ID, multi): draws
+    for i, (policy, task, _) in enumerate(draws):
+        groups.setdefault((index[id(policy)], task.id, task.multi_agent), []).append(i)
+    jobs: list[tuple[Any, list[int], Any, tuple[int, ...]]] = []  # (order, draws, task, seeds)
+    for (k, _, multi), indices in groups.items():
+        indices.sort(key=lambda i: first[draws[i][1]])
+        size = 1 if multi else LOCKSTEP
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
-            tasks = tuple(pairs[i][0] for i in chunk)
-            jobs.append((chunk, tasks[0] if key[1] else tasks, tuple(pairs[i][1] for i in chunk)))
-    workers = default_workers() if workers is None else workers
-    if address is None:
-        workers = min(workers, default_workers())
-    runner = LockstepPlayer(
-        actors={t.id: policy.actor(t.id, deterministic=True) for t, _ in pairs},
+            tasks = tuple(draws[i][1] for i in chunk)
+            order = (tuple(first[task] for task in tasks), k)
+            jobs.append(
+                (order, chunk, (k, tasks[0] if multi else tasks), tuple(draws[i][2] for i in chunk))
+            )
+    jobs.sort(key=lambda job: job[0])
+    task_ids: list[dict[str, None]] = [{} for _ in policies]  # per policy, the IDs it plays
+    for k, task_id, _ in groups:
+        task_ids[k][task_id] = None
+    runner = Players(tuple(map(_player, policies, task_ids)))
+    plain = [(task, seeds) for _, _, task, seeds in jobs]
+    done = _run(runner, plain, workers, backend, address, on_result)
+    results: list[PlayedEpisode | None] = [None] * len(draws)
+    for (_, indices, _, _), played in zip(jobs, done, strict=True):
+        for position, i in enumerate(indices):
+            results[i] = None if played is None else played[position]
+    return results
+
+
+def _player(policy: Policy, task_ids: Iterable[str], stochastic: bool = False) -> LockstepPlayer:
+    """The runner of `policy`'s episodes on `task_ids` (deterministic actions unless
+    `stochastic`)."""
+    return LockstepPlayer(
+        actors={
+            task_id: policy.actor(task_id, deterministic=not stochastic) for task_id in task_ids
+        },
         action_mode=policy.action_mode,
-        sampled=policy.random_actions,
+        sampled=stochastic or policy.random_actions,
         height_scan=policy.height_scan,
     )
-    plain = [(task, seeds) for _, task, seeds in jobs]
+
+
+def _run(
+    runner: LockstepPlayer | Players,
+    jobs: Sequence[tuple[Any, tuple[int, ...]]],
+    workers: int | None,
+    backend: str,
+    address: str | None,
+    on_result: Callable[[int, list[PlayedEpisode] | None], None] | None,
+) -> list[list[PlayedEpisode] | None]:
+    """Play `jobs` (what the runner plays, and the seeds) on the backend's workers
+    (default: every core); each job's episodes, or None if its worker died twice.
+    `on_result(n, episodes)` as each job of n episodes ends."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    workers = default_workers() if workers is None else workers
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if address is None:  # this machine: more processes than cores only cost memory
+        workers = min(workers, default_workers())
 
     def report(index: int, played: list[PlayedEpisode] | None) -> None:
         if on_result is not None:
-            on_result(len(plain[index][1]), played)
+            on_result(len(jobs[index][1]), played)
 
     if backend == "ray":
-        done = run_ray(runner, plain, workers, report, address=address)
-    else:
-        done = run_local(runner, plain, workers, report)
-    results: list[PlayedEpisode | None] = [None] * len(pairs)
-    for (indices, _, _), played in zip(jobs, done, strict=True):
-        for position, index in enumerate(indices):
-            results[index] = None if played is None else played[position]
-    return results
+        return run_ray(runner, jobs, workers, report, address=address)
+    return run_local(runner, jobs, workers, report)

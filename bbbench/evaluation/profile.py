@@ -26,7 +26,7 @@ from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
 from bbbench.evaluation.sweep import robustness, variant
 from bbbench.policies.policy import Policy
-from bbbench.tasks.perturbations import PERTURBATIONS
+from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import latest_version, spec
 
@@ -57,10 +57,10 @@ class Protocol:
         }
 
     def applying(self, task_id: str) -> list[str]:
-        """The axes that apply to the task: all, but `sensor_noise` on a multi-bot task
-        (it observes through perfect sensors only)."""
-        multi = spec(task_id).multi_agent
-        return [axis for axis in self.axes if not (multi and axis == "sensor_noise")]
+        """The axes that apply to the task: all, but those that change what the sensors
+        read on a multi-bot task (it observes through perfect sensors only)."""
+        task = spec(task_id)
+        return [axis for axis in self.axes if refusal(axis, task) is None]
 
     def specs(self, task_id: str, height_scan: bool = False) -> list[tuple[str, float, TaskSpec]]:
         """Every (axis, value, spec) point of the protocol on `task_id`, axis by axis."""

@@ -94,12 +94,7 @@ def document(
         "harness_version": HARNESS_VERSION,
         "policy": policy,
         "deterministic": deterministic,
-        "statistics": {
-            "interval": "percentile, stratified bootstrap (rliable)",
-            "confidence": stats.CONFIDENCE,
-            "reps": stats.BOOTSTRAP_REPS,
-            "seed": stats.BOOTSTRAP_SEED,
-        },
+        "statistics": stats.method(),
         "tasks": [
             {
                 "task": task.id,

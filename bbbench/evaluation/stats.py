@@ -11,6 +11,7 @@ interval depends on its own scores only, not on which other tasks ran.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -19,6 +20,16 @@ BOOTSTRAP_SEED = 0
 BOOTSTRAP_REPS = 10_000  # rliable's default is 50,000; 10,000 moves the bounds by < 1%
 CONFIDENCE = 0.95
 _CHUNK = 2_000  # resamples per batch: bounds memory on long runs
+
+
+def method() -> dict[str, object]:
+    """How the intervals are computed, as the documents that carry them record it."""
+    return {
+        "interval": "percentile, stratified bootstrap (rliable)",
+        "confidence": CONFIDENCE,
+        "reps": BOOTSTRAP_REPS,
+        "seed": BOOTSTRAP_SEED,
+    }
 
 
 def iqm(scores: np.ndarray, axis: int = -1) -> np.ndarray | float:
@@ -53,17 +64,31 @@ def stratified_bootstrap_ci(
         raise ValueError("every stratum needs at least one score")
     if reps < 1 or not 0.0 < confidence < 1.0:
         raise ValueError(f"reps >= 1 and 0 < confidence < 1 required, got {reps}, {confidence}")
-    rng = np.random.default_rng(seed)
-    values = []
-    for start in range(0, reps, _CHUNK):
-        count = min(_CHUNK, reps - start)
-        pooled = np.concatenate(
-            [s[rng.integers(s.size, size=(count, s.size))] for s in strata], axis=1
+    values = [
+        statistic(
+            np.concatenate([s[i] for s, i in zip(strata, chunk, strict=True)], axis=1), axis=-1
         )
-        values.append(statistic(pooled, axis=-1))
+        for chunk in _resamples(tuple(s.size for s in strata), reps, seed)
+    ]
     tail = (1.0 - confidence) / 2.0
     low, high = np.quantile(np.concatenate(values), [tail, 1.0 - tail])
     return float(low), float(high)
+
+
+@functools.lru_cache(maxsize=8)
+def _resamples(sizes: tuple[int, ...], reps: int, seed: int) -> list[list[np.ndarray]]:
+    """Per chunk of resamples, per stratum, the indices drawn: they depend on the strata's
+    sizes and the seed alone, so the board's thousands of intervals on strata of the same
+    sizes draw them once."""
+    rng = np.random.default_rng(seed)
+    chunks = []
+    for start in range(0, reps, _CHUNK):
+        count = min(_CHUNK, reps - start)
+        chunks.append([rng.integers(size, size=(count, size)).astype(np.int32) for size in sizes])
+    for chunk in chunks:
+        for indices in chunk:
+            indices.flags.writeable = False  # shared by every caller
+    return chunks
 
 
 def probability_of_improvement(x_strata: Sequence[np.ndarray], y_strata: Sequence[np.ndarray]):
@@ -75,19 +100,31 @@ def probability_of_improvement(x_strata: Sequence[np.ndarray], y_strata: Sequenc
         raise ValueError("X and Y need scores on the same, non-empty list of tasks")
     comparisons = [_wins(x, y) for x, y in zip(x_strata, y_strata, strict=True)]
     point = float(np.mean([c.mean() for c in comparisons]))
-    rng = np.random.default_rng(BOOTSTRAP_SEED)
     values = np.zeros(BOOTSTRAP_REPS)
-    for wins in comparisons:
+    counts = _paired_counts(tuple(wins.shape for wins in comparisons))
+    for wins, (x_counts, y_counts) in zip(comparisons, counts, strict=True):
         n, m = wins.shape
-        # How often each episode is drawn in each resample: then P of a resample is a
-        # weighted mean of the comparison matrix, one matrix product for all resamples.
-        x_counts = _draw_counts(rng, n, BOOTSTRAP_REPS)
-        y_counts = _draw_counts(rng, m, BOOTSTRAP_REPS)
         values += np.einsum("rn,rn->r", x_counts @ wins, y_counts) / (n * m)
     values /= len(comparisons)
     tail = (1.0 - CONFIDENCE) / 2.0
     low, high = np.quantile(values, [tail, 1.0 - tail])
     return point, (float(low), float(high))
+
+
+@functools.lru_cache(maxsize=2)
+def _paired_counts(shapes: tuple[tuple[int, int], ...]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per task, how often each of X's and Y's episodes is drawn in each resample (then P
+    of a resample is a weighted mean of the comparison matrix, one matrix product for all
+    resamples): they depend on the numbers of episodes alone, so a board's comparisons of
+    entries with as many episodes draw them once."""
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    counts = []
+    for n, m in shapes:
+        x_counts = _draw_counts(rng, n, BOOTSTRAP_REPS)
+        y_counts = _draw_counts(rng, m, BOOTSTRAP_REPS)
+        x_counts.flags.writeable = y_counts.flags.writeable = False  # shared by every caller
+        counts.append((x_counts, y_counts))
+    return counts
 
 
 def _wins(x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
 from bbbench.policies.policy import Policy
 from bbbench.tasks.group import MAX_BOTS, MIN_BOTS
-from bbbench.tasks.perturbations import PERTURBATIONS
+from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 
@@ -100,29 +100,35 @@ def variant(task: TaskSpec, axis: str, value: float) -> TaskSpec:
     the value lies outside the parameter's physical range."""
     if axis == "difficulty":
         if task.difficulty is None:
-            terrain = ", ".join(
-                t for t in list_tasks(latest=True) if spec(t).difficulty is not None
-            )
             raise ValueError(
                 f"difficulty does not apply to {task.id}: it is on flat ground (the terrain "
-                f"tasks: {terrain})"
+                f"tasks: {', '.join(applying_tasks(axis))})"
             )
         return task.with_difficulty(value)
     if axis == "n_bots":
         if not task.multi_agent:
-            multi = ", ".join(list_tasks(latest=True, multi_agent=True))
             raise ValueError(
-                f"n_bots does not apply to {task.id}: it has one bot (the multi-bot tasks: {multi})"
+                f"n_bots does not apply to {task.id}: it has one bot (the multi-bot tasks: "
+                f"{', '.join(applying_tasks(axis))})"
             )
         if not MIN_BOTS <= value <= MAX_BOTS:
             raise ValueError(f"n_bots must be from {MIN_BOTS} to {MAX_BOTS}, got {value}")
         return task.with_n_bots(operator.index(value))
-    if axis == "sensor_noise" and task.multi_agent:
-        raise ValueError(
-            f"sensor_noise does not apply to {task.id}: multi-bot tasks observe through "
-            "perfect sensors only"
-        )
-    return task.with_perturbation(PERTURBATIONS[check_axis(axis)](value))
+    reason = refusal(check_axis(axis), task)
+    if reason:
+        raise ValueError(reason)
+    return task.with_perturbation(PERTURBATIONS[axis](value))
+
+
+def applying_tasks(axis: str) -> list[str]:
+    """The latest tasks of the suite that `axis` applies to."""
+    check_axis(axis)
+    latest = [spec(task_id) for task_id in list_tasks(latest=True)]
+    if axis == "difficulty":
+        return [task.id for task in latest if task.difficulty is not None]
+    if axis == "n_bots":
+        return [task.id for task in latest if task.multi_agent]
+    return [task.id for task in latest if refusal(axis, task) is None]
 
 
 def sweep_tasks(
@@ -178,12 +184,7 @@ def sweep(
         "values": values,
         "standard_grid": tuple(values) == tuple(standard_grid(axis)),
         "deterministic": True,
-        "statistics": {
-            "interval": "percentile, stratified bootstrap (rliable)",
-            "confidence": stats.CONFIDENCE,
-            "reps": stats.BOOTSTRAP_REPS,
-            "seed": stats.BOOTSTRAP_SEED,
-        },
+        "statistics": stats.method(),
         "policies": entries,
     }
 

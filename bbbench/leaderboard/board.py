@@ -267,13 +267,7 @@ def leaderboard_document(scored: Sequence[Scored], board: Board) -> dict[str, An
         "bbbench_version": bbbench.__version__,
         "harness_version": HARNESS_VERSION,
         "pybullet_version": package_metadata.version("pybullet"),
-        "statistics": {
-            "interval": "percentile, stratified bootstrap (rliable)",
-            "confidence": stats.CONFIDENCE,
-            "reps": stats.BOOTSTRAP_REPS,
-            "seed": stats.BOOTSTRAP_SEED,
-            "ranking": RANK_RULE,
-        },
+        "statistics": {**stats.method(), "ranking": RANK_RULE},
         "tracks": [_track(track, scored, board) for track in TRACKS if board.track_tasks(track)],
     }
 

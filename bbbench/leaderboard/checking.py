@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bbbench.evaluation.harness import play_pairs
+from bbbench.evaluation.harness import play_draws
 from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
@@ -144,8 +144,9 @@ def _spot_check(
     play: dict[str, Any],
 ) -> tuple[list[str], int]:
     """Replay `spot` episodes drawn from `rng` of each entry's every task and profile
-    point; the records that differ from the replay, and how many were replayed."""
-    problems, replayed = [], 0
+    point, all entries' on one pool of workers; the records that differ from the
+    replay, and how many were replayed."""
+    draws = []  # (policy, spec, seed, slug, the recorded episode)
     for entry in entries:
         policy = entry.submission.load_policy()
         strata = [  # (spec, {seed: the recorded episode})
@@ -164,32 +165,26 @@ def _spot_check(
                     board.profile.specs(task_id, policy.height_scan), points, strict=True
                 )
             ]
-        drawn = [
-            sorted(int(s) for s in rng.choice(list(records), min(spot, len(records)), False))
-            for _, records in strata
-        ]
-        pairs = [
-            (task, seed) for (task, _), seeds in zip(strata, drawn, strict=True) for seed in seeds
-        ]
-        played = iter(
-            play_pairs(
-                policy,
-                pairs,
-                on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
-                **play,
+        for task, records in strata:
+            drawn = rng.choice(list(records), min(spot, len(records)), replace=False)
+            draws += [
+                (policy, task, seed, entry.submission.slug, records[seed])
+                for seed in sorted(int(s) for s in drawn)
+            ]
+    played = play_draws(
+        [(policy, task, seed) for policy, task, seed, _, _ in draws],
+        on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
+        **play,
+    )
+    problems = []
+    for (_, task, seed, slug, record), episode in zip(draws, played, strict=True):
+        replay = None if episode is None else episode.record()
+        if replay != record:
+            problems.append(
+                f"{slug}: {_stratum(task)} seed {seed}: recorded {_said(record)}, "
+                f"replayed {_said(replay)}"
             )
-        )
-        for (task, records), seeds in zip(strata, drawn, strict=True):
-            for seed in seeds:
-                episode = next(played)
-                replay = None if episode is None else episode.record()
-                if replay != records[seed]:
-                    problems.append(
-                        f"{entry.submission.slug}: {_stratum(task)} seed {seed}: recorded "
-                        f"{_said(records[seed])}, replayed {_said(replay)}"
-                    )
-            replayed += len(seeds)
-    return problems, replayed
+    return problems, len(draws)
 
 
 def _stratum(task) -> str:

@@ -52,6 +52,9 @@ class Perturbation:
     # The values `bbbench sweep` and the board's robustness profile play, and why.
     grid: ClassVar[tuple[float, ...]]
     reason: ClassVar[str]
+    # It changes what the sensors read: not on multi-bot tasks, whose bots observe through
+    # perfect sensors only.
+    observed: ClassVar[bool] = False
 
     @property
     def value(self) -> float:
@@ -189,6 +192,7 @@ class SensorNoise(Perturbation):
     low, high = 0.0, 10.0
     unit = "times the sensors' noise"
     grid = (0.0, 0.5, 1.0, 2.0, 3.0)
+    observed = True
     reason = (
         "1 is the tutorial's noise (NoisySensors', and on perfect sensors the same), 3 about "
         "the real-world RL suite's largest"
@@ -243,6 +247,16 @@ PERTURBATIONS = {
     kind.keyword: kind
     for kind in (PayloadMass, ComOffset, Friction, MotorStrength, ActionDelay, SensorNoise, Push)
 }
+
+
+def refusal(keyword: str, task: Any) -> str | None:
+    """Why the perturbation `keyword` does not apply to `task`, or None if it does."""
+    if PERTURBATIONS[keyword].observed and task.multi_agent:
+        return (
+            f"{keyword} does not apply to {task.id}: multi-bot tasks observe through perfect "
+            "sensors only"
+        )
+    return None
 
 
 def axes_markdown() -> str:

@@ -207,6 +207,9 @@ class TaskSpec:
     @property
     def spec_hash(self) -> str:
         """A hash of everything that decides the task's behaviour, robot model included."""
+        return _spec_hash(self)
+
+    def _behaviour_hash(self) -> str:
         behaviour = {
             key: value
             for key, value in _published_options(dataclasses.asdict(self)).items()
@@ -250,6 +253,21 @@ class TaskSpec:
         """
         rollout = _stored_golden().get(self.id, {}).get("rollout", "not pinned")
         return hashlib.sha256(f"{self.spec_hash}:{rollout}".encode()).hexdigest()[:16]
+
+
+_SPEC_HASHES: dict[str, str] = {}  # repr(spec): its hash
+
+
+def _spec_hash(task: TaskSpec) -> str:
+    """`TaskSpec.spec_hash`, once per spec: a board asks for the fingerprints of the same
+    few specs thousands of times. Keyed by the spec's repr, which tells 1 from 1.0 as the
+    hash does (equal specs may not)."""
+    key = repr(task)
+    if key not in _SPEC_HASHES:
+        if len(_SPEC_HASHES) >= 4096:  # a long sweep's variants: keep memory bounded
+            _SPEC_HASHES.clear()
+        _SPEC_HASHES[key] = task._behaviour_hash()
+    return _SPEC_HASHES[key]
 
 
 # The golden-rollout hashes stored for each task ID: data that `bbbench.dev.golden`
