@@ -32,13 +32,10 @@ import pybullet
 
 import bbbench
 from bbbench.robots import FALL_TILT, MODEL
-from bbbench.robots.balancebot import (
-    WHEEL_CONTACT_PROCESSING_THRESHOLD,
-    spawn_pose,
-    tilt_from_quaternion,
-)
+from bbbench.robots.balancebot import spawn_pose, tilt_from_quaternion
+from bbbench.robots.body import WHEEL_CONTACT_PROCESSING_THRESHOLD
+from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
 from bbbench.sim import GRAVITY, physics_parameters
-from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
 from bbbench.tasks.reward import RewardWeights, StayUpReward, step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, seed_streams
 from bbbench.terrain import GROUND_FRICTION

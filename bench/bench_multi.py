@@ -40,8 +40,9 @@ from bench_suite import REFERENCE, TaskLoop  # the same single-bot loop as the s
 import bbbench
 from bbbench.policies import PDController
 from bbbench.robots import MODEL
+from bbbench.robots.layout import sensed
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
-from bbbench.tasks.observation import group_observations, sensed
+from bbbench.tasks.observation import group_observations
 
 MULTI_TASKS = ("bbbench/MultiBalance-v0", "bbbench/MultiBumps-v0")
 

@@ -6,7 +6,7 @@ import gymnasium as gym
 import pytest
 
 from bbbench.policies.algorithms import ALGORITHMS, algorithm_of, by_key, declared_parameters
-from bbbench.tasks.actions import ACTION_MODES
+from bbbench.robots.twowheel import ACTION_MODES
 
 FLAT = "bbbench/FlatBalance-v1"
 

@@ -10,9 +10,9 @@ import pytest
 import bbbench
 from bbbench.envs.balance import BalanceEnv
 from bbbench.robots import FALL_TILT
+from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, SCAN_OFFSETS
+from bbbench.robots.twowheel import OBSERVATION_LAYOUT, WHEEL_SPEED_CHANGES
 from bbbench.tasks import reward as reward_module
-from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
-from bbbench.tasks.observation import HEIGHT_SCAN_LAYOUT, OBSERVATION_LAYOUT, SCAN_OFFSETS
 from bbbench.tasks.reward import RewardWeights, StayUpReward
 
 DOC = BalanceEnv.__doc__

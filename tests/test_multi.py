@@ -15,8 +15,8 @@ from pettingzoo.test import parallel_api_test
 
 import bbbench
 from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.robots.layout import INDEX
 from bbbench.tasks.group import MAX_BOTS, NEIGHBOUR_FIELDS, Group, spawn_poses
-from bbbench.tasks.observation import INDEX
 
 MULTI = "bbbench/MultiBalance-v0"
 BUMPS = "bbbench/MultiBumps-v0"
@@ -219,7 +219,7 @@ def test_a_fallen_bot_leaves_the_world():
 
 
 def test_the_inlined_observation_and_reward_agree_with_the_shared_definitions():
-    from bbbench.tasks.observation import observe, sensed
+    from bbbench.robots.layout import observe, sensed
 
     rng = np.random.default_rng(0)
     for pitch, rate, wheel in rng.uniform(-80, 80, size=(200, 3)):

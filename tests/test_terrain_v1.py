@@ -15,7 +15,8 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.policies import PDController
-from bbbench.tasks.observation import SCAN_OFFSETS, SCAN_POINTS, observation_space
+from bbbench.robots import TWO_WHEEL
+from bbbench.robots.layout import SCAN_OFFSETS, SCAN_POINTS
 from bbbench.terrain import Heightmap, Slopes
 from bbbench.terrain import generators as generators_module
 
@@ -278,7 +279,7 @@ def test_the_scan_reads_the_ground_bullet_simulates():
 def test_height_scan_is_an_option_recorded_in_the_spec_and_space():
     env = bbbench.make("bbbench/Obstacles-v1", height_scan=True)
     blind = bbbench.make("bbbench/Obstacles-v1")
-    assert env.observation_space == observation_space(height_scan=True)
+    assert env.observation_space == TWO_WHEEL.observation_space(height_scan=True)
     assert env.observation_space.shape == (5 + SCAN_POINTS,)
     assert blind.observation_space.shape == (5,)
     scanned = env.unwrapped.task

@@ -11,13 +11,7 @@ from gymnasium import Env
 
 from bbbench.envs.scene import Scene, configure, render_ready
 from bbbench.robots import BotState
-from bbbench.tasks.actions import action_space
-from bbbench.tasks.observation import (
-    SCAN_OFFSETS,
-    observation_space,
-    observe,
-    observe_scanned,
-)
+from bbbench.robots.layout import SCAN_OFFSETS, SHARED_FIELDS, observe
 from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import spec
@@ -196,7 +190,7 @@ class BalanceEnv(Env):
     env = gym.make("bbbench/Slopes-v2", difficulty=0.5, height_scan=True)
     ```
 
-    - `action_mode`: `"discrete"` (default) or `"continuous"`.
+    - `action_mode`: `"discrete"` (the default) or `"continuous"`.
     - `render_mode`: `None`, `"rgb_array"` (320 x 240 frames from pybullet's
       TinyRenderer, headless, a camera that follows the bot) or `"human"`
       (pybullet's GUI window, real time).
@@ -249,14 +243,16 @@ class BalanceEnv(Env):
     def __init__(
         self,
         task: str | TaskSpec = "bbbench/FlatBalance-v1",
-        action_mode: str = "discrete",
+        action_mode: str | None = None,
         render_mode: str | None = None,
         difficulty: float | None = None,
         height_scan: bool | None = None,
         **unknown: Any,
     ) -> None:
+        task = task if isinstance(task, TaskSpec) else spec(task)
+        action_mode = action_mode or task.robot_model.default_action_mode
         task = configure(
-            task if isinstance(task, TaskSpec) else spec(task),
+            task,
             unknown,
             {"height_scan": height_scan, "difficulty": difficulty},
             action_mode,
@@ -267,13 +263,19 @@ class BalanceEnv(Env):
         self.action_mode = action_mode
         self.render_mode = render_mode
         self._human = render_mode == "human"
-        self.action_space = action_space(action_mode)
-        self.observation_space = observation_space(task.height_scan)
+        self._robot = robot = task.robot_model
+        self.action_space = robot.action_space(action_mode)
+        self.observation_space = robot.observation_space(task.height_scan)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
         self._scene = Scene(task, action_mode, gui=self._human)
         self._reward = task.reward
-        # Decided by the task, not per step: perfect sensors and no scan take the hot path.
-        self._plain = self._scene.perfect_sensors and not task.height_scan
+        # Decided by the task, not per step: the shared five values alone, through perfect
+        # sensors, take the hot path.
+        self._plain = (
+            self._scene.perfect_sensors
+            and not task.height_scan
+            and len(robot.own_layout()) == len(SHARED_FIELDS)
+        )
         self._last_frame_time = 0.0
 
     @property
@@ -315,11 +317,11 @@ class BalanceEnv(Env):
         """The observation through the task's sensors; with the height scan, followed by
         the ground heights ahead, relative to the axle."""
         reading = self._scene.reading(state, step)
-        if not self.task.height_scan:
-            return observe(*reading, command, target)
-        x, y, axle_height = state.axle
-        scan = self._scene.ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
-        return observe_scanned(*reading, command, target, scan)
+        scan = None
+        if self.task.height_scan:
+            x, y, axle_height = state.axle
+            scan = self._scene.ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
+        return self._robot.observe(reading, command, target, state, scan)
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):

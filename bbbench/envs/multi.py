@@ -11,7 +11,6 @@ from pettingzoo import ParallelEnv
 
 from bbbench.envs.scene import ActionError, Scene, configure, render_ready
 from bbbench.robots import BotState
-from bbbench.tasks.actions import action_space
 from bbbench.tasks.observation import agent_observation_space, group_observations
 from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
@@ -160,8 +159,9 @@ class MultiBalanceEnv(ParallelEnv):
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        self._action_space = action_space(action_mode)
-        self._observation_space = agent_observation_space(group)
+        robot = task.robot_model
+        self._action_space = robot.action_space(action_mode)
+        self._observation_space = agent_observation_space(robot, group)
         self._observation_size = self._observation_space.shape[0]
         self._scene = Scene(task, action_mode)
         self._reward, self._time_limit = task.reward, task.max_episode_steps

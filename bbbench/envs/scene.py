@@ -19,9 +19,8 @@ from typing import Any
 import numpy as np
 from gymnasium import logger
 
-from bbbench.robots import BalanceBot, BotState
+from bbbench.robots import Body, BotState
 from bbbench.sim import World
-from bbbench.tasks.actions import ACTION_MODES, continuous_change, discrete_change
 from bbbench.tasks.group import spawn_poses
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.sensors import PerfectSensors
@@ -81,8 +80,9 @@ class Scene:
 
     Args:
         task: the spec; a `Group` task has `task.group.n_bots` bots, any other one.
-        action_mode: how `act` reads actions, "discrete" or "continuous" (the
-            action table of `bbbench.tasks.actions`).
+        action_mode: how `act` reads actions, one of the task's robot's action modes
+            ("discrete" or "continuous" for the two-wheel bot: `bbbench.robots.twowheel`);
+            None, the robot's first.
         gui: open pybullet's GUI window (the single-bot env's human render mode).
 
     The world is built on the first `reset()`; a pickled scene carries no world
@@ -90,17 +90,16 @@ class Scene:
     the bots still in the episode (all, until `take_out`).
     """
 
-    def __init__(self, task: TaskSpec, action_mode: str = "discrete", gui: bool = False) -> None:
-        if action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+    def __init__(self, task: TaskSpec, action_mode: str | None = None, gui: bool = False) -> None:
         self.task = task
+        self.robot = task.robot_model
         self.n_bots = task.group.n_bots if task.group is not None else 1
-        self.action_mode = action_mode
-        self.change = discrete_change if action_mode == "discrete" else continuous_change
+        self.action_mode = action_mode = action_mode or self.robot.default_action_mode
+        self.change = self.robot.action_decoder(action_mode)  # checks the mode
         self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
         self.steps = 0  # world steps since the last reset
         self.live: list[int] = []  # indices of the bots still in the episode, in order
-        self.live_bots: list[BalanceBot] = []  # and those bots
+        self.live_bots: list[Body] = []  # and those bots
         self._clear()
         self._delay = task.sensors.delay_steps
         # Decided by the task, not per step: perfect, undelayed sensors read the true state.
@@ -115,8 +114,8 @@ class Scene:
         self._pushes: dict[int, list[tuple[int, float]]] = {}  # step: [(bot, N s)]
         self._next_push = _NEVER  # the first step in `_pushes`
         self._ground = None
-        self._bots: tuple[BalanceBot, ...] = ()
-        self._first: BalanceBot | None = None  # bots[0], for the single-bot hot path
+        self._bots: tuple[Body, ...] = ()
+        self._first: Body | None = None  # bots[0], for the single-bot hot path
         self._world_step = None
         self._episode: EpisodeDraw | None = None
         self._follow = None
@@ -135,7 +134,7 @@ class Scene:
         return self._ground
 
     @property
-    def bots(self) -> tuple[BalanceBot, ...]:
+    def bots(self) -> tuple[Body, ...]:
         """Every bot of the scene, in order (empty before the first reset)."""
         return self._bots
 
@@ -217,7 +216,7 @@ class Scene:
         change = self.change
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
             try:
-                bot.command_wheel_speed(bot.wheel_command + change(action))
+                bot.act(change(action))
             except ValueError as error:
                 raise ActionError(k, error) from None
 
@@ -232,7 +231,7 @@ class Scene:
             raise RuntimeError(
                 f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
             )
-        command = bot.command_wheel_speed(bot.wheel_command + self.change(action))
+        command = bot.act(self.change(action))
         if self.steps == self._next_push:
             self._push()
         self._world_step()
@@ -324,7 +323,7 @@ class Scene:
     def _build(self) -> None:
         client = self.world.client
         self._ground = load_ground(client, self.task.terrain)
-        self._bots = tuple(BalanceBot(client) for _ in range(self.n_bots))
+        self._bots = tuple(self.robot.body(client) for _ in range(self.n_bots))
         self._first = self._bots[0]
         self._world_step = self.world.step
         # Terrain with no side edge moves with its one bot (`BulletHeightfield.follow`).
@@ -383,7 +382,8 @@ def configure(
             f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
         )
     terrain = task.difficulty is not None
-    accepted = [f"action_mode={ACTION_MODES}", f"render_mode={(None, *render_modes)}"]
+    robot = task.robot_model
+    accepted = [f"action_mode={robot.action_modes}", f"render_mode={(None, *render_modes)}"]
     accepted += [name for name in options if name != "difficulty" or terrain]
     accepted += list(PERTURBATIONS)
     perturbations = {k: unknown.pop(k) for k in list(unknown) if k in PERTURBATIONS}
@@ -401,8 +401,7 @@ def configure(
             task = getattr(task, _DERIVE[name])(value)
     for keyword, value in perturbations.items():
         task = task.with_perturbation(PERTURBATIONS[keyword](value))
-    if action_mode not in ACTION_MODES:
-        raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+    robot.check_action_mode(action_mode)
     if render_mode is not None and render_mode not in render_modes:
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
     if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):

@@ -8,13 +8,30 @@ import numpy as np
 from bbbench.policies.lqr import LQRController
 from bbbench.policies.pd import PDController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
-from bbbench.tasks.actions import WHEEL_SPEED_CHANGES
-from bbbench.tasks.suite import agent_spaces
+from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
+from bbbench.tasks.suite import agent_spaces, spec
 
 
-class PDPolicy(Policy):
+class TwoWheelPolicy(Policy):
+    """A policy of the two-wheel robot's actions: it fits that robot's tasks only."""
+
+    robot = "two-wheel"
+
+    def mismatch(self, task_id: str) -> str | None:
+        return robot_mismatch(self, task_id)
+
+
+def robot_mismatch(policy: Policy, task_id: str) -> str | None:
+    """Why `policy`, made for the robot `policy.robot`, cannot play `task_id`, or None."""
+    robot = spec(task_id).robot
+    if robot == policy.robot:
+        return None
+    return f"{task_id} plays the {robot} robot; {policy.name} controls the {policy.robot} robot"
+
+
+class PDPolicy(TwoWheelPolicy):
     """The PD baseline (`bbbench.policies.PDController`): reads only the shared layout, so
-    it fits every task."""
+    it fits every task of the two-wheel robot."""
 
     name = algorithm = "pd"
     hold_velocity: float | None = None  # m/s held instead of the task's target; None tracks it
@@ -35,9 +52,10 @@ class StandPolicy(PDPolicy):
     hold_velocity = 0.0
 
 
-class LQRPolicy(Policy):
+class LQRPolicy(TwoWheelPolicy):
     """The LQR baseline (`bbbench.policies.lqr.LQRController`): designed from a model
-    identified from the simulator; reads only the shared layout, so it fits every task."""
+    identified from the simulator; reads only the shared layout, so it fits every task of
+    the two-wheel robot."""
 
     name = algorithm = "lqr"
 
@@ -58,11 +76,20 @@ class RandomPolicy(Policy):
     def __init__(self, action_mode: str = "discrete") -> None:
         self.action_mode = action_mode
 
+    def mismatch(self, task_id: str) -> str | None:
+        robot = spec(task_id).robot_model
+        if self.action_mode in robot.action_modes:
+            return None
+        return (
+            f"{task_id} plays the {robot.name} robot, which takes {' or '.join(robot.action_modes)}"
+            f" actions, not {self.action_mode} ones"
+        )
+
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         return RandomActor(agent_spaces(task_id, self.action_mode)[1])
 
 
-class ZeroPolicy(Policy):
+class ZeroPolicy(TwoWheelPolicy):
     """Never change the wheel command: the bot is left to fall (a lower bound)."""
 
     name = algorithm = "zero"

@@ -42,9 +42,13 @@ import numpy as np
 
 from bbbench.envs.factory import make
 from bbbench.policies.pd import PDController
-from bbbench.robots import MODEL as ROBOT
-from bbbench.tasks.actions import ACTION_MODES, MAX_WHEEL_SPEED_CHANGE, WHEEL_SPEED_CHANGES
-from bbbench.tasks.observation import INDEX
+from bbbench.robots.layout import INDEX
+from bbbench.robots.twowheel import (
+    ACTION_MODES,
+    MAX_WHEEL_SPEED_CHANGE,
+    TWO_WHEEL,
+    WHEEL_SPEED_CHANGES,
+)
 
 STATE = ("pitch", "pitch_rate", "wheel_speed", "wheel_command")
 COST_STATE = np.diag([100.0, 1.0, 0.1, 0.01])
@@ -104,7 +108,7 @@ class LQRController:
 
     def wheel_speed_change(self, observation: np.ndarray) -> float:
         """The change of wheel command (rad/s) the regulator wants."""
-        wheel_target = float(observation[INDEX["target_velocity"]]) / ROBOT.wheel_radius
+        wheel_target = float(observation[INDEX["target_velocity"]]) / TWO_WHEEL.wheel_radius
         state = np.asarray(observation, dtype=float)[_STATE_INDEX]
         error = state - (0.0, 0.0, wheel_target, wheel_target)
         g0, g1, g2, g3 = self._gains  # summed in this order on every CPU (no BLAS)

@@ -20,9 +20,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbbench.robots import MODEL
-from bbbench.tasks.actions import ACTION_MODES, MAX_WHEEL_SPEED_CHANGE, WHEEL_SPEED_CHANGES
-from bbbench.tasks.observation import INDEX
+from bbbench.robots.layout import INDEX
+from bbbench.robots.twowheel import (
+    ACTION_MODES,
+    MAX_WHEEL_SPEED_CHANGE,
+    TWO_WHEEL,
+    WHEEL_SPEED_CHANGES,
+)
 
 _CHANGES = np.asarray(WHEEL_SPEED_CHANGES)
 
@@ -38,6 +42,7 @@ class PDController:
         hold_velocity: None (default) tracks the observed target velocity; a number, in
             m/s, is held instead whatever the task asks (0.0: the `stand` policy, which
             stays up and does not drive).
+        wheel_radius: m, for the encoders' estimate of velocity (the two-wheel bot's).
 
     The default gains keep FlatBalance-v0 up for the full episode on every seed
     tested (tests/test_baselines.py).
@@ -50,25 +55,29 @@ class PDController:
         kd: float = 6.0,
         kv: float = 20.0,
         hold_velocity: float | None = None,
+        wheel_radius: float = TWO_WHEEL.wheel_radius,
     ) -> None:
         if action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         self.action_mode = action_mode
         self.kp, self.kd, self.kv = kp, kd, kv
         self.hold_velocity = hold_velocity
+        self.wheel_radius = wheel_radius
 
-    def wheel_speed_change(self, observation: np.ndarray) -> float:
-        """The change of wheel command (rad/s) the controller wants."""
-        pitch = float(observation[INDEX["pitch"]])
+    def wheel_speed_change(self, observation: np.ndarray, balance_pitch: float = 0.0) -> float:
+        """The change of wheel command (rad/s) the controller wants. `balance_pitch` (rad):
+        the pitch at which the robot's centre of mass is over its axle (0 for the
+        two-wheel bot; the wheel-legged robot's depends on its legs)."""
+        pitch = float(observation[INDEX["pitch"]]) - balance_pitch
         pitch_rate = float(observation[INDEX["pitch_rate"]])
-        velocity = MODEL.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
+        velocity = self.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
         target = (
             float(observation[INDEX["target_velocity"]])
             if self.hold_velocity is None
             else self.hold_velocity
         )
         desired = (
-            target / MODEL.wheel_radius  # fed forward
+            target / self.wheel_radius  # fed forward
             + self.kp * pitch
             + self.kd * pitch_rate
             + self.kv * (velocity - target)

@@ -13,7 +13,7 @@ from bbbench.policies.policy import Actor, NormalizedActor, Policy, TorchActor, 
 from bbbench.policies.rebuild import torch_policy
 from bbbench.policies.sb3zip import SB3Zip, read_sb3_zip
 from bbbench.policies.vecnormalize import ObservationNormalization
-from bbbench.tasks.observation import observation_space as single_bot_observation_space
+from bbbench.robots import TWO_WHEEL
 from bbbench.tasks.suite import agent_spaces
 
 
@@ -43,7 +43,7 @@ class SB3ZipPolicy(Policy):
         self.normalization = normalization
         # The single-bot layout followed by the height scan: the tasks are played with it.
         self.height_scan = (
-            loaded.observation_shape == single_bot_observation_space(height_scan=True).shape
+            loaded.observation_shape == TWO_WHEEL.observation_space(height_scan=True).shape
         )
         self._actors: dict[tuple, Actor] = {}
 

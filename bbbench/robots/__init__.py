@@ -1,4 +1,5 @@
-"""Robot models: the URDF and the class that owns one body in a world."""
+"""Robot models: each robot's URDF, the class that owns one body in a world, and its
+`Robot` (actions and observation layout), found by the name a task spec gives."""
 
 from bbbench.robots.balancebot import (
     FALL_TILT,
@@ -9,13 +10,33 @@ from bbbench.robots.balancebot import (
     RobotModel,
     read_model,
 )
+from bbbench.robots.robot import Body, Robot
+from bbbench.robots.twowheel import TWO_WHEEL
+from bbbench.robots.wheel_legged import WHEEL_LEGGED
+
+ROBOTS: dict[str, Robot] = {robot.name: robot for robot in (TWO_WHEEL, WHEEL_LEGGED)}
+
+
+def robot(name: str) -> Robot:
+    """The robot called `name` (`TaskSpec.robot`), or a KeyError that lists them."""
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise KeyError(f"no robot {name!r}: the robots are {', '.join(ROBOTS)}") from None
+
 
 __all__ = [
     "FALL_TILT",
     "MODEL",
+    "ROBOTS",
+    "TWO_WHEEL",
     "URDF_PATH",
+    "WHEEL_LEGGED",
     "BalanceBot",
+    "Body",
     "BotState",
+    "Robot",
     "RobotModel",
     "read_model",
+    "robot",
 ]

@@ -23,8 +23,6 @@ from __future__ import annotations
 import collections
 import functools
 import math
-import os
-import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +31,7 @@ from typing import NamedTuple
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from bbbench.sim import bullet_client_id
+from bbbench.robots.body import Body
 
 URDF_PATH = Path(__file__).with_name("balancebot.urdf")
 
@@ -44,14 +42,6 @@ URDF_PATH = Path(__file__).with_name("balancebot.urdf")
 # 0.9 rad but not from 1.0 rad. At 1 rad the first reward's upright term,
 # 1 - |pitch|, also reaches 0.
 FALL_TILT = 1.0
-
-# Only wheel contacts closer than this (m) reach the solver. A rolling wheel leaves
-# its last contact points behind it, rising only slowly off the ground (a cycloid
-# starts vertically); Bullet keeps them for several steps, and the solver iterated
-# over up to 4 per wheel. Measured (docs/performance.md): 0 makes driving cheapest
-# but bumpy ground becomes a train of small impacts (the PD baseline fell on 9/20
-# Bumps seeds, against 1/20 with Bullet's default); 1 mm keeps most of the speed.
-WHEEL_CONTACT_PROCESSING_THRESHOLD = 0.001
 
 
 @dataclass(frozen=True)
@@ -145,31 +135,11 @@ def spawn_pose(
     return com, orientation
 
 
-@functools.cache
-def shifted_urdf(urdf_path: Path, com_forward: float) -> str:
-    """The URDF's text with the torso's centre of mass moved `com_forward` m along +y
-    (forward); its mass and inertia about the centre of mass are unchanged."""
-    tree = ET.parse(urdf_path)
-    robot = tree.getroot()
-    torso = robot.find("joint/parent").get("link")
-    origin = next(link for link in robot.iter("link") if link.get("name") == torso).find(
-        "inertial/origin"
-    )
-    x, y, z = (float(value) for value in origin.get("xyz").split())
-    origin.set("xyz", f"{x!r} {y + com_forward!r} {z!r}")
-    return ET.tostring(robot, encoding="unicode")
-
-
-# (group, mask) of a dynamic body's links as pybullet loads them: collide with everything.
-_DYNAMIC_COLLISION_FILTER = (1, -1)
-# Where reset() moves a bot, clear of everything, before placing it (y grows with the body id).
-_CLEAR_OF_EVERYTHING = (-1000.0, 10.0, 10.0)
-
 # namedtuple's generated __new__ is a Python call; tuple.__new__ skips it on the hot path.
 _new_state = functools.partial(tuple.__new__, BotState)
 
 
-class BalanceBot:
+class BalanceBot(Body):
     """One balancing bot in a bullet world.
 
     Args:
@@ -182,73 +152,25 @@ class BalanceBot:
 
     def __init__(self, client: BulletClient, model: RobotModel = MODEL) -> None:
         self.model = model
-        self._client = client
-        # The hot path calls pybullet directly: BulletClient builds a partial per call.
-        self._client_id = bullet_client_id(client)
-        self._com_forward = 0.0  # m: the torso's centre of mass ahead of the URDF's
-        self.body = self._load(str(model.urdf_path))
-        self._torso_mass = client.getDynamicsInfo(self.body, -1)[0]  # kg, as the URDF says
-        self._payload = 0.0
+        super().__init__(client, model.urdf_path, model.wheel_joint_names)
         self._com_above_axle = model.com_above_axle
         self._motor_forces = (model.motor_torque_limit, model.motor_torque_limit)
         self._delayed: collections.deque[float] | None = None  # servo targets not yet sent
         self.wheel_command = 0.0  # rad/s the servos are asked for; set by command_wheel_speed
-        self._set_aside = False
         self.command_wheel_speed(0.0)
 
-    def _load(self, urdf_path: str) -> int:
-        client = self._client
-        body = client.loadURDF(
-            urdf_path, basePosition=(0.0, 0.0, 0.0), flags=pybullet.URDF_USE_INERTIA_FROM_FILE
-        )
-        names = {
-            client.getJointInfo(body, j)[1].decode(): j for j in range(client.getNumJoints(body))
-        }
-        self.wheel_joints = tuple(names[name] for name in self.model.wheel_joint_names)
-        for joint in self.wheel_joints:
-            client.changeDynamics(
-                body, joint, contactProcessingThreshold=WHEEL_CONTACT_PROCESSING_THRESHOLD
-            )
-        return body
+    def _actuate(self) -> None:
+        self.command_wheel_speed(self.wheel_command)
 
-    @property
-    def client_id(self) -> int:
-        """The `physicsClientId` of the bot's world."""
-        return self._client_id
+    def _stop(self) -> None:
+        self.command_wheel_speed(0.0)
 
     # -- acting ---------------------------------------------------------------
-
-    def set_payload(self, kg: float) -> None:
-        """Carry `kg` more at the torso's centre of mass (0: the bot as built)."""
-        if kg != self._payload:
-            self._client.changeDynamics(self.body, -1, mass=self._torso_mass + kg)
-            self._payload = kg
 
     def set_motor_strength(self, factor: float) -> None:
         """Servos `factor` times as strong as the URDF's torque limit (1: as built)."""
         limit = self.model.motor_torque_limit * factor
         self._motor_forces = (limit, limit)
-
-    def set_com_offset(self, forward: float) -> None:
-        """Move the torso's centre of mass `forward` m ahead of the URDF's (0: as built).
-
-        pybullet fixes a body's centre of mass when it loads it, so a new value reloads
-        the body from the shifted URDF, with the payload as it was; the body id is the
-        one freed, so the world's pair order stays. Call it before `reset()`.
-        """
-        if forward == self._com_forward:
-            return
-        client = self._client
-        client.removeBody(self.body)
-        with tempfile.TemporaryDirectory() as folder:
-            path = os.path.join(folder, "shifted.urdf")
-            with open(path, "w") as file:
-                file.write(shifted_urdf(self.model.urdf_path, forward))
-            self.body = self._load(path)
-        client.changeDynamics(self.body, -1, mass=self._torso_mass + self._payload)
-        self._com_forward = forward
-        self._set_aside = False  # a new body collides with everything
-        self.command_wheel_speed(self.wheel_command)
 
     def set_action_delay(self, steps: int) -> None:
         """Send each wheel-speed command to the servos `steps` commands later (0: at
@@ -257,24 +179,10 @@ class BalanceBot:
         """
         self._delayed = collections.deque([0.0] * steps) if steps else None
 
-    def push(self, impulse: float, duration: float) -> None:
-        """Push the torso horizontally along its heading with `impulse` N s (negative:
-        backwards), as a force at its centre of mass over the next `duration` s (one
-        world step: pybullet clears external forces after each)."""
-        client_id = self._client_id
-        position, orientation = pybullet.getBasePositionAndOrientation(self.body, client_id)
-        matrix = pybullet.getMatrixFromQuaternion(orientation)
-        fx, fy = matrix[1], matrix[4]  # the body's y axis (forward), horizontal part
-        length = math.hypot(fx, fy) or 1.0
-        force = impulse / duration / length
-        pybullet.applyExternalForce(
-            self.body,
-            -1,
-            (force * fx, force * fy, 0.0),
-            position,
-            pybullet.WORLD_FRAME,
-            physicsClientId=client_id,
-        )
+    def act(self, change: float) -> float:
+        """Change the commanded wheel speed by `change` rad/s (an action of the table in
+        `bbbench.robots.twowheel`); return the command now held (`command_wheel_speed`)."""
+        return self.command_wheel_speed(self.wheel_command + change)
 
     def command_wheel_speed(self, speed: float) -> float:
         """Drive both wheels' velocity servos at `speed` rad/s (forward-positive).
@@ -320,21 +228,9 @@ class BalanceBot:
         for a caller that has moved every bot clear (`move_clear`) and run
         collision detection once itself.
         """
+        self._enter(drop_contacts)
         client, body = self._client, self.body
-        if self._set_aside:
-            for link in (-1, *self.wheel_joints):
-                client.setCollisionFilterGroupMask(body, link, *_DYNAMIC_COLLISION_FILTER)
-            self._set_aside = False
         com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model, self._com_forward)
-        # Bullet keeps the contact points of touching bodies from step to step and
-        # warm-starts its solver from them: points left from the last episode would
-        # change this one's first steps. Collision detection with the bot clear of
-        # everything drops them. Repositioning (not reloading) stays cheap, and
-        # tests/test_determinism.py checks that an episode does not depend on the
-        # ones the world ran before it.
-        if drop_contacts:
-            self.move_clear()
-            client.performCollisionDetection()
         client.resetBasePositionAndOrientation(body, com, orientation)
         client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         for joint in self.wheel_joints:
@@ -342,35 +238,6 @@ class BalanceBot:
         if self._delayed is not None:
             self._delayed = collections.deque([0.0] * len(self._delayed))
         self.command_wheel_speed(0.0)
-
-    @property
-    def is_set_aside(self) -> bool:
-        """Whether `set_aside` took the bot out (until its next `reset`)."""
-        return self._set_aside
-
-    def move_clear(self) -> None:
-        """Move the bot clear of everything (its own spot, far from the world)."""
-        x, y, z = _CLEAR_OF_EVERYTHING
-        self._client.resetBasePositionAndOrientation(
-            self.body, (x, y * (1 + self.body), z), (0.0, 0.0, 0.0, 1.0)
-        )
-
-    def set_aside(self, place: tuple[float, float, float]) -> None:
-        """Take the bot out of the world until its next `reset()`: it collides with
-        nothing and is moved to `place`, far from everything (it falls freely there).
-
-        Cheaper than removing the body, but not without a trace: pybullet re-adds a
-        link's collider to the world when its filter changes, and where the colliders
-        and their broadphase proxies sit decides the order the solver meets contacts in.
-        `Scene.reset` builds a fresh world after an episode that set a bot aside.
-        """
-        client, body = self._client, self.body
-        for link in (-1, *self.wheel_joints):
-            client.setCollisionFilterGroupMask(body, link, 0, 0)
-        client.resetBasePositionAndOrientation(body, place, (0.0, 0.0, 0.0, 1.0))
-        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self.command_wheel_speed(0.0)
-        self._set_aside = True
 
     # -- sensing --------------------------------------------------------------
 

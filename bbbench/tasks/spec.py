@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from bbbench.parameters import parameters
-from bbbench.robots import FALL_TILT, MODEL
+from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.group import Group
 from bbbench.tasks.perturbations import PERTURBATIONS
@@ -51,7 +51,12 @@ _NOT_BEHAVIOUR_FIELDS = ("summary", "description", "version_history", "random_re
 # Options added after tasks were published (fields of the spec or of its components), with
 # the value that means "as before": hashed only when set otherwise, so that adding an
 # option moves no published fingerprint.
-_OPTIONS_ADDED_LATER = {"height_scan": False, "lateral_period": None, "perturbations": ()}
+_OPTIONS_ADDED_LATER = {
+    "height_scan": False,
+    "lateral_period": None,
+    "perturbations": (),
+    "robot": "two-wheel",
+}
 
 
 def _published_options(value):
@@ -118,14 +123,17 @@ class TaskSpec:
     max_episode_steps: int = 1500  # time limit (truncation)
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
-    # The observation ends with ground heights ahead of the bot (`tasks/observation.py`).
+    # The observation ends with ground heights ahead of the bot (`robots/layout.py`).
     height_scan: bool = False
     # Reset-time changes of the robot or its world, each not at its default
     # (`bbbench.tasks.perturbations`), sorted by keyword.
     perturbations: tuple[Any, ...] = ()
+    # The robot the task plays (`bbbench.robots.ROBOTS`): its body, actions and layout.
+    robot: str = "two-wheel"
     version_history: tuple[str, ...] = ("v0: initial release.",)
-    # The random policy's mean return (per bot) over eval_seeds, discrete actions: the 0
-    # of the normalized score. Measured once (`bbbench dev random-reference`).
+    # The random policy's mean return (per bot) over eval_seeds, in the robot's default
+    # action mode (discrete for the two-wheel bot): the 0 of the normalized score.
+    # Measured once (`bbbench dev random-reference`).
     random_return: float | None = None
 
     def __post_init__(self) -> None:
@@ -142,6 +150,13 @@ class TaskSpec:
                 f"are required, got {self.control_dt!r}, {self.max_episode_steps!r}, "
                 f"{self.physics_substeps!r}"
             )
+        if self.robot not in ROBOTS:
+            raise ValueError(
+                f"{self.id}: robot must be one of {', '.join(map(repr, ROBOTS))}, "
+                f"got {self.robot!r}"
+            )
+        if self.group is not None and self.robot != "two-wheel":
+            raise ValueError(f"{self.id}: several bots in one world are two-wheel bots only")
         if len(set(self.eval_seeds)) != len(self.eval_seeds):
             raise ValueError(f"{self.id}: eval_seeds must not repeat")
         if any(seed in TRAINING_SEEDS for seed in self.eval_seeds):
@@ -150,6 +165,11 @@ class TaskSpec:
             raise ValueError(f"height_scan must be True or False, got {self.height_scan!r}")
         if self.height_scan and self.group is not None:
             raise ValueError(f"{self.id}: the height scan is a single-bot option")
+
+    @property
+    def robot_model(self) -> Robot:
+        """The robot the task plays: its body, action spaces and observation layout."""
+        return robot(self.robot)
 
     @property
     def difficulty(self) -> float | None:
@@ -231,7 +251,7 @@ class TaskSpec:
             if not any(component is known for known in published)
         ]
         digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
-        digest.update(MODEL.urdf_path.read_bytes())
+        digest.update(self.robot_model.urdf_path.read_bytes())
         return digest.hexdigest()[:16]
 
     @property

@@ -9,10 +9,9 @@ from typing import Any
 import gymnasium
 from gymnasium import spaces
 
-from bbbench.tasks.actions import action_space
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
-from bbbench.tasks.observation import agent_observation_space, observation_space
+from bbbench.tasks.observation import agent_observation_space
 from bbbench.tasks.perturbations import Push
 from bbbench.tasks.reward import StayUpReward
 from bbbench.tasks.sensors import NoisySensors
@@ -395,6 +394,7 @@ def agent_spaces(
     """The observation and action space of one bot of a task (every bot's, on a multi-bot
     task, which has no height scan), without building the task."""
     task = spec(task_id)
+    robot = task.robot_model
     if task.group is None:
-        return observation_space(height_scan), action_space(action_mode)
-    return agent_observation_space(task.group), action_space(action_mode)
+        return robot.observation_space(height_scan), robot.action_space(action_mode)
+    return agent_observation_space(robot, task.group), robot.action_space(action_mode)

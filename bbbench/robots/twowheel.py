@@ -1,15 +1,24 @@
-"""The action table shared by every single-bot task.
+"""The two-wheel robot's face to its tasks: its action table and observation layout.
 
 An action changes the commanded wheel speed (rad/s); the command is then held
-by the wheels' velocity servos and clamped to the wheel-speed limit.
+by the wheels' velocity servos and clamped to the wheel-speed limit. The
+observation is the five shared values (`bbbench.robots.layout`) and nothing more.
+The body is `BalanceBot` (`bbbench.robots.balancebot`).
 """
 
 from __future__ import annotations
 
 import operator
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from pybullet_utils.bullet_client import BulletClient
+
+from bbbench.robots.balancebot import MODEL, URDF_PATH, BalanceBot, BotState
+from bbbench.robots.layout import ObservationField, observe, observe_scanned, shared_layout
+from bbbench.robots.robot import Robot
 
 # The tutorial's nine changes of commanded wheel speed, rad/s per control step.
 WHEEL_SPEED_CHANGES = (-1.0, -0.5, -0.2, -0.01, 0.0, 0.01, 0.2, 0.5, 1.0)
@@ -60,3 +69,45 @@ def continuous_change(action) -> float:
         f"number in [-1, 1] (scaled to a wheel-speed change of at most "
         f"{MAX_WHEEL_SPEED_CHANGE} rad/s), shape (1,)"
     )
+
+
+OBSERVATION_LAYOUT = shared_layout(MODEL.wheel_speed_limit, MODEL.top_speed)
+
+
+class TwoWheel(Robot):
+    """The tutorial's balancing bot: a torso on two wheels on one axle (`BalanceBot`)."""
+
+    name = "two-wheel"
+    summary = "the tutorial's two-wheeled balancing bot (1.0 kg, 0.5 m tall)"
+    urdf_path = URDF_PATH
+    wheel_radius = MODEL.wheel_radius
+    wheel_speed_limit = MODEL.wheel_speed_limit
+    action_modes = ACTION_MODES
+
+    def body(self, client: BulletClient) -> BalanceBot:
+        return BalanceBot(client)
+
+    def action_space(self, action_mode: str) -> spaces.Space:
+        return action_space(action_mode)
+
+    def action_decoder(self, action_mode: str) -> Callable[[Any], float]:
+        self.check_action_mode(action_mode)
+        return discrete_change if action_mode == "discrete" else continuous_change
+
+    def own_layout(self) -> tuple[ObservationField, ...]:
+        return OBSERVATION_LAYOUT
+
+    def observe(
+        self,
+        reading: tuple[float, float, float],
+        command: float,
+        target: float,
+        state: BotState,
+        scan: list[float] | None = None,
+    ) -> np.ndarray:
+        if scan is None:
+            return observe(*reading, command, target)
+        return observe_scanned(*reading, command, target, scan)
+
+
+TWO_WHEEL = TwoWheel()

@@ -1,0 +1,134 @@
+"""`Robot`: what a task needs to know of the robot it plays, one object per robot.
+
+A task spec names its robot (`TaskSpec.robot`); everything that depends on the
+robot's body asks that object: the body the scene builds in a world, the action
+spaces and how an action becomes a command, and the observation layout. Nothing
+else in bbbench assumes two wheels or two legs.
+
+Every robot's observation begins with the five shared values
+(`bbbench.robots.layout.shared_layout`), so a controller of those values reads any
+robot's observation; its own fields follow them, then the optional height scan.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+from gymnasium import spaces
+from pybullet_utils.bullet_client import BulletClient
+
+from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, ObservationField, box
+
+
+class Body(Protocol):
+    """One robot in a world, as the scene drives it (`BalanceBot` is the two-wheel one).
+
+    `act` applies a decoded action (`Robot.action_decoder`) and returns the wheel
+    command now held, rad/s (the shared observation's `wheel_command`); `read` returns
+    the robot's state, whose fields begin with `BotState`'s. The rest places the body,
+    takes it out of an episode and changes it for the perturbations.
+    """
+
+    body: int
+    wheel_command: float
+
+    def act(self, decoded: Any) -> float: ...
+    def read(self) -> Any: ...
+    def reset(self, pitch: float, yaw: float, xy: tuple[float, float], ground_height: float,
+              drop_contacts: bool) -> None: ...  # fmt: skip
+    def move_clear(self) -> None: ...
+    def set_aside(self, place: tuple[float, float, float]) -> None: ...
+    @property
+    def is_set_aside(self) -> bool: ...
+
+
+class Robot:
+    """A robot of the suite: its name, facts, body, actions and observation layout.
+
+    Subclasses set the class attributes and write `body`, `action_space`,
+    `action_decoder`, `own_layout` and `observe`; one instance per robot lives in
+    `bbbench.robots.ROBOTS`, under its `name`.
+    """
+
+    name: ClassVar[str]  # what `TaskSpec.robot` holds
+    summary: ClassVar[str]  # one line, for `bbbench list` and error messages
+    urdf_path: ClassVar[Path]  # hashed into every fingerprint of its tasks
+    wheel_radius: ClassVar[float]  # m
+    wheel_speed_limit: ClassVar[float]  # rad/s
+    action_modes: ClassVar[tuple[str, ...]]  # the first is the default
+
+    @property
+    def top_speed(self) -> float:
+        """Forward speed at the wheel-speed limit, m/s."""
+        return self.wheel_speed_limit * self.wheel_radius
+
+    @property
+    def default_action_mode(self) -> str:
+        return self.action_modes[0]
+
+    def check_action_mode(self, action_mode: str) -> None:
+        """A clear ValueError for an action mode the robot does not take."""
+        if action_mode not in self.action_modes:
+            raise ValueError(
+                f"action_mode must be one of {self.action_modes} for the {self.name} robot, "
+                f"got {action_mode!r}"
+            )
+
+    def body(self, client: BulletClient) -> Body:
+        """A new body of the robot in `client`'s world."""
+        raise NotImplementedError
+
+    def action_space(self, action_mode: str) -> spaces.Space:
+        raise NotImplementedError
+
+    def action_decoder(self, action_mode: str) -> Callable[[Any], Any]:
+        """The function from an action of `action_space(action_mode)` to what the body's
+        `act` takes; it raises a ValueError that says what was expected for an action
+        outside the space."""
+        raise NotImplementedError
+
+    def own_layout(self) -> tuple[ObservationField, ...]:
+        """The robot's fields: the shared five, then what the robot adds."""
+        raise NotImplementedError
+
+    def layout(self, height_scan: bool = False) -> tuple[ObservationField, ...]:
+        """The fields of the observation, in order: the robot's, then the scan if asked."""
+        fields = self.own_layout()
+        return fields + HEIGHT_SCAN_LAYOUT if height_scan else fields
+
+    def observation_space(self, height_scan: bool = False) -> spaces.Box:
+        """The Box every single-bot task of the robot observes in (built once)."""
+        return _space(self, height_scan)
+
+    def observe(
+        self,
+        reading: tuple[float, float, float],
+        command: float,
+        target: float,
+        state: Any,
+        scan: list[float] | None = None,
+    ) -> np.ndarray:
+        """The observation: `reading` (pitch, pitch rate and wheel speed as sensed), the
+        wheel command, the target velocity, what the robot adds from `state`, then the
+        height `scan` if given."""
+        raise NotImplementedError
+
+    def describe_layout(self, height_scan: bool = False) -> str:
+        """'Box(5,) (two-wheel: pitch, ..., target_velocity)': for error messages."""
+        fields = self.layout(height_scan)
+        names = [field.name for field in fields]
+        if height_scan:
+            names = [*names[: -len(HEIGHT_SCAN_LAYOUT)], f"{len(HEIGHT_SCAN_LAYOUT)} heights"]
+        return f"Box({len(fields)},) ({self.name}: {', '.join(names)})"
+
+    def __repr__(self) -> str:
+        return f"<robot {self.name}>"
+
+
+@functools.cache
+def _space(robot: Robot, height_scan: bool) -> spaces.Box:
+    return box(robot.layout(height_scan))
