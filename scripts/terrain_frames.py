@@ -1,9 +1,9 @@
-"""Write the README's frame of each -v1 terrain task (docs/images/*.png).
+"""Write the README's frame of each terrain task (docs/images/*.png).
 
     python scripts/terrain_frames.py   # needs pillow: pip install 'bbbench[video]'
 
-Each frame is the env's own `rgb_array` render, 1.5 s into the first
-evaluation seed with the PD baseline driving.
+Each frame is the env's own `rgb_array` render, 1.5 s into the first evaluation seed
+with the robot's classical controller driving (PD; the wheel-legged robot's own).
 """
 
 from __future__ import annotations
@@ -14,15 +14,26 @@ from PIL import Image
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.policies.legged import LeggedController
 
-TASKS = ("bbbench/Bumps-v1", "bbbench/Obstacles-v1", "bbbench/Slopes-v1")
+TASKS = (
+    "bbbench/Bumps-v1",
+    "bbbench/Obstacles-v1",
+    "bbbench/Slopes-v1",
+    "bbbench/LeggedFlatBalance-v0",
+    "bbbench/LeggedVelocityTracking-v0",
+    "bbbench/LeggedBumps-v0",
+    "bbbench/LeggedObstacles-v0",
+)
 OUT = Path(__file__).resolve().parent.parent / "docs" / "images"
 
 
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     for task_id in TASKS:
-        env, policy = bbbench.make(task_id, render_mode="rgb_array"), PDController()
+        legged = bbbench.spec(task_id).robot == "wheel-legged"
+        policy = LeggedController() if legged else PDController()
+        env = bbbench.make(task_id, render_mode="rgb_array")
         observation, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
         for _ in range(150):
             observation, *_ = env.step(policy(observation))

@@ -37,6 +37,13 @@ LATEST_SINGLE = (
 # Tasks published after the generalist was trained: one PPO per seed, not in its mix.
 ADDED_SINGLE = ("bbbench/PushRecovery-v0",)
 LATEST_MULTI = ("bbbench/MultiBalance-v1", "bbbench/MultiBumps-v1")
+# The wheel-legged robot's tasks: PPO on three seeds, and SAC, each.
+LEGGED = (
+    "bbbench/LeggedFlatBalance-v0",
+    "bbbench/LeggedVelocityTracking-v0",
+    "bbbench/LeggedBumps-v0",
+    "bbbench/LeggedObstacles-v0",
+)
 SEEDS = (0, 1, 2)
 
 
@@ -51,6 +58,8 @@ def runs() -> list[dict]:
         *({**run, "seed": 0} for run in ppo),
         *multi,
         *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
+        *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in LEGGED),
+        *({"tasks": [task], "algo": "sac", "seed": 0} for task in LEGGED),
     ]
     for run in plan:
         name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
@@ -116,12 +125,19 @@ def table(root: Path, board: Path) -> str:
         return None
 
     lines = [
-        "| task | steps | training wall time, by seed | normalized, by seed | PD |",
+        "| task | steps | training wall time, by seed | normalized, by seed | classical |",
         "|---|---:|---:|---|---:|",
     ]
     plan = runs()
-    for task_id in (*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, "generalist"):
-        done = [run for run in plan if _row(run) == task_id and run["slug"] in results]
+    rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, "generalist"]
+    rows += [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
+    for row in rows:
+        task_id, _, algo = row.partition(" ")
+        done = [
+            run
+            for run in plan
+            if _row(run) == task_id and run["algo"] == (algo or "ppo") and run["slug"] in results
+        ]
         if not done:
             continue
         records = [json.loads((root / run["slug"] / "train.json").read_text()) for run in done]
@@ -131,7 +147,9 @@ def table(root: Path, board: Path) -> str:
             name, pd = "generalist (the six before PushRecovery; by task, in that order)", ""
         else:
             scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
-            name, pd = task_id.removeprefix("bbbench/"), f"{score('pd', task_id):.3f}"
+            classical = "legged" if task_id in LEGGED else "pd"
+            name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
+            pd = f"{score(classical, task_id):.3f}"
         steps = records[0]["steps"]
         budget = f"{steps / 1e6:g}M" if steps >= 1e6 else f"{steps / 1e3:g}k"
         lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")

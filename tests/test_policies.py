@@ -244,8 +244,9 @@ def test_a_policy_whose_spaces_fit_no_task_says_what_each_task_wants(tmp_path, c
     code, err = eval_exit(capsys, str(tmp_path / "cartpole.zip"))
     assert code == 2
     assert "Box(4,) -> Discrete(2)" in err
-    assert "bbbench/FlatBalance-v1 wants Box(5,)" in err
-    assert "bbbench/MultiBalance-v1 wants Box(17,)" in err
+    assert "bbbench/FlatBalance-v1 plays the two-wheel robot and wants Box(5,)" in err
+    assert "bbbench/MultiBalance-v1 plays the two-wheel robot and wants Box(17,)" in err
+    assert "bbbench/LeggedBumps-v0 plays the wheel-legged robot and wants Box(17,)" in err
 
 
 def test_nan_weights_fail_episodes_with_the_reason_and_the_run_goes_on(honest_zips, tmp_path):

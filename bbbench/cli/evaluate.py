@@ -48,6 +48,13 @@ def add_parser(commands) -> None:
     evaluate.add_argument(
         "--stochastic", action="store_true", help="sample actions (default: deterministic)"
     )
+    evaluate.add_argument(
+        "--action-mode",
+        choices=("discrete", "continuous"),
+        help="the action mode of a built-in that acts in either (pd, stand, lqr, random, "
+        "zero; default discrete: the two-wheel bot's; random plays the wheel-legged "
+        "robot's tasks in continuous); a zip's is its own",
+    )
     evaluate.set_defaults(run=run)
 
 
@@ -83,7 +90,9 @@ def _checked(args: argparse.Namespace):
             check_video_path(args.video)
         if args.backend == "ray":
             check_ray_address(args.address)
-        policy = load_policy(args.policy, vecnormalize=args.vecnormalize)
+        policy = load_policy(
+            args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
+        )
         task_ids = evaluation.select_tasks(policy, args.task)
     except (PolicyError, ValueError) as error:
         raise UsageError(str(error)) from None

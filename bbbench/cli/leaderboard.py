@@ -51,8 +51,15 @@ def add_parser(commands) -> None:
     checking.set_defaults(run=check)
     _add_parser_of_add(actions)
     showing = _with_common(actions.add_parser("show", help="print the ranked tables"), plays=False)
-    showing.add_argument("--track", choices=("single", "multi"), help="one track (default both)")
+    showing.add_argument(
+        "--track", choices=("single", "multi", "wheel-legged"), help="one track (default all)"
+    )
     showing.set_defaults(run=show)
+
+
+def track_name(track: str) -> str:
+    """'single-bot', 'multi-bot' or 'wheel-legged': how the messages name a track."""
+    return track if track not in ("single", "multi") else f"{track}-bot"
 
 
 def _with_common(parser: argparse.ArgumentParser, plays: bool = True):
@@ -171,7 +178,7 @@ def build(args: argparse.Namespace) -> int:
         return 1
     args.written.append(str(root))
     tracks = ", ".join(
-        f"{len(track['entries'])} on the {track['track']}-bot track"
+        f"{len(track['entries'])} on the {track_name(track['track'])} track"
         for track in built.document["tracks"]
     )
     print(
@@ -266,7 +273,7 @@ def add(args: argparse.Namespace) -> int:
         for entry in track["entries"]:
             if entry["slug"] == args.slug:
                 print(
-                    f"{track['track']}-bot track: {args.slug} ranks {entry['rank']} of "
+                    f"{track_name(track['track'])} track: {args.slug} ranks {entry['rank']} of "
                     f"{len(track['entries'])}"
                 )
     print(

@@ -26,11 +26,22 @@ def run(args: argparse.Namespace) -> None:
         return
     specs = [bbbench.spec(task_id) for task_id in bbbench.list_tasks()]
     rows = [
-        ("task", "bots", "steps", "dt (s)", "max return", "eval seeds", "fingerprint", "summary")
+        (
+            "task",
+            "robot",
+            "bots",
+            "steps",
+            "dt (s)",
+            "max return",
+            "eval seeds",
+            "fingerprint",
+            "summary",
+        )
     ]
     rows += [
         (
             spec.id,
+            spec.robot,
             str(spec.group.n_bots) if spec.multi_agent else "1",
             str(spec.max_episode_steps),
             f"{spec.control_dt:g}",
@@ -66,9 +77,9 @@ def describe(task_id: str) -> None:
     print(f"\n{spec.description.strip()}\n")
     bots = spec.group.n_bots if spec.multi_agent else 1
     print(
-        f"bots {bots}, {spec.max_episode_steps} steps of {spec.control_dt:g} s, max return "
-        f"{spec.max_return:g}, {len(spec.eval_seeds)} eval seeds, fingerprint "
-        f"{spec.fingerprint}"
+        f"robot {spec.robot}, bots {bots}, {spec.max_episode_steps} steps of "
+        f"{spec.control_dt:g} s, max return {spec.max_return:g}, "
+        f"{len(spec.eval_seeds)} eval seeds, fingerprint {spec.fingerprint}"
     )
     print("\nVersion history:")
     for entry in spec.version_history:

@@ -56,8 +56,11 @@ def run(args: argparse.Namespace) -> None:
         policy = load_policy(
             args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
         )
-        if policy.mismatch(spec.id):
-            raise PolicyError(f"{policy.name} ({policy.spaces_text()}) cannot play {spec.id}")
+        reason = policy.mismatch(spec.id)
+        if reason:
+            raise PolicyError(
+                f"{policy.name} ({policy.spaces_text()}) cannot play {spec.id}: {reason}"
+            )
         actor = policy.actor(spec.id)
     except PolicyError as error:
         raise UsageError(str(error)) from None

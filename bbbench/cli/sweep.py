@@ -19,10 +19,8 @@ from bbbench.cli.common import (
 )
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
-from bbbench.tasks.suite import latest_version
 
 PLOT_FORMATS = (".svg", ".png")
-PROFILE_TASK = "bbbench/VelocityTracking-v1"  # a perturbation's default task (its latest version)
 
 
 def add_parser(commands) -> None:
@@ -35,7 +33,8 @@ def add_parser(commands) -> None:
         "value, the aggregate of the results document, and per task the robustness score "
         "(the mean normalized score over the values) and the worst case (their minimum). "
         f"Axes: {', '.join(AXES)}. Without --values, the axis's standard grid; without "
-        "--task, VelocityTracking for a perturbation, the terrain tasks for difficulty and "
+        "--task, VelocityTracking for a perturbation (the robot's own: LeggedVelocityTracking "
+        "for the wheel-legged robot), the terrain tasks for difficulty and "
         "the multi-bot tasks for n_bots (each the latest version the policies fit).",
     )
     sweep.add_argument(
@@ -157,7 +156,17 @@ def _default_tasks(axis: str, policies) -> list[str]:
     from bbbench.policies.registry import fitting_tasks
 
     if axis not in ("difficulty", "n_bots"):
-        return [latest_version(PROFILE_TASK)]
+        # The task the robustness profile plays: VelocityTracking for the two-wheel bot,
+        # LeggedVelocityTracking for the wheel-legged robot (the latest versions).
+        from bbbench.evaluation.profile import profile_task  # lazy: only this command needs it
+
+        tasks = {profile_task(policy) for policy in policies}
+        if len(tasks) != 1 or None in tasks:
+            raise ValueError(
+                f"the policies are profiled on different tasks ({', '.join(map(str, tasks))}), "
+                "or none: give --task"
+            )
+        return list(tasks)
     applies = applying_tasks(axis)
     fits = [t for t in applies if all(t in fitting_tasks(policy) for policy in policies)]
     if not fits:

@@ -30,7 +30,8 @@ def add_parser(commands) -> None:
     trainer.add_argument(
         "--action-mode",
         choices=("discrete", "continuous"),
-        help="default: discrete if the algorithm learns discrete actions, else continuous",
+        help="default: the first the algorithm learns that the task's robot takes (PPO: "
+        "discrete on the two-wheel bot, continuous on the wheel-legged robot)",
     )
     trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
     trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")

@@ -18,12 +18,14 @@ import hashlib
 import json
 
 import numpy as np
+from gymnasium import spaces
 
 from bbbench.envs.balance import BalanceEnv
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.envs.scene import EpisodeDraw
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import write_atomic
+from bbbench.robots import TWO_WHEEL, Robot
 from bbbench.tasks.spec import GOLDEN_FILE, TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 
@@ -32,19 +34,27 @@ GOLDEN_STEPS = 200  # per seed, or until the episode ends
 DECIMALS = 4  # observations and rewards are rounded to 1e-4 before hashing
 
 
-def golden_actions() -> list[int]:
-    """The fixed discrete action sequence of every golden rollout."""
-    return [int(a) for a in np.random.default_rng(0).integers(0, 9, size=GOLDEN_STEPS)]
+def golden_actions(robot: Robot = TWO_WHEEL) -> list:
+    """The fixed action sequence of every golden rollout of `robot`'s tasks, in its default
+    action mode: uniform draws from its action space (for the two-wheel bot, discrete
+    indices 0-8)."""
+    space = robot.action_space(robot.default_action_mode)
+    rng = np.random.default_rng(0)
+    if isinstance(space, spaces.Discrete):
+        return [int(a) for a in rng.integers(0, space.n, size=GOLDEN_STEPS)]
+    draws = rng.uniform(space.low, space.high, size=(GOLDEN_STEPS, *space.shape))
+    return list(draws.astype(space.dtype))
 
 
 def rollout_hash(task: TaskSpec) -> str:
-    """Hash of the task's golden rollout (discrete actions, the spec as given)."""
+    """Hash of the task's golden rollout (its robot's default action mode, the spec as
+    given)."""
     if task.multi_agent:
         return _multi_rollout_hash(task)
     env = BalanceEnv(task)
-    actions = golden_actions()
+    actions = golden_actions(task.robot_model)
 
-    def act(batch, rngs) -> list[int]:  # step t: the t-th action
+    def act(batch, rngs) -> list:  # step t: the t-th action
         return [actions[env.scene.steps]]
 
     digest = hashlib.sha256()

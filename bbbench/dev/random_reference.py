@@ -11,11 +11,20 @@ from __future__ import annotations
 
 from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
-from bbbench.tasks.suite import list_tasks
+from bbbench.tasks.suite import list_tasks, spec
 
 
 def measure(task_ids: list[str] | None = None, workers: int | None = None) -> dict[str, float]:
-    """The random policy's (discrete actions) mean return per bot over all eval seeds."""
-    task_ids = task_ids or list_tasks()
-    evaluation = evaluate(load_policy("random"), task_ids, workers=workers)
-    return {task["task"]: task["aggregate"]["mean"] for task in evaluation.document["tasks"]}
+    """The random policy's mean return per bot over all eval seeds, acting in each task's
+    robot's default action mode (discrete for the two-wheel bot)."""
+    by_mode: dict[str, list[str]] = {}
+    for task_id in task_ids or list_tasks():
+        by_mode.setdefault(spec(task_id).robot_model.default_action_mode, []).append(task_id)
+    measured = {}
+    for action_mode, tasks in by_mode.items():
+        policy = load_policy("random", action_mode=action_mode)
+        evaluation = evaluate(policy, tasks, workers=workers)
+        measured.update(
+            (task["task"], task["aggregate"]["mean"]) for task in evaluation.document["tasks"]
+        )
+    return measured

@@ -51,6 +51,12 @@ class BalanceEnv(Env):
     | Obstacles-v2        | obstacle course, 0.05 m cells | U(1, 2), held 2-5 s  | perfect        |
     | Slopes-v2           | ramps up and down          | U(1, 2), held 2-5 s     | perfect        |
 
+    The wheel-legged robot's tasks (LeggedFlatBalance-, LeggedVelocityTracking-,
+    LeggedBumps- and LeggedObstacles-v0) play this class too, with the robot their row
+    names (`TaskSpec.robot`): the reward, starting state, episode end and arguments below
+    are theirs as well, and their own classes (`bbbench.envs.tasks.LeggedBumpsEnv`, ...)
+    document the robot's actions and observations (docs/robots.md).
+
     These are the latest versions, on the reward in which staying up never costs
     (Rewards, below). Each earlier version plays the same episodes under the
     first reward, and stays registered unchanged: FlatBalance-, VelocityTracking-

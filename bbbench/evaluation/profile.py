@@ -2,7 +2,8 @@
 profile on the standard axes (`bbbench.tasks.perturbations`).
 
 The protocol (`PROTOCOL`, a `Protocol`): a single-bot policy plays the latest VelocityTracking, a
-multi-bot policy the latest MultiBalance (where `sensor_noise` does not apply), at each
+multi-bot policy the latest MultiBalance (where `sensor_noise` does not apply), a
+wheel-legged policy the latest LeggedVelocityTracking, at each
 value of each axis's standard grid, on the first `PROFILE_EPISODES` evaluation seeds,
 with deterministic actions; every (axis, value) point through the harness's player, all
 on one pool of workers. Per axis the robustness score is the mean normalized score over
@@ -35,7 +36,12 @@ PROFILE_EPISODES = 20
 # Bumped when the protocol plays anything else: a stored profile is reused only when its
 # protocol matches.
 PROTOCOL_VERSION = 1
-PROFILE_TASKS = ("bbbench/VelocityTracking-v1", "bbbench/MultiBalance-v1")  # newest played
+# Newest versions played; the first a policy fits profiles it.
+PROFILE_TASKS = (
+    "bbbench/VelocityTracking-v1",
+    "bbbench/MultiBalance-v1",
+    "bbbench/LeggedVelocityTracking-v0",
+)
 
 
 @dataclasses.dataclass(frozen=True)

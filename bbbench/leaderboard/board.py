@@ -35,11 +35,26 @@ from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
+from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import latest_version, list_tasks, spec
 
 SCHEMA = "bbbench-leaderboard/1"
 PROFILE_SUFFIX = ".profile.json"  # results/<slug>.profile.json: an entry's robustness profile
-TRACKS = {"single": "single-bot tasks", "multi": "multi-bot tasks (one policy shared by every bot)"}
+TRACKS = {
+    "single": "single-bot tasks",
+    "multi": "multi-bot tasks (one policy shared by every bot)",
+    "wheel-legged": "the wheel-legged robot's tasks",
+}
+
+
+def track_of(task: TaskSpec) -> str:
+    """The track a task is ranked on: the two-wheel bot's single- and multi-bot tasks, and
+    each other robot's tasks on a track of their own."""
+    if task.robot != "two-wheel":
+        return task.robot
+    return "multi" if task.multi_agent else "single"
+
+
 RANK_RULE = (
     "entries are ordered by the IQM of normalized scores over the track's ranked tasks; "
     "neighbours share a rank group unless the 95% interval of the probability that the "
@@ -69,8 +84,7 @@ class Board:
 
     def track_tasks(self, track: str) -> list[str]:
         """The track's tasks: by name, each name's versions newest first."""
-        multi = track == "multi"
-        tasks = [t for t in self.tasks if spec(t).multi_agent == multi]
+        tasks = [t for t in self.tasks if track_of(spec(t)) == track]
         return sorted(tasks, key=lambda t: (spec(t).name, -spec(t).version))
 
     def ranked(self, track: str) -> list[str]:

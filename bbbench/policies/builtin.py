@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bbbench.policies.legged import LeggedController
 from bbbench.policies.lqr import LQRController
 from bbbench.policies.pd import PDController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
@@ -66,6 +67,22 @@ class LQRPolicy(TwoWheelPolicy):
         return PDActor(LQRController(action_mode=self.action_mode))
 
 
+class LeggedPolicy(Policy):
+    """The wheel-legged robot's classical controller (`bbbench.policies.legged`): PD on
+    the wheels from the balance pitch, the legs crouched and levelling the torso's roll. It
+    fits every task of the wheel-legged robot."""
+
+    name = algorithm = "legged"
+    robot = "wheel-legged"
+    action_mode = "continuous"
+
+    def mismatch(self, task_id: str) -> str | None:
+        return robot_mismatch(self, task_id)
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        return PDActor(LeggedController())
+
+
 class RandomPolicy(Policy):
     """Uniformly random actions: the 0 of the normalized score. It always acts
     stochastically, from the episode's seeded generator."""
@@ -82,7 +99,7 @@ class RandomPolicy(Policy):
             return None
         return (
             f"{task_id} plays the {robot.name} robot, which takes {' or '.join(robot.action_modes)}"
-            f" actions, not {self.action_mode} ones"
+            f" actions, not {self.action_mode} ones (--action-mode {robot.default_action_mode})"
         )
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:

@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.policies.vecnormalize import ObservationNormalization
-from bbbench.tasks.suite import agent_spaces, list_tasks
+from bbbench.robots import ROBOTS
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
 
@@ -43,6 +43,7 @@ class Policy(abc.ABC):
     random_actions = False  # True: acts from the episode's generator even when deterministic
     normalization_source: str | None = None  # where load_policy found statistics on its own
     height_scan = False  # True: observes the ground ahead too (tasks played with height_scan)
+    robot: str | None = None  # the robot whose tasks it plays (`bbbench.robots`); None: any
 
     def mismatch(self, task_id: str) -> str | None:
         """Why the policy cannot play `task_id` (its spaces), or None if it can."""
@@ -58,8 +59,11 @@ class Policy(abc.ABC):
 
     def spaces_text(self) -> str:
         """The spaces the policy works in, for error messages."""
-        action_space = agent_spaces(list_tasks()[0], self.action_mode)[1]
-        return f"any observation -> {describe_space(action_space)}"
+        if self.robot is None:  # any robot's tasks, in its action mode
+            return f"any robot, any observation -> {self.action_mode} actions"
+        robot = ROBOTS[self.robot]
+        action_space = robot.action_space(self.action_mode)
+        return f"{robot.name} robot, any observation -> {describe_space(action_space)}"
 
     def record(self) -> dict[str, Any]:
         """The policy as the results JSON records it."""

@@ -6,7 +6,14 @@ import functools
 from collections.abc import Callable
 from pathlib import Path
 
-from bbbench.policies.builtin import LQRPolicy, PDPolicy, RandomPolicy, StandPolicy, ZeroPolicy
+from bbbench.policies.builtin import (
+    LeggedPolicy,
+    LQRPolicy,
+    PDPolicy,
+    RandomPolicy,
+    StandPolicy,
+    ZeroPolicy,
+)
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import Policy, describe_space
 from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
@@ -37,6 +44,7 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "pd": PDPolicy,
     "stand": StandPolicy,
     "lqr": LQRPolicy,
+    "legged": LeggedPolicy,
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,

@@ -13,8 +13,8 @@ from bbbench.policies.policy import Actor, NormalizedActor, Policy, TorchActor, 
 from bbbench.policies.rebuild import torch_policy
 from bbbench.policies.sb3zip import SB3Zip, read_sb3_zip
 from bbbench.policies.vecnormalize import ObservationNormalization
-from bbbench.robots import TWO_WHEEL
-from bbbench.tasks.suite import agent_spaces
+from bbbench.robots import ROBOTS
+from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
 
 class SB3ZipPolicy(Policy):
@@ -41,31 +41,46 @@ class SB3ZipPolicy(Policy):
         self.action_mode = loaded.action_mode
         self.backend = backend
         self.normalization = normalization
-        # The single-bot layout followed by the height scan: the tasks are played with it.
-        self.height_scan = (
-            loaded.observation_shape == TWO_WHEEL.observation_space(height_scan=True).shape
-        )
+        # The robot whose single-bot layout it observes (None: none, a multi-bot policy), and
+        # whether the height scan follows: its tasks are played with it.
+        self.robot, self.height_scan = _single_bot_layout(loaded)
         self._actors: dict[tuple, Actor] = {}
 
-    def mismatch(self, task_id: str) -> str | None:
+    def _fits(self, task_id: str) -> bool:
+        task = spec(task_id)
+        if self.action_mode not in task.robot_model.action_modes:
+            return False
         observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
-        policy_action = self.loaded.action_space
-        if observation_space.shape == self.loaded.observation_shape and (
-            describe_space(action_space) == describe_space(policy_action)
-        ):
+        return observation_space.shape == self.loaded.observation_shape and (
+            describe_space(action_space) == describe_space(self.loaded.action_space)
+        )
+
+    def mismatch(self, task_id: str) -> str | None:
+        if self._fits(task_id):
             return None
-        blind = agent_spaces(task_id, "discrete")[0]
-        scanned = agent_spaces(task_id, "discrete", height_scan=True)[0]
-        with_scan = (
-            f" (or {describe_space(scanned)} with height_scan=True)"
-            if scanned.shape != blind.shape
-            else ""
+        task = spec(task_id)
+        robot = task.robot_model
+        if task.multi_agent:
+            wants = describe_space(agent_spaces(task_id, robot.default_action_mode)[0])
+        else:
+            wants = robot.describe_layout() + (
+                f" (or {describe_space(robot.observation_space(True))} with height_scan=True)"
+                if task.group is None
+                else ""
+            )
+        actions = " or ".join(
+            describe_space(robot.action_space(mode)) for mode in robot.action_modes
         )
-        return (
-            f"{task_id} wants {describe_space(blind)}{with_scan} -> "
-            f"{describe_space(agent_spaces(task_id, 'discrete')[1])} or "
-            f"{describe_space(agent_spaces(task_id, 'continuous')[1])}"
-        )
+        reason = f"{task_id} plays the {robot.name} robot and wants {wants} -> {actions}"
+        if self.robot is not None and self.robot != robot.name:
+            mine = ROBOTS[self.robot]
+            fits = [t for t in list_tasks(latest=True) if self._fits(t)]
+            reason += (
+                f"; the policy observes the {mine.name} robot's "
+                f"{mine.describe_layout(self.height_scan)}, and fits "
+                f"{', '.join(fits) or 'no task of the suite'}"
+            )
+        return reason
 
     def spaces_text(self) -> str:
         return f"Box{self.loaded.observation_shape} -> {describe_space(self.loaded.action_space)}"
@@ -107,3 +122,16 @@ def numpy_actor(model: SB3Zip, observation_space: spaces.Box, action_space: spac
         high=action_space.high.copy() if box else None,
         **layout,
     )
+
+
+def _single_bot_layout(loaded: SB3Zip) -> tuple[str | None, bool]:
+    """(robot name, height scan) of the single-bot layout a zip's policy observes, and acts
+    in; (None, False) for none (a multi-bot policy's)."""
+    for robot in ROBOTS.values():
+        for height_scan in (False, True):
+            if robot.observation_space(height_scan).shape == loaded.observation_shape and any(
+                describe_space(robot.action_space(mode)) == describe_space(loaded.action_space)
+                for mode in robot.action_modes
+            ):
+                return robot.name, height_scan
+    return None, False

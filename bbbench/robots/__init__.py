@@ -10,7 +10,8 @@ from bbbench.robots.balancebot import (
     RobotModel,
     read_model,
 )
-from bbbench.robots.robot import Body, Robot
+from bbbench.robots.body import Body
+from bbbench.robots.robot import Robot
 from bbbench.robots.twowheel import TWO_WHEEL
 from bbbench.robots.wheel_legged import WHEEL_LEGGED
 

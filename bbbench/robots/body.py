@@ -104,6 +104,26 @@ class Body:
         """Command the actuators to rest (a body set aside)."""
         raise NotImplementedError
 
+    def act(self, decoded) -> float:
+        """Apply a decoded action (`Robot.action_decoder`); return the wheel command now held
+        (rad/s, the shared observation's `wheel_command`)."""
+        raise NotImplementedError
+
+    def read(self):
+        """The body's state, whose fields begin with `BotState`'s (`bbbench.robots.balancebot`)."""
+        raise NotImplementedError
+
+    def reset(
+        self,
+        pitch: float = 0.0,
+        yaw: float = 0.0,
+        xy: tuple[float, float] = (0.0, 0.0),
+        ground_height: float = 0.0,
+        drop_contacts: bool = True,
+    ) -> None:
+        """Put the body at rest with its wheels on the ground at `xy`, leaning `pitch` rad."""
+        raise NotImplementedError
+
     @property
     def client_id(self) -> int:
         """The `physicsClientId` of the body's world."""

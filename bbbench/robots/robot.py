@@ -15,35 +15,14 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.robots.body import Body
 from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, ObservationField, box
-
-
-class Body(Protocol):
-    """One robot in a world, as the scene drives it (`BalanceBot` is the two-wheel one).
-
-    `act` applies a decoded action (`Robot.action_decoder`) and returns the wheel
-    command now held, rad/s (the shared observation's `wheel_command`); `read` returns
-    the robot's state, whose fields begin with `BotState`'s. The rest places the body,
-    takes it out of an episode and changes it for the perturbations.
-    """
-
-    body: int
-    wheel_command: float
-
-    def act(self, decoded: Any) -> float: ...
-    def read(self) -> Any: ...
-    def reset(self, pitch: float, yaw: float, xy: tuple[float, float], ground_height: float,
-              drop_contacts: bool) -> None: ...  # fmt: skip
-    def move_clear(self) -> None: ...
-    def set_aside(self, place: tuple[float, float, float]) -> None: ...
-    @property
-    def is_set_aside(self) -> bool: ...
 
 
 class Robot:
@@ -115,6 +94,10 @@ class Robot:
         """The observation: `reading` (pitch, pitch rate and wheel speed as sensed), the
         wheel command, the target velocity, what the robot adds from `state`, then the
         height `scan` if given."""
+        raise NotImplementedError
+
+    def interface_markdown(self) -> str:
+        """The action and observation spaces as Markdown tables, for its tasks' docstrings."""
         raise NotImplementedError
 
     def describe_layout(self, height_scan: bool = False) -> str:

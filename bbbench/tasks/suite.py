@@ -302,6 +302,85 @@ evaluation episodes (docs/tasks.md, "PushRecovery").""",
 )
 SUITE[_PUSH_RECOVERY.id] = _PUSH_RECOVERY
 
+# The wheel-legged robot's tasks (`bbbench.robots.wheel_legged`): the two-wheel tasks'
+# ground generators, commands, reward and evaluation seeds, so that the same seed is the
+# same ground and the same targets for either robot (docs/tasks.md compares them).
+_LEGGED_WHY = """\
+The wheel-legged robot (`bbbench.robots.wheel_legged`, whose docstring has its facts): a
+torso on two legs, each with an actuated hip and knee and a driven wheel; 1.2 kg, 0.1 m
+wheels. It acts through 6 continuous values, the four leg targets then each wheel's
+change of commanded speed, and observes the five shared values, then its legs' angles
+and rates, its roll and the wheels' differences (the tables: the task's env docstring,
+and docs/robots.md)."""
+_LEGGED_HISTORY = ("v0: initial release, on the shared reward (StayUpReward).",)
+
+
+def _legged(
+    task_id: str, like: str, summary: str, description: str, random_return: float, **changes
+) -> TaskSpec:
+    """The task `like` played by the wheel-legged robot, as `task_id`."""
+    return dataclasses.replace(
+        SUITE[like],
+        id=task_id,
+        robot="wheel-legged",
+        summary=summary,
+        description=f"{description}\n\n{_LEGGED_WHY}",
+        version_history=_LEGGED_HISTORY,
+        random_return=random_return,
+        **changes,
+    )
+
+
+_LEGGED = (
+    _legged(
+        "bbbench/LeggedFlatBalance-v0",
+        "bbbench/FlatBalance-v1",
+        "the wheel-legged robot: stay upright and in place on flat ground",
+        "FlatBalance-v1's task (flat ground, target 0 m/s, perfect sensors) for the "
+        "wheel-legged robot.",
+        random_return=4.422148803963744,
+    ),
+    _legged(
+        "bbbench/LeggedVelocityTracking-v0",
+        "bbbench/VelocityTracking-v1",
+        "the wheel-legged robot: follow a target velocity in [-1, 1] m/s",
+        "VelocityTracking-v1's task (flat ground, a target drawn from [-1, 1] m/s and held "
+        "2-5 s at a time, perfect sensors) for the wheel-legged robot.",
+        random_return=1.8687276402909736,
+    ),
+    _legged(
+        "bbbench/LeggedBumps-v0",
+        "bbbench/Bumps-v2",
+        "the wheel-legged robot: cross short random hills up to 0.22 m at 1-2 m/s",
+        """\
+Bumps-v2's strip, start, targets (1-2 m/s) and sensors, with hills more than twice as
+high: 0.01 m + 0.25 m x difficulty (default 0.85: 0.22 m, 2.2 wheel radii), on the same
+0.1 m features and 0.05 m cells. Calibrated against the robot's classical controller
+(`bbbench.policies.legged`), which finishes 48 of the 100 evaluation episodes; on
+Bumps-v2's own hills it finishes all of them (docs/tasks.md).""",
+        random_return=0.6793066639662371,
+        terrain=dataclasses.replace(
+            SUITE["bbbench/Bumps-v2"].terrain,
+            generator=Bumps(min_height=0.01, extra_height=0.25, feature_size=0.1),
+            difficulty=0.85,
+        ),
+    ),
+    _legged(
+        "bbbench/LeggedObstacles-v0",
+        "bbbench/Obstacles-v2",
+        "the wheel-legged robot: cross boxes and steps (up to 5 cm) at 1-2 m/s",
+        """\
+Obstacles-v2's course, start, targets (1-2 m/s) and sensors at a higher default
+difficulty, 0.8 (obstacles up to 0.01 m + 0.05 m x 0.8 = 0.05 m, each gap drawn from
+[0.3, 0.64] m). Calibrated against the robot's classical controller
+(`bbbench.policies.legged`), which finishes 47 of the 100 evaluation episodes
+(docs/tasks.md).""",
+        random_return=0.6740527046489759,
+        terrain=dataclasses.replace(SUITE["bbbench/Obstacles-v2"].terrain, difficulty=0.8),
+    ),
+)
+SUITE.update((task.id, task) for task in _LEGGED)
+
 
 def entry_point(task_id: str) -> str:
     """What plays a task: `bbbench.envs.tasks.make` every single-bot task (as the class made

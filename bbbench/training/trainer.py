@@ -73,8 +73,28 @@ def check_request(
             "several tasks train one generalist on single-bot tasks; a multi-bot task "
             "trains on its own"
         )
+    robots = {spec(t).robot_model for t in tasks}
+    if len(robots) > 1:
+        raise ValueError(
+            f"one policy trains on one robot's tasks: {', '.join(tasks)} play "
+            f"{' and '.join(sorted(robot.name for robot in robots))}"
+        )
+    (robot,) = robots
+    # The algorithm's first mode the robot takes (PPO: discrete on the two-wheel bot,
+    # continuous on the wheel-legged robot).
+    modes = [m for m in by_key(algorithm).action_modes if m in robot.action_modes]
+    mode = action_mode or (modes[0] if modes else by_key(algorithm).action_modes[0])
+    if mode not in robot.action_modes:
+        raise ValueError(
+            f"the {robot.name} robot takes {' or '.join(robot.action_modes)} actions, not "
+            f"{mode}: use --action-mode {robot.default_action_mode}"
+            + (
+                ""
+                if modes
+                else f", with an algorithm that learns {robot.default_action_mode} actions"
+            )
+        )
     modes = by_key(algorithm).action_modes
-    mode = action_mode or modes[0]
     if mode not in modes:
         others = [a for a in TRAINABLE if mode in by_key(a).action_modes]
         raise ValueError(
