@@ -69,7 +69,7 @@ class LQRPolicy(TwoWheelPolicy):
 
 class LeggedPolicy(Policy):
     """The wheel-legged robot's classical controller (`bbbench.policies.legged`): PD on
-    the wheels from the balance pitch, the legs crouched and levelling the torso's roll. It
+    the wheels from the balance pitch, the legs riding low and damping the torso's roll. It
     fits every task of the wheel-legged robot."""
 
     name = algorithm = "legged"
