@@ -4,7 +4,8 @@
                                 [--policy pd|random]
 
 Each task is driven by the same policy on its evaluation seeds, resetting when an
-episode ends: the PD baseline (default), or random actions (`--policy random`), the
+episode ends: its robot's classical controller (default: the PD baseline, or the
+wheel-legged robot's), or random actions (`--policy random`), the
 start of training, where episodes last some 100 steps and resets weigh most. Only the
 env's own time is counted (`step` and `reset`, policy excluded; also `step` alone), and
 the tasks run alternately in chunks so they share the machine's slow and fast phases.
@@ -21,25 +22,41 @@ import argparse
 import statistics
 import time
 
+import gymnasium
 import numpy as np
 
 import bbbench
 from bbbench.policies import PDController
+from bbbench.policies.legged import LeggedController
 
 REFERENCE = "bbbench/FlatBalance-v0"
 
 
 class RandomActions:
-    """Uniform discrete actions from a seeded generator (the same sequence in every run)."""
+    """Uniform actions of the env's space from a seeded generator (the same sequence in
+    every run): indices of a Discrete space, vectors in a Box."""
 
-    def __init__(self, seed: int = 0) -> None:
+    def __init__(self, space: gymnasium.Space, seed: int = 0) -> None:
         self.rng = np.random.default_rng(seed)
-        self.actions: list[int] = []
+        self.space = space
+        self.actions: list = []
 
-    def __call__(self, observation) -> int:
+    def __call__(self, observation):
         if not self.actions:
-            self.actions = self.rng.integers(0, 9, size=4096).tolist()
+            if isinstance(self.space, gymnasium.spaces.Discrete):
+                self.actions = self.rng.integers(0, self.space.n, size=4096).tolist()
+            else:
+                size = (4096, *self.space.shape)
+                values = self.rng.uniform(self.space.low, self.space.high, size=size)
+                self.actions = list(values.astype(self.space.dtype))
         return self.actions.pop()
+
+
+def classical_controller(task_id: str):
+    """The task's robot's classical controller: the PD baseline, or the wheel-legged one."""
+    if bbbench.spec(task_id).robot == "wheel-legged":
+        return LeggedController()
+    return PDController()
 
 
 class TaskLoop:
@@ -48,7 +65,10 @@ class TaskLoop:
 
     def __init__(self, task_id: str, height_scan: bool = False, policy: str = "pd") -> None:
         self.env = bbbench.make(task_id, height_scan=height_scan)
-        self.policy = PDController() if policy == "pd" else RandomActions()
+        if policy == "pd":
+            self.policy = classical_controller(task_id)
+        else:
+            self.policy = RandomActions(self.env.action_space)
         self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
         self.elapsed = 0.0  # step and reset
         self.stepping = 0.0  # step only
@@ -108,7 +128,7 @@ def main() -> None:
     reference = loops[REFERENCE].steps / loops[REFERENCE].elapsed
     step_reference = loops[REFERENCE].steps / loops[REFERENCE].stepping
 
-    who = "PD-baseline" if args.policy == "pd" else "random-action"
+    who = "classical-controller" if args.policy == "pd" else "random-action"
     print(
         f"Suite benchmark: {args.steps} {who} steps per task on its eval seeds, "
         f"alternating every {args.chunk} steps; env time only (step + reset)"

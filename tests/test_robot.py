@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pybullet
 import pytest
 
-from bbbench.robots import FALL_TILT, MODEL, BalanceBot
+from bbbench.robots import FALL_TILT, MODEL, ROBOTS, BalanceBot
 from bbbench.sim import World
+from bbbench.tasks import SUITE
+from bbbench.tasks.commands import ConstantVelocity, PiecewiseConstantVelocity
 from bbbench.tasks.reward import has_fallen
 from bbbench.terrain import FlatGround, load_ground
 
@@ -133,3 +136,23 @@ def test_a_world_never_uses_the_global_connection():
     assert not pybullet.isConnected(0) or world.client_id != 0
     assert world.client.getPhysicsEngineParameters()["fixedTimeStep"] == 0.01
     world.close()
+
+
+@pytest.mark.parametrize("name", ["two-wheel", "wheel-legged"])
+def test_a_task_may_not_ask_for_more_than_its_robots_top_speed(name):
+    robot = ROBOTS[name]
+    assert robot.top_speed == robot.model.wheel_speed_limit * robot.model.wheel_radius
+    fast = dataclasses.replace(SUITE["bbbench/VelocityTracking-v1"], robot=name)
+    too_fast = PiecewiseConstantVelocity(low=-1.0, high=robot.top_speed + 0.01)
+    with pytest.raises(ValueError, match=f"beyond the {name} robot's top speed"):
+        dataclasses.replace(fast, command=too_fast)
+    at_top = ConstantVelocity(velocity=-robot.top_speed)
+    assert dataclasses.replace(fast, command=at_top).command.top_target == robot.top_speed
+
+
+@pytest.mark.parametrize("speed", [float("nan"), float("inf")])
+def test_a_command_refuses_a_speed_that_is_not_a_number(speed):
+    with pytest.raises(ValueError, match="finite speed"):
+        ConstantVelocity(velocity=speed)
+    with pytest.raises(ValueError, match="finite speed"):
+        PiecewiseConstantVelocity(low=-1.0, high=speed)

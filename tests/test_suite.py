@@ -22,9 +22,16 @@ from bbbench.tasks.spec import TRAINING_SEEDS
 from bbbench.terrain import Bumps, HeightfieldTerrain
 from conftest import FLAT, fixed_actions, rollout
 
+SINGLE_BOT = bbbench.list_tasks(multi_agent=False)
 # The two-wheel bot's single-bot tasks: one interface (the wheel-legged robot's tasks share
 # theirs, tests/test_wheel_legged.py).
-TASKS = [t for t in bbbench.list_tasks(multi_agent=False) if bbbench.spec(t).robot == "two-wheel"]
+TASKS = [t for t in SINGLE_BOT if bbbench.spec(t).robot == "two-wheel"]
+# Every single-bot task in every action mode its robot takes.
+TASK_MODES = [
+    pytest.param(t, mode, id=f"{t}-{mode}")
+    for t in SINGLE_BOT
+    for mode in bbbench.spec(t).robot_model.action_modes
+]
 
 
 def test_the_suite_has_its_five_single_bot_tasks():
@@ -32,7 +39,7 @@ def test_the_suite_has_its_five_single_bot_tasks():
     assert {task_id.split("/")[1].split("-")[0] for task_id in TASKS} >= names
 
 
-@pytest.mark.parametrize("task_id", TASKS)
+@pytest.mark.parametrize(("task_id", "action_mode"), TASK_MODES)
 def test_every_task_passes_both_checkers(task_id, action_mode):
     gymnasium_check_env(
         gym.make(task_id, action_mode=action_mode).unwrapped, skip_render_check=True
@@ -50,7 +57,7 @@ def test_every_task_has_the_same_spaces(action_mode):
     assert all(env.action_space == envs[0].action_space for env in envs)
 
 
-@pytest.mark.parametrize("task_id", TASKS)
+@pytest.mark.parametrize(("task_id", "action_mode"), TASK_MODES)
 def test_20000_random_steps_stay_finite_and_in_space(task_id, action_mode):
     env = gym.make(task_id, action_mode=action_mode)
     env.action_space.seed(0)

@@ -11,7 +11,7 @@ from gymnasium import Env
 
 from bbbench.envs.scene import Scene, configure, render_ready
 from bbbench.robots import BotState
-from bbbench.robots.layout import SCAN_OFFSETS, SHARED_FIELDS, observe
+from bbbench.robots.layout import SCAN_OFFSETS, observe
 from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import spec
@@ -278,9 +278,7 @@ class BalanceEnv(Env):
         # Decided by the task, not per step: the shared five values alone, through perfect
         # sensors, take the hot path.
         self._plain = (
-            self._scene.perfect_sensors
-            and not task.height_scan
-            and len(robot.own_layout()) == len(SHARED_FIELDS)
+            self._scene.perfect_sensors and not task.height_scan and robot.observes_shared_only
         )
         self._last_frame_time = 0.0
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 import collections
 import functools
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -31,7 +30,7 @@ from typing import NamedTuple
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from bbbench.robots.body import Body
+from bbbench.robots.body import Body, WheeledModel, rolling_radius, urdf_parts
 
 URDF_PATH = Path(__file__).with_name("balancebot.urdf")
 
@@ -45,7 +44,7 @@ FALL_TILT = 1.0
 
 
 @dataclass(frozen=True)
-class RobotModel:
+class RobotModel(WheeledModel):
     """The robot's physical facts, read from its URDF (the one place they are written)."""
 
     urdf_path: Path
@@ -61,26 +60,17 @@ class RobotModel:
         """Height of the torso's centre of mass above the axle, m."""
         return self.torso_com_height - self.axle_height
 
-    @property
-    def top_speed(self) -> float:
-        """Forward speed at the wheel-speed limit, in m/s."""
-        return self.wheel_speed_limit * self.wheel_radius
-
 
 def read_model(urdf_path: Path = URDF_PATH) -> RobotModel:
     """Parse the facts `BalanceBot` needs out of the URDF."""
-    robot = ET.parse(urdf_path).getroot()
-    joints = {joint.get("name"): joint for joint in robot.iter("joint")}
-    links = {link.get("name"): link for link in robot.iter("link")}
+    joints, links = urdf_parts(urdf_path)
     left, right = joints["left_wheel_joint"], joints["right_wheel_joint"]
     limit = left.find("limit")
-    wheel = links[left.find("child").get("link")]
     torso = links[left.find("parent").get("link")]
     return RobotModel(
         urdf_path=urdf_path,
         wheel_joint_names=(left.get("name"), right.get("name")),
-        # The collision shape is what rolls: a sphere or a cylinder, radius either way.
-        wheel_radius=float(wheel.find("collision/geometry/*[@radius]").get("radius")),
+        wheel_radius=rolling_radius(links, left),
         wheel_speed_limit=float(limit.get("velocity")),
         motor_torque_limit=float(limit.get("effort")),
         axle_height=float(left.find("origin").get("xyz").split()[2]),

@@ -34,6 +34,35 @@ _DYNAMIC_COLLISION_FILTER = (1, -1)
 _CLEAR_OF_EVERYTHING = (-1000.0, 10.0, 10.0)
 
 
+def urdf_parts(urdf_path: Path) -> tuple[dict[str, ET.Element], dict[str, ET.Element]]:
+    """A URDF's joints and links by name: what each robot's model reads its facts from."""
+    robot = ET.parse(urdf_path).getroot()
+    joints = {joint.get("name"): joint for joint in robot.iter("joint")}
+    links = {link.get("name"): link for link in robot.iter("link")}
+    return joints, links
+
+
+def rolling_radius(links: dict[str, ET.Element], wheel_joint: ET.Element) -> float:
+    """The radius (m) of the wheel a joint drives: its collision shape's, as that is what
+    rolls (a sphere or a cylinder, a radius either way)."""
+    wheel = links[wheel_joint.find("child").get("link")]
+    return float(wheel.find("collision/geometry/*[@radius]").get("radius"))
+
+
+class WheeledModel:
+    """What every robot model (`RobotModel`, `LeggedModel`) has: wheels of a radius (m)
+    and a top speed (rad/s), both read from its URDF, and what follows from them."""
+
+    urdf_path: Path
+    wheel_radius: float
+    wheel_speed_limit: float
+
+    @property
+    def top_speed(self) -> float:
+        """Forward speed at the wheel-speed limit, m/s."""
+        return self.wheel_speed_limit * self.wheel_radius
+
+
 @functools.cache
 def shifted_urdf(urdf_path: Path, com_forward: float) -> str:
     """The URDF's text with the torso's centre of mass moved `com_forward` m along +y

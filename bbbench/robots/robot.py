@@ -21,8 +21,8 @@ import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
-from bbbench.robots.body import Body
-from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, ObservationField, box
+from bbbench.robots.body import Body, WheeledModel
+from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, SHARED_FIELDS, ObservationField, box
 
 
 class Robot:
@@ -30,20 +30,35 @@ class Robot:
 
     Subclasses set the class attributes and write `body`, `action_space`,
     `action_decoder`, `own_layout` and `observe`; one instance per robot lives in
-    `bbbench.robots.ROBOTS`, under its `name`.
+    `bbbench.robots.ROBOTS`, under its `name`. Its physical facts are its `model`'s,
+    read from its URDF.
     """
 
     name: ClassVar[str]  # what `TaskSpec.robot` holds
     summary: ClassVar[str]  # one line, for `bbbench list` and error messages
-    urdf_path: ClassVar[Path]  # hashed into every fingerprint of its tasks
-    wheel_radius: ClassVar[float]  # m
-    wheel_speed_limit: ClassVar[float]  # rad/s
+    model: ClassVar[WheeledModel]  # the facts read from its URDF
     action_modes: ClassVar[tuple[str, ...]]  # the first is the default
 
     @property
+    def urdf_path(self) -> Path:
+        """The robot's URDF: hashed into every fingerprint of its tasks."""
+        return self.model.urdf_path
+
+    @property
+    def wheel_radius(self) -> float:
+        """m"""
+        return self.model.wheel_radius
+
+    @property
     def top_speed(self) -> float:
-        """Forward speed at the wheel-speed limit, m/s."""
-        return self.wheel_speed_limit * self.wheel_radius
+        """Forward speed at the wheel-speed limit, m/s: no target may ask for more."""
+        return self.model.top_speed
+
+    @property
+    def observes_shared_only(self) -> bool:
+        """Whether the robot's observation is the shared five values and nothing more,
+        so that the env may build it with `bbbench.robots.layout.observe` directly."""
+        return len(self.own_layout()) == len(SHARED_FIELDS)
 
     @property
     def default_action_mode(self) -> str:

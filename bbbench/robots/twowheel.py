@@ -16,7 +16,7 @@ import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
-from bbbench.robots.balancebot import MODEL, URDF_PATH, BalanceBot, BotState
+from bbbench.robots.balancebot import MODEL, BalanceBot, BotState
 from bbbench.robots.layout import ObservationField, observe, observe_scanned, shared_layout
 from bbbench.robots.robot import Robot
 
@@ -79,9 +79,7 @@ class TwoWheel(Robot):
 
     name = "two-wheel"
     summary = "the tutorial's two-wheeled balancing bot (1.0 kg, 0.5 m tall)"
-    urdf_path = URDF_PATH
-    wheel_radius = MODEL.wheel_radius
-    wheel_speed_limit = MODEL.wheel_speed_limit
+    model = MODEL
     action_modes = ACTION_MODES
 
     def body(self, client: BulletClient) -> BalanceBot:

@@ -38,7 +38,6 @@ from __future__ import annotations
 import collections
 import functools
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import chain
@@ -51,7 +50,7 @@ from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
 from bbbench.robots.balancebot import tilt_from_quaternion
-from bbbench.robots.body import Body
+from bbbench.robots.body import Body, WheeledModel, rolling_radius, urdf_parts
 from bbbench.robots.layout import (
     ENCODER_SPEED_RANGE,
     GYRO_RANGE,
@@ -100,7 +99,7 @@ class LegJoint:
 
 
 @dataclass(frozen=True)
-class LeggedModel:
+class LeggedModel(WheeledModel):
     """The wheel-legged robot's facts, read from its URDF (the one place they are written)."""
 
     urdf_path: Path
@@ -130,16 +129,10 @@ class LeggedModel:
         """How far (m) the axle is ahead of the hip at these joint angles, along the torso."""
         return self.thigh_length * math.sin(hip) + self.shin_length * math.sin(hip + knee)
 
-    @property
-    def top_speed(self) -> float:
-        return self.wheel_speed_limit * self.wheel_radius
-
 
 def read_legged_model(urdf_path: Path = URDF_PATH) -> LeggedModel:
     """Parse the wheel-legged robot's facts out of its URDF."""
-    robot = ET.parse(urdf_path).getroot()
-    joints = {joint.get("name"): joint for joint in robot.iter("joint")}
-    links = {link.get("name"): link for link in robot.iter("link")}
+    joints, links = urdf_parts(urdf_path)
 
     def xyz(element) -> list[float]:
         return [float(value) for value in element.find("origin").get("xyz").split()]
@@ -167,11 +160,7 @@ def read_legged_model(urdf_path: Path = URDF_PATH) -> LeggedModel:
         shin_length=-xyz(wheel)[2],
         hip_below_centre=-xyz(hip)[2],
         wheel_offset=abs(xyz(hip)[0] + xyz(wheel)[0]),
-        wheel_radius=float(
-            links[wheel.find("child").get("link")]
-            .find("collision/geometry/*[@radius]")
-            .get("radius")
-        ),
+        wheel_radius=rolling_radius(links, wheel),
         wheel_speed_limit=limit("left_wheel_joint", "velocity"),
         motor_torque_limit=limit("left_wheel_joint", "effort"),
         torso_size=tuple(
@@ -623,9 +612,7 @@ class WheelLegged(Robot):
 
     name = "wheel-legged"
     summary = "a wheel-legged balancer: hip, knee and wheel per leg (1.2 kg)"
-    urdf_path = URDF_PATH
-    wheel_radius = LEGGED_MODEL.wheel_radius
-    wheel_speed_limit = LEGGED_MODEL.wheel_speed_limit
+    model = LEGGED_MODEL
     action_modes = ("continuous",)
 
     def body(self, client: BulletClient) -> WheelLeggedBot:

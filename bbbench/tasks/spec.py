@@ -155,6 +155,12 @@ class TaskSpec:
                 f"{self.id}: robot must be one of {', '.join(map(repr, ROBOTS))}, "
                 f"got {self.robot!r}"
             )
+        top_speed = ROBOTS[self.robot].top_speed
+        if not self.command.top_target <= top_speed:
+            raise ValueError(
+                f"{self.id}: the command asks for up to {self.command.top_target:g} m/s, "
+                f"beyond the {self.robot} robot's top speed {top_speed:g} m/s"
+            )
         if self.group is not None and self.robot != "two-wheel":
             raise ValueError(f"{self.id}: several bots in one world are two-wheel bots only")
         if len(set(self.eval_seeds)) != len(self.eval_seeds):
