@@ -87,11 +87,12 @@ def test_the_process_exits_with_the_commands_code():
     )
 
 
-def test_terrain_writes_the_episodes_mesh(tmp_path, capsys):
+@pytest.mark.parametrize("task_id", ["bbbench/Bumps-v0", "bbbench/LeggedObstacles-v0"])
+def test_terrain_writes_the_episodes_mesh(task_id, tmp_path, capsys):
     out = tmp_path / "terrain.obj"
-    assert main(["terrain", "--task", "bbbench/Bumps-v0", "--seed", "3", "--out", str(out)]) == 0
+    assert main(["terrain", "--task", task_id, "--seed", "3", "--out", str(out)]) == 0
     assert "wrote" in capsys.readouterr().out
-    env = bbbench.make("bbbench/Bumps-v0")
+    env = bbbench.make(task_id)
     env.reset(seed=3)  # the file holds exactly the terrain that episode plays on
     heights = env.unwrapped.scene.ground.heightmap.heights
     vertices = trimesh.load(out, process=False).vertices
