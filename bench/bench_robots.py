@@ -26,10 +26,9 @@ import pstats
 import statistics
 import time
 
+from bench_suite import TaskLoop  # one task's timed loop, as the suite's bench has it
+
 import bbbench
-from bbbench.envs.balance import BalanceEnv
-from bbbench.policies import PDController
-from bbbench.policies.legged import LeggedController
 
 REFERENCE = "bbbench/FlatBalance-v1"
 LEGGED = (
@@ -40,41 +39,6 @@ LEGGED = (
 )
 
 
-class Loop:
-    """One spec under its robot's classical controller, timing only the env's calls."""
-
-    def __init__(self, task) -> None:
-        legged = task.robot == "wheel-legged"
-        self.env = BalanceEnv(task, action_mode="continuous" if legged else "discrete")
-        self.policy = LeggedController() if legged else PDController()
-        self.seeds = iter(task.eval_seeds * 1000)
-        self.stepping, self.steps = 0.0, 0
-        self.reset_times: list[float] = []
-        self.observation = self.reset()
-
-    def reset(self):
-        began = time.perf_counter()
-        observation, _ = self.env.reset(seed=next(self.seeds))
-        self.reset_times.append(time.perf_counter() - began)
-        return observation
-
-    def run(self, steps: int) -> None:
-        step, policy, observation = self.env.step, self.policy, self.observation
-        for _ in range(steps):
-            action = policy(observation)
-            began = time.perf_counter()
-            observation, _, terminated, truncated, _ = step(action)
-            self.stepping += time.perf_counter() - began
-            if terminated or truncated:
-                observation = self.reset()
-        self.steps += steps
-        self.observation = observation
-
-    @property
-    def step_time(self) -> float:
-        return self.stepping / self.steps
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=20_000, help="steps per task and robot")
@@ -82,11 +46,11 @@ def main() -> None:
     parser.add_argument("--resets", type=int, default=60, help="extra resets per task and robot")
     args = parser.parse_args()
 
-    loops = {("two-wheel", REFERENCE): Loop(bbbench.spec(REFERENCE))}
+    loops = {("two-wheel", REFERENCE): TaskLoop(bbbench.spec(REFERENCE))}
     for task_id in LEGGED:
         task = bbbench.spec(task_id)
-        loops["wheel-legged", task_id] = Loop(task)
-        loops["two-wheel", task_id] = Loop(dataclasses.replace(task, robot="two-wheel"))
+        loops["wheel-legged", task_id] = TaskLoop(task)
+        loops["two-wheel", task_id] = TaskLoop(dataclasses.replace(task, robot="two-wheel"))
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
             loop.run(args.chunk)
@@ -131,7 +95,7 @@ def main() -> None:
         print(f"  {100 * tottime / total:5.1f}%  {calls:>7d} calls  {where}")
 
 
-def split(loop: Loop, steps: int) -> tuple[float, float]:
+def split(loop: TaskLoop, steps: int) -> tuple[float, float]:
     """Mean microseconds per env step: in the world's step, and in all."""
     scene = loop.env.scene
     world_step, spent = scene._world_step, [0.0]
@@ -148,7 +112,7 @@ def split(loop: Loop, steps: int) -> tuple[float, float]:
     return 1e6 * spent[0] / steps, 1e6 * (loop.stepping - before) / (loop.steps - stepped)
 
 
-def steps_only(loop: Loop, steps: int, profiler: cProfile.Profile) -> None:
+def steps_only(loop: TaskLoop, steps: int, profiler: cProfile.Profile) -> None:
     """`steps` env steps under the controller, the profiler on for `env.step` alone."""
     step, policy, observation = loop.env.step, loop.policy, loop.observation
     for _ in range(steps):

@@ -19,6 +19,7 @@ its step time over the same task's without it, less 1.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import statistics
 import time
 
@@ -26,8 +27,10 @@ import gymnasium
 import numpy as np
 
 import bbbench
+from bbbench.envs.balance import BalanceEnv
 from bbbench.policies import PDController
 from bbbench.policies.legged import LeggedController
+from bbbench.tasks.spec import TaskSpec
 
 REFERENCE = "bbbench/FlatBalance-v0"
 
@@ -52,33 +55,36 @@ class RandomActions:
         return self.actions.pop()
 
 
-def classical_controller(task_id: str):
+def classical_controller(task: TaskSpec):
     """The task's robot's classical controller: the PD baseline, or the wheel-legged one."""
-    if bbbench.spec(task_id).robot == "wheel-legged":
-        return LeggedController()
-    return PDController()
+    return LeggedController() if task.robot == "wheel-legged" else PDController()
 
 
 class TaskLoop:
-    """One task under a policy (the PD baseline, or random actions), timing only the env's
-    calls."""
+    """One task under a policy (its robot's classical controller, or random actions),
+    timing only the env's calls: a task ID's env as `bbbench.make` gives it (Gymnasium's
+    wrappers included), or a spec's bare `BalanceEnv` (a row played by another robot)."""
 
-    def __init__(self, task_id: str, height_scan: bool = False, policy: str = "pd") -> None:
-        self.env = bbbench.make(task_id, height_scan=height_scan)
+    def __init__(self, task: str | TaskSpec, height_scan: bool = False, policy: str = "pd") -> None:
+        if isinstance(task, str):
+            self.env = bbbench.make(task, height_scan=height_scan)
+            task = bbbench.spec(task)
+        else:
+            self.env = BalanceEnv(dataclasses.replace(task, height_scan=height_scan))
         if policy == "pd":
-            self.policy = classical_controller(task_id)
+            self.policy = classical_controller(task)
         else:
             self.policy = RandomActions(self.env.action_space)
-        self.seeds = iter(bbbench.spec(task_id).eval_seeds * 100)
+        self.seeds = iter(task.eval_seeds * 100)
         self.elapsed = 0.0  # step and reset
         self.stepping = 0.0  # step only
         self.steps = 0
         self.falls = 0
         self.episodes = 0
         self.reset_times: list[float] = []
-        self.observation = self._reset()
+        self.observation = self.reset()
 
-    def _reset(self):
+    def reset(self):
         began = time.perf_counter()
         observation, _ = self.env.reset(seed=next(self.seeds))
         took = time.perf_counter() - began
@@ -98,9 +104,14 @@ class TaskLoop:
             self.stepping += took
             if terminated or truncated:
                 self.falls += terminated
-                observation = self._reset()
+                observation = self.reset()
         self.steps += steps
         self.observation = observation
+
+    @property
+    def step_time(self) -> float:
+        """Mean seconds of `env.step`."""
+        return self.stepping / self.steps
 
 
 def main() -> None:
