@@ -202,29 +202,12 @@ class BalanceBot(Body):
         self.wheel_command = speed
         return speed
 
-    def reset(
-        self,
-        pitch: float = 0.0,
-        yaw: float = 0.0,
-        xy: tuple[float, float] = (0.0, 0.0),
-        ground_height: float = 0.0,
-        drop_contacts: bool = True,
-    ) -> None:
-        """Put the bot at rest with its wheels on the ground at `xy`, leaning by `pitch` rad.
+    # `reset` (Body's): the torso tilted about the axle, so the wheels touch the ground
+    # whatever the lean.
+    def _spawn_pose(self, pitch, yaw, xy, ground_height):
+        return spawn_pose(pitch, yaw, xy, ground_height, self.model, self._com_forward)
 
-        The torso is tilted about the axle, so the wheels touch the ground
-        whatever the lean. Joints, velocities and the wheel command are zeroed.
-        `drop_contacts=False` skips dropping the last episode's contact points,
-        for a caller that has moved every bot clear (`move_clear`) and run
-        collision detection once itself.
-        """
-        self._enter(drop_contacts)
-        client, body = self._client, self.body
-        com, orientation = spawn_pose(pitch, yaw, xy, ground_height, self.model, self._com_forward)
-        client.resetBasePositionAndOrientation(body, com, orientation)
-        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        for joint in self.wheel_joints:
-            client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
+    def _hold_still(self) -> None:
         if self._delayed is not None:
             self._delayed = collections.deque([0.0] * len(self._delayed))
         self.command_wheel_speed(0.0)

@@ -150,7 +150,30 @@ class Body:
         ground_height: float = 0.0,
         drop_contacts: bool = True,
     ) -> None:
-        """Put the body at rest with its wheels on the ground at `xy`, leaning `pitch` rad."""
+        """Put the body at rest with its wheels on the ground at `xy`, leaning by `pitch`
+        rad about the axle, facing `yaw`. Velocities, joints and commands are zeroed (the
+        legs standing). `drop_contacts=False` skips dropping the last episode's contact
+        points, for a caller that has moved every bot clear (`move_clear`) and run
+        collision detection once itself."""
+        self._enter(drop_contacts)
+        client, body = self._client, self.body
+        position, orientation = self._spawn_pose(pitch, yaw, xy, ground_height)
+        client.resetBasePositionAndOrientation(body, position, orientation)
+        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        for joint, angle in self._joints_at_rest():
+            client.resetJointState(body, joint, targetValue=angle, targetVelocity=0.0)
+        self._hold_still()
+
+    def _spawn_pose(self, pitch: float, yaw: float, xy, ground_height: float):
+        """The base's position and orientation for `reset` (pybullet's base pose)."""
+        raise NotImplementedError
+
+    def _joints_at_rest(self) -> list[tuple[int, float]]:
+        """(joint, angle) of every joint `reset` sets: the wheels at 0."""
+        return [(joint, 0.0) for joint in self.wheel_joints]
+
+    def _hold_still(self) -> None:
+        """The end of `reset`: commands (and any delayed actions) at rest."""
         raise NotImplementedError
 
     @property

@@ -364,27 +364,15 @@ class WheelLeggedBot(Body):
             physicsClientId=client_id,
         )
 
-    def reset(
-        self,
-        pitch: float = 0.0,
-        yaw: float = 0.0,
-        xy: tuple[float, float] = (0.0, 0.0),
-        ground_height: float = 0.0,
-        drop_contacts: bool = True,
-    ) -> None:
-        """Put the robot at rest, standing, with its wheels on the ground at `xy`, leaning
-        by `pitch` rad about the axle. Velocities and the wheel commands are zeroed."""
-        self._enter(drop_contacts)
-        client, body = self._client, self.body
-        centre, orientation = legged_spawn_pose(
-            pitch, yaw, xy, ground_height, self.model, self._com_forward
-        )
-        client.resetBasePositionAndOrientation(body, centre, orientation)
-        client.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        for joint, angle in zip(self.leg_joints, self.model.standing, strict=True):
-            client.resetJointState(body, joint, targetValue=angle, targetVelocity=0.0)
-        for joint in self.wheel_joints:
-            client.resetJointState(body, joint, targetValue=0.0, targetVelocity=0.0)
+    # `reset` (Body's): standing, the legs at the centres of their ranges.
+    def _spawn_pose(self, pitch, yaw, xy, ground_height):
+        return legged_spawn_pose(pitch, yaw, xy, ground_height, self.model, self._com_forward)
+
+    def _joints_at_rest(self) -> list[tuple[int, float]]:
+        legs = list(zip(self.leg_joints, self.model.standing, strict=True))
+        return legs + super()._joints_at_rest()
+
+    def _hold_still(self) -> None:
         if self._delayed is not None:
             self._delayed = collections.deque([self._rest()] * len(self._delayed))
         self.leg_targets, self.wheel_commands, self.wheel_command = self.model.standing, (0, 0), 0
