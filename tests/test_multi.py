@@ -6,6 +6,7 @@ import hashlib
 import math
 import subprocess
 import sys
+import warnings
 
 import cloudpickle
 import gymnasium as gym
@@ -406,18 +407,64 @@ def test_n_bots_out_of_range_is_refused(n_bots):
 def test_bad_actions_name_the_agent_and_what_was_expected():
     env = bbbench.make_parallel(MULTI, n_bots=3)
     env.reset(seed=3)
-    with pytest.raises(ValueError, match=r"unknown agent 'bot_7'.*'bot_0' to 'bot_2'"):
+    with pytest.raises(
+        ValueError, match=r"unknown agent\(s\) 'bot_7'.*agents bot_0, bot_1, bot_2$"
+    ):
         env.step({"bot_0": 4, "bot_1": 4, "bot_2": 4, "bot_7": 4})
-    with pytest.raises(ValueError, match=r"no action for live agent\(s\) 'bot_1'"):
+    with pytest.raises(
+        ValueError, match=r"no action for live agent\(s\) 'bot_1'.*got actions for bot_0, bot_2$"
+    ):
         env.step({"bot_0": 4, "bot_2": 4})
     with pytest.raises(ValueError, match=r"action for 'bot_2': discrete action 11"):
         env.step({"bot_0": 4, "bot_1": 4, "bot_2": 11})
-    while "bot_0" in env.agents:
-        env.step({a: 0 for a in env.agents})
-    with pytest.raises(ValueError, match=r"action for 'bot_0', which is not in env.agents"):
-        env.step({a: 4 for a in [*env.agents, "bot_0"]})
     with pytest.raises(ValueError, match=r"unknown agent 'robot'"):
         env.observation_space("robot")
+
+
+def test_actions_for_agents_whose_episode_ended_are_ignored():
+    """TorchRL sends an action for every possible agent: those of ended agents are ignored,
+    and the step plays as if they had not been sent."""
+    every = bbbench.make_parallel(MULTI, n_bots=3)
+    live_only = bbbench.make_parallel(MULTI, n_bots=3)
+    for env in (every, live_only):
+        env.reset(seed=3)
+        while "bot_0" in env.agents:
+            env.step({a: 0 for a in env.agents})
+    assert every.agents == live_only.agents
+    assert every.agents  # some are still up
+    for _ in range(5):
+        got = every.step(dict.fromkeys(every.possible_agents, 4))
+        expected = live_only.step(dict.fromkeys(live_only.agents, 4))
+        assert "bot_0" not in got[0]
+        assert list(got[0]) == list(expected[0])
+        for agent in got[0]:
+            np.testing.assert_array_equal(got[0][agent], expected[0][agent])
+        assert got[1:] == expected[1:]
+    fresh = bbbench.make_parallel(MULTI, n_bots=3)
+    with pytest.raises(ValueError, match=r"before reset\(\): call reset\(\) first"):
+        fresh.step({"bot_0": 4})
+    assert fresh.step({}) == ({}, {}, {}, {}, {})
+
+
+def test_every_agent_has_the_same_info_keys_at_reset_and_at_every_step():
+    env = bbbench.make_parallel(MULTI, n_bots=4)
+    _, infos = env.reset(seed=2)
+    keys = {tuple(info) for info in infos.values()}
+    assert keys == {("reward_upright", "reward_velocity", "velocity_error", "episode_seed")}
+    assert {info["episode_seed"] for info in infos.values()} == {2}
+    while env.agents:
+        _, _, _, _, infos = env.step({a: 0 for a in env.agents})
+        assert {tuple(info) for info in infos.values()} <= keys
+
+
+def test_reset_options_are_ignored_with_one_warning_that_says_where_n_bots_goes():
+    env = bbbench.make_parallel(MULTI)
+    with pytest.warns(UserWarning, match=r"ignored 'n_bots'.*make_parallel\(.*n_bots=8\)"):
+        observations, _ = env.reset(seed=0, options={"n_bots": 8})
+    assert len(observations) == 4
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.reset(seed=0, options={"n_bots": 8})  # once per env
 
 
 def test_wrong_constructors_say_which_to_use():

@@ -10,9 +10,6 @@ import numpy as np
 from gymnasium import Env
 
 from bbbench.envs.scene import Scene, configure, render_ready
-from bbbench.robots import BotState
-from bbbench.robots.layout import SCAN_OFFSETS, observe
-from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import spec
 
@@ -269,17 +266,14 @@ class BalanceEnv(Env):
         self.action_mode = action_mode
         self.render_mode = render_mode
         self._human = render_mode == "human"
-        self._robot = robot = task.robot_model
-        self.action_space = robot.action_space(action_mode)
-        self.observation_space = robot.observation_space(task.height_scan)
+        self.action_space = task.robot_model.action_space(action_mode)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
-        self._scene = Scene(task, action_mode, gui=self._human)
-        self._reward = task.reward
-        # Decided by the task, not per step: the shared five values alone, through perfect
-        # sensors, take the hot path.
-        self._plain = (
-            self._scene.perfect_sensors and not task.height_scan and robot.observes_shared_only
-        )
+        self._scene = scene = Scene(task, action_mode, gui=self._human)
+        scenario = scene.scenario
+        self.observation_space = scenario.observation_space()
+        self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per step
+        # The task's rules, bound once: the step's hot path calls them.
+        self._observe, self._outcome = scenario.observe_one, scenario.outcome_one
         self._last_frame_time = 0.0
 
     @property
@@ -300,7 +294,7 @@ class BalanceEnv(Env):
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if seed is None else seed
         scene = self._scene
         (state,) = scene.reset(episode_seed)
-        observation = self._observe(state, scene.bots[0].wheel_command, scene.target(0), 0)
+        observation = self._observe(scene, state, scene.bots[0].wheel_command, scene.target(0), 0)
         if self._human:
             self._render_human()
         return observation, {"episode_seed": episode_seed}
@@ -308,24 +302,11 @@ class BalanceEnv(Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         scene = self._scene
         command, state, target = scene.step_one(action)
-        reward, fell, info = step_outcome(state, target, self._reward)
+        reward, fell, info = self._outcome(state, target)
         if self._human:
             self._render_human()
-        if self._plain:  # perfect sensors, no height scan: the hot path
-            observation = observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
-        else:
-            observation = self._observe(state, command, target, scene.steps)
+        observation = self._observe(scene, state, command, target, scene.steps)
         return observation, reward, fell, False, info
-
-    def _observe(self, state: BotState, command: float, target: float, step: int) -> np.ndarray:
-        """The observation through the task's sensors; with the height scan, followed by
-        the ground heights ahead, relative to the axle."""
-        reading = self._scene.reading(state, step)
-        scan = None
-        if self.task.height_scan:
-            x, y, axle_height = state.axle
-            scan = self._scene.ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
-        return self._robot.observe(reading, command, target, state, scan)
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, ClassVar
 
 import numpy as np
@@ -11,8 +12,6 @@ from pettingzoo import ParallelEnv
 
 from bbbench.envs.scene import ActionError, Scene, configure, render_ready
 from bbbench.robots import BotState
-from bbbench.tasks.observation import agent_observation_space, group_observations
-from bbbench.tasks.reward import step_outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import SUITE, spec
 
@@ -159,15 +158,17 @@ class MultiBalanceEnv(ParallelEnv):
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        robot = task.robot_model
-        self._action_space = robot.action_space(action_mode)
-        self._observation_space = agent_observation_space(robot, group)
-        self._observation_size = self._observation_space.shape[0]
-        self._scene = Scene(task, action_mode)
-        self._reward, self._time_limit = task.reward, task.max_episode_steps
+        self._action_space = task.robot_model.action_space(action_mode)
+        self._scene = scene = Scene(task, action_mode)
+        self._scenario = scenario = scene.scenario
+        self._observation_space = scenario.observation_space()
+        self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per bot-step
+        self._time_limit = task.max_episode_steps
         self._np_random: np.random.Generator | None = None
+        self._episode_seed = -1
         self.ended_at: dict[str, int] = {}  # agent -> step its episode ended
         self._states: list[BotState] = []  # of the live bots, in order
+        self._warned_options = False
 
     @property
     def scene(self) -> Scene:
@@ -196,7 +197,11 @@ class MultiBalanceEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        # No options are defined; PettingZoo's API test passes some, and expects them ignored.
+        if options and not self._warned_options:
+            # No options are defined, and PettingZoo's API test passes some and expects
+            # no error: they are ignored, with a word, once.
+            self._warned_options = True
+            warnings.warn(_ignored(options, self.task.id), stacklevel=2)
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
             episode_seed = int(seed)
@@ -204,12 +209,16 @@ class MultiBalanceEnv(ParallelEnv):
             if self._np_random is None:
                 self._np_random, _ = seeding.np_random()
             episode_seed = int(self._np_random.integers(TRAINING_SEEDS.stop))
-        self._states = self._scene.reset(episode_seed)
-        self.agents = self.possible_agents[:]
+        scene = self._scene
+        self._states = states = scene.reset(episode_seed)
+        self._episode_seed = episode_seed
+        self.agents = agents = self.possible_agents[:]
         self.ended_at = {}
-        observations = self._observe(self._states, self._scene.live_targets(0))
-        infos = {agent: {"episode_seed": episode_seed} for agent in self.agents}
-        return dict(zip(self.agents, observations, strict=True)), infos
+        targets = scene.live_targets(0)
+        observations = self._observe(states, targets)
+        # The same keys as every step's: what the starting states would earn.
+        _, _, infos = self._scenario.outcome(agents, states, targets, episode_seed)
+        return dict(zip(agents, observations, strict=True)), infos
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         agents, scene = self.agents, self._scene
@@ -219,19 +228,22 @@ class MultiBalanceEnv(ParallelEnv):
                 f"{type(actions).__name__} {actions!r:.60}"
             )
         if len(actions) != len(agents) or not all(agent in actions for agent in agents):
-            raise refusal(actions, self)
+            check_actions(actions, self)  # a clear error, or actions of ended agents: ignored
         if not agents:
             return {}, {}, {}, {}, {}
         try:
             scene.act_live([actions[agent] for agent in agents])
         except ActionError as error:
             raise ValueError(f"action for {agents[error.index]!r}: {error}") from None
-        # Only the bots still in the world: a fallen one was set aside.
+        # Only the bots still in the episode.
         self._states = states = scene.advance_live()
         steps = scene.steps
         targets = scene.live_targets(steps)
         observations = self._observe(states, targets)
-        rewards, terminations, infos = _outcomes(agents, states, targets, self._reward)
+        scenario = self._scenario
+        rewards, terminations, infos = scenario.outcome(agents, states, targets, self._episode_seed)
+        if scenario.team and any(terminations.values()):  # a fall ends the team's episode
+            terminations = dict.fromkeys(agents, True)
         truncated = steps >= self._time_limit
         truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
@@ -241,18 +253,19 @@ class MultiBalanceEnv(ParallelEnv):
         return returned, rewards, terminations, truncations, infos
 
     def _end(self, ended: list[str], steps: int) -> None:
-        """Take the agents whose episodes ended out of `agents`, and their bots out of the world."""
+        """Take the agents whose episodes ended out of `agents`; the scenario says what
+        becomes of their bots."""
         gone = set(ended)
         for agent in ended:
             self.ended_at[agent] = steps
         kept = [k for k, agent in enumerate(self.agents) if agent not in gone]
-        self._scene.take_out([self.agent_index[agent] for agent in ended])
+        self._scenario.leave(self._scene, [self.agent_index[agent] for agent in ended])
         self.agents = [self.agents[k] for k in kept]
         self._states = [self._states[k] for k in kept] or self._states
 
     def _observe(self, states: list[BotState], targets: list[float]) -> np.ndarray:
         commands = [bot.wheel_command for bot in self._scene.live_bots]
-        return group_observations(states, commands, targets, self.group, self._observation_size)
+        return self._scenario.observe(states, commands, targets)
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):
@@ -276,15 +289,6 @@ class MultiBalanceEnv(ParallelEnv):
         return {**self.__dict__, "agents": [], "_states": []}
 
 
-def _outcomes(agents, states, targets, reward) -> tuple[dict, dict, dict]:
-    """Each agent's reward, whether it fell, and its info (`step_outcome`, the single-bot
-    env's rules), from its bot's state and target."""
-    rewards, terminations, infos = {}, {}, {}
-    for agent, state, target in zip(agents, states, targets, strict=True):
-        rewards[agent], terminations[agent], infos[agent] = step_outcome(state, target, reward)
-    return rewards, terminations, infos
-
-
 def framing(states: list[BotState]) -> tuple[tuple[float, float, float], float]:
     """Where a camera looks, and from how far, to frame every bot of `states`."""
     positions = np.array([state.position for state in states])
@@ -294,26 +298,39 @@ def framing(states: list[BotState]) -> tuple[tuple[float, float, float], float]:
     return (float(center[0]), float(center[1]), 0.2), max(2.0, 0.8 * spread + 1.5)
 
 
-def refusal(actions: dict[str, Any], env: MultiBalanceEnv) -> ValueError:
-    """The error that says what is wrong with the keys of `actions` (`env.step`'s dict)."""
-    for agent in actions:
-        if agent not in env.agent_index:
-            env.observation_space(agent)  # raises: the unknown agent's own error
-        if agent not in env.agents:
-            ended = env.ended_at.get(agent)
-            when = (
-                f"its episode ended at step {ended}"
-                if ended is not None
-                else "the episode has not been reset"
-            )
-            return ValueError(
-                f"action for {agent!r}, which is not in env.agents ({when}): step() takes "
-                f"one action for each agent in env.agents and no other"
-            )
+def check_actions(actions: dict[str, Any], env: MultiBalanceEnv) -> None:
+    """Check the keys of `actions` (`env.step`'s dict) when they are not exactly
+    `env.agents`: an unknown name, or a live agent without an action, is refused with one
+    line that says what was given and what was expected. Actions for agents whose episode
+    has ended are ignored (TorchRL and others send one for every possible agent)."""
+    unknown = [agent for agent in actions if agent not in env.agent_index]
+    if unknown:
+        raise ValueError(
+            f"unknown agent(s) {', '.join(map(repr, unknown))} in step()'s actions: "
+            f"{env.task.id} with {env.group.n_bots} bots has agents "
+            f"{', '.join(env.possible_agents)}"
+        )
+    if not env.agents and not env.ended_at and actions:
+        raise ValueError(
+            f"actions for {', '.join(map(repr, actions))} before reset(): call reset() first"
+        )
     missing = [agent for agent in env.agents if agent not in actions]
-    return ValueError(
-        f"no action for live agent(s) {', '.join(map(repr, missing))}: step() takes one "
-        f"action for each agent in env.agents ({len(env.agents)} now)"
+    if missing:
+        raise ValueError(
+            f"no action for live agent(s) {', '.join(map(repr, missing))}: step() takes one "
+            f"action for each agent in env.agents ({len(env.agents)} now: "
+            f"{', '.join(env.agents)}); got actions for {', '.join(actions) or 'none'}"
+        )
+
+
+def _ignored(options: Any, task_id: str) -> str:
+    """The warning for options `reset()` ignores."""
+    named = sorted(map(repr, options)) if isinstance(options, dict) else [repr(options)]
+    return (
+        f"{task_id}: reset() takes no options and ignored {', '.join(named)}; the task's "
+        f"parameters are keywords of bbbench.make_parallel (n_bots, difficulty, "
+        f"max_episode_steps, action_mode, and the perturbations), e.g. "
+        f"bbbench.make_parallel({task_id!r}, n_bots=8)"
     )
 
 

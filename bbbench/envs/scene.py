@@ -1,11 +1,14 @@
 """`Scene`: one task's episode, the part both env APIs share.
 
-A scene owns the pybullet `World`, the task's ground, its bots (one, or a
-`Group`'s) and what the episode's seed drew (`scene.episode`: targets, sensor
-errors, heightmap, starting poses). It resets from a seed, applies actions to
-the bots' wheels, steps the world, and reads the bots. `BalanceEnv`
-(Gymnasium) and `MultiBalanceEnv` (PettingZoo) are API layers over it: they
-turn its states into observations, rewards and the dicts their API wants.
+A scene owns the physics: the pybullet `World`, the task's ground, its bots (one, or a
+`Group`'s) and what the episode's seed drew (`scene.episode`: targets, sensor errors,
+heightmap, starting poses). It resets from a seed, applies actions to the bots, steps
+the world, and reads the bots. The task's rules are its scenario's
+(`scene.scenario`, a `bbbench.tasks.scenarios.Scenario`): the scene asks it for its
+extra bodies when it builds the world and for the starts when it resets.
+`BalanceEnv` (Gymnasium) and `MultiBalanceEnv` (PettingZoo) are API layers over the
+two: they hand observations, outcomes and ended bots to the scenario and turn what it
+gives into the dicts their API wants.
 
 Also here, written once for both envs: the keyword checks of their
 constructors (`configure`) and the start of their `render()`.
@@ -21,7 +24,6 @@ from gymnasium import logger
 
 from bbbench.robots import Body, BotState
 from bbbench.sim import World
-from bbbench.tasks.group import spawn_poses
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
@@ -93,7 +95,8 @@ class Scene:
     def __init__(self, task: TaskSpec, action_mode: str | None = None, gui: bool = False) -> None:
         self.task = task
         self.robot = task.robot_model
-        self.n_bots = task.group.n_bots if task.group is not None else 1
+        self.scenario = scenario = task.scenario_class(task)
+        self.n_bots = scenario.n_bots
         self.action_mode = action_mode = action_mode or self.robot.default_action_mode
         self.change = self.robot.action_decoder(action_mode)  # checks the mode
         self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
@@ -107,6 +110,11 @@ class Scene:
             isinstance(task.sensors, PerfectSensors)
             and not self._delay
             and not any(change.observed for change in task.perturbations)
+        )
+        # And the shared five values alone, without the height scan: the observation is
+        # built straight from the true state (the single-bot hot path).
+        self.plain = (
+            self.perfect_sensors and not task.height_scan and self.robot.observes_shared_only
         )
 
     def _clear(self) -> None:
@@ -162,12 +170,7 @@ class Scene:
         streams = seed_streams(seed)
         ground = self._ground
         ground.reset(streams.terrain)
-        if task.group is not None:
-            poses = spawn_poses(streams.start, task.group)
-            pitches = streams.start.uniform(-task.initial_pitch, task.initial_pitch, size=n)
-        else:  # at the origin, heading along +y
-            poses = [((0.0, 0.0), 0.0)]
-            pitches = [streams.start.uniform(-task.initial_pitch, task.initial_pitch)]
+        poses, pitches = self.scenario.starts(streams.start)
         rows = [
             task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
             for _ in range(n)
@@ -203,6 +206,7 @@ class Scene:
                 ground_height=ground.spawn_height(x, y),
                 drop_contacts=False,
             )
+        self.scenario.place(self, streams.start)
         self.steps = 0
         self.live = list(range(n))
         self.live_bots = list(self._bots)
@@ -325,6 +329,7 @@ class Scene:
         self._ground = load_ground(client, self.task.terrain)
         self._bots = tuple(self.robot.body(client) for _ in range(self.n_bots))
         self._first = self._bots[0]
+        self.scenario.build(client, self._bots)
         self._world_step = self.world.step
         # Terrain with no side edge moves with its one bot (`BulletHeightfield.follow`).
         if self._ground.period is not None:

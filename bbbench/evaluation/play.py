@@ -29,14 +29,16 @@ Act = Callable[[np.ndarray, list | None], list]
 
 @dataclasses.dataclass(frozen=True)
 class PlayedEpisode:
-    """One evaluation episode. On a multi-bot task, `episode_return` and
-    `velocity_error` are per bot (the mean over bots) and `falls` counts bots."""
+    """One evaluation episode. On a multi-bot task, `episode_return` is per bot (the mean
+    over bots), `falls` counts bots, and each metric is the mean over bot-steps."""
 
     seed: int
     episode_return: float  # sum of rewards (mean over bots)
     length: int  # steps played
     falls: int  # bots that fell (0 or 1 on a single-bot task)
-    velocity_error: float  # mean |forward velocity - target| per bot-step, m/s
+    # The scenario's per-episode metrics (`Scenario.metrics`), in its order: each the mean
+    # of its info key per bot-step (`velocity_error`: |forward velocity - target|, m/s).
+    metrics: dict[str, float]
     failure: str | None = None  # why the episode stopped early: NaN action, ...
 
     @property
@@ -44,15 +46,20 @@ class PlayedEpisode:
         """Every bot reached the time limit."""
         return self.falls == 0 and self.failure is None
 
+    @property
+    def velocity_error(self) -> float:
+        """The mean |forward velocity - target| per bot-step, m/s (every scenario's metric)."""
+        return self.metrics["velocity_error"]
+
     def record(self) -> dict[str, Any]:
-        """As the results JSON writes it."""
+        """As the results JSON writes it: the metrics between `success` and `failure`."""
         return {
             "seed": self.seed,
             "return": self.episode_return,
             "length": self.length,
             "falls": self.falls,
             "success": self.success,
-            "velocity_error": self.velocity_error,
+            **self.metrics,
             "failure": self.failure,
         }
 
@@ -64,9 +71,17 @@ class PlayedEpisode:
             episode_return=record["return"],
             length=record["length"],
             falls=record["falls"],
-            velocity_error=record["velocity_error"],
+            metrics={key: value for key, value in record.items() if key not in _RECORD_FIELDS},
             failure=record["failure"],
         )
+
+
+_RECORD_FIELDS = frozenset(("seed", "return", "length", "falls", "success", "failure"))
+
+
+def metric_names(env: Any) -> tuple[str, ...]:
+    """The per-episode metrics `env`'s scenario declares (an env, wrapped or not)."""
+    return getattr(env, "unwrapped", env).metrics
 
 
 class Step(NamedTuple):
@@ -111,7 +126,9 @@ class Lockstep:
         lanes = list(range(n))
         yield Step(0, lanes, batch, None, _NO_LANES)
         steps = [env.step for env in envs]
-        totals, errors, lengths = [0.0] * n, [0.0] * n, [limit] * n
+        names = metric_names(envs[0])
+        totals, lengths = [0.0] * n, [limit] * n
+        sums = [[0.0] * len(names) for _ in range(n)]  # lane i: each metric's sum
         fell, failures = [False] * n, [None] * n
         lane_rngs = rngs
         for step in range(limit):
@@ -132,7 +149,9 @@ class Lockstep:
                 batch[j] = observation
                 rewards[j] = reward
                 totals[i] += reward
-                errors[i] += info["velocity_error"]
+                lane_sums = sums[i]
+                for k, name in enumerate(names):
+                    lane_sums[k] += info[name]
                 if terminated:
                     fell[i], lengths[i] = True, step + 1
                     ended.append(j)
@@ -154,7 +173,7 @@ class Lockstep:
                 totals[i],
                 lengths[i],
                 int(fell[i]),
-                errors[i] / lengths[i] if lengths[i] else 0.0,
+                _means(names, sums[i], lengths[i]),
                 failures[i],
             )
             for i, seed in enumerate(seeds)
@@ -191,7 +210,8 @@ class MultiEpisode:
         observations, _ = env.reset(seed=self.seed)
         yield MultiStep(0, observations, None)
         returns = dict.fromkeys(env.possible_agents, 0.0)
-        error = 0.0
+        names = metric_names(env)
+        sums = [0.0] * len(names)
         bot_steps = steps = falls = 0
         failure = None
         while env.agents:
@@ -211,7 +231,9 @@ class MultiEpisode:
             steps += 1
             for agent, reward in rewards.items():
                 returns[agent] += reward
-                error += infos[agent]["velocity_error"]
+                info = infos[agent]
+                for k, name in enumerate(names):
+                    sums[k] += info[name]
             bot_steps += len(rewards)
             falls += sum(terminations.values())
             yield MultiStep(steps, observations, rewards)
@@ -220,7 +242,7 @@ class MultiEpisode:
             sum(returns.values()) / len(returns),
             steps,
             falls,
-            error / bot_steps if bot_steps else 0.0,
+            _means(names, sums, bot_steps),
             failure,
         )
 
@@ -229,3 +251,8 @@ class MultiEpisode:
         for _ in self:
             pass
         return self.result
+
+
+def _means(names: tuple[str, ...], sums: list[float], count: int) -> dict[str, float]:
+    """Each metric's mean over `count` (bot-)steps; 0 for an episode of none."""
+    return {name: total / count if count else 0.0 for name, total in zip(names, sums, strict=True)}

@@ -54,7 +54,9 @@ def aggregate(task: TaskSpec, episodes: Sequence[PlayedEpisode]) -> dict[str, An
         "iqm_ci": list(stats.stratified_bootstrap_ci([returns], stats.iqm)),
         "success_rate": sum(e.success for e in episodes) / len(episodes),
         "failures": sum(e.failure is not None for e in episodes),
-        "velocity_error": stats.mean([e.velocity_error for e in episodes]),
+        **{  # the scenario's metrics, each the mean over episodes
+            name: stats.mean([e.metrics[name] for e in episodes]) for name in episodes[0].metrics
+        },
         "normalized_score": normalized(mean, task),
         "normalized_ci": (
             None if task.random_return is None else [normalized(b, task) for b in mean_ci]

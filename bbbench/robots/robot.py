@@ -111,6 +111,14 @@ class Robot:
         height `scan` if given."""
         raise NotImplementedError
 
+    def values(
+        self, reading: tuple[float, float, float], command: float, target: float, state: Any
+    ) -> tuple[float, ...]:
+        """`observe`'s values without the scan, as Python floats: the robot's own layout, the
+        shared five first. For callers that build many observations at once (a multi-bot
+        scenario appends its own terms to them)."""
+        raise NotImplementedError
+
     def interface_markdown(self) -> str:
         """The action and observation spaces as Markdown tables, for its tasks' docstrings."""
         raise NotImplementedError

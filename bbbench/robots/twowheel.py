@@ -17,7 +17,13 @@ from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
 from bbbench.robots.balancebot import MODEL, BalanceBot, BotState
-from bbbench.robots.layout import ObservationField, observe, observe_scanned, shared_layout
+from bbbench.robots.layout import (
+    ObservationField,
+    observe,
+    observe_scanned,
+    sensed,
+    shared_layout,
+)
 from bbbench.robots.robot import Robot
 
 # The tutorial's nine changes of commanded wheel speed, rad/s per control step.
@@ -106,6 +112,11 @@ class TwoWheel(Robot):
         if scan is None:
             return observe(*reading, command, target)
         return observe_scanned(*reading, command, target, scan)
+
+    def values(
+        self, reading: tuple[float, float, float], command: float, target: float, state: BotState
+    ) -> tuple[float, ...]:
+        return (*sensed(*reading), command, target)
 
 
 TWO_WHEEL = TwoWheel()

@@ -640,5 +640,10 @@ class WheelLegged(Robot):
             _SIZE + len(scan),
         )
 
+    def values(
+        self, reading: tuple[float, float, float], command: float, target: float, state: LeggedState
+    ) -> tuple[float, ...]:
+        return (*sensed(*reading), command, target, *_legs_observed(state))
+
 
 WHEEL_LEGGED = WheelLegged()

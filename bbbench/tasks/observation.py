@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.robots import Robot
-from bbbench.robots.layout import OBSERVATION_DTYPE, sensed
+from bbbench.robots.layout import OBSERVATION_DTYPE
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others
 
 
@@ -25,12 +25,12 @@ def agent_observation_space(robot: Robot, group: Group) -> spaces.Box:
 
 
 def group_observations(
-    states, commands: list[float], targets: list[float], group: Group, size: int
+    robot: Robot, states, commands: list[float], targets: list[float], group: Group, size: int
 ) -> np.ndarray:
-    """The observations of a group's live bots, one row of `size` values each: the
-    single-bot layout (from each bot's state, wheel command and target), then its
-    `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
-    (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
+    """The observations of a group's live bots, one row of `size` values each: the robot's
+    single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
+    then its `group.neighbours` nearest others within `group.neighbour_range`, in its own
+    frame (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (bench/bench_multi.py).
@@ -41,8 +41,10 @@ def group_observations(
     velocities = [complex(*state.velocity) for state in states]
     nearest = nearest_others(positions, k)
     rows = []
+    values = robot.values
     for i, state in enumerate(states):
-        row = [*sensed(state.pitch, state.pitch_rate, state.wheel_speed), commands[i], targets[i]]
+        reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        row = [*values(reading, commands[i], targets[i], state)]
         here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
         turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
         for j in nearest[i]:

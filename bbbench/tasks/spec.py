@@ -19,6 +19,7 @@ from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.group import Group
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
+from bbbench.tasks.scenarios import SCENARIOS, Scenario
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
 
@@ -87,6 +88,12 @@ def _components(value) -> list[Any]:
     return found
 
 
+def implied_scenario(group: Group | None) -> str:
+    """The scenario of a spec that names none: the published tasks' ("crossing" for a
+    group of bots, "solo" for one)."""
+    return "solo" if group is None else "crossing"
+
+
 _TASK_ID = re.compile(r"(?:(?P<namespace>[\w.-]+)/)?(?P<name>[\w.-]+?)-v(?P<version>\d+)")
 
 
@@ -130,6 +137,10 @@ class TaskSpec:
     perturbations: tuple[Any, ...] = ()
     # The robot the task plays (`bbbench.robots.ROBOTS`): its body, actions and layout.
     robot: str = "two-wheel"
+    # The task's rules (`bbbench.tasks.scenarios.SCENARIOS`): extra bodies, starts,
+    # observation, outcome, metrics. None: the one its group implies, "crossing" for a
+    # group and "solo" for one bot (the published tasks' scenarios, hashed as if absent).
+    scenario: str | None = None
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, in the robot's default
     # action mode (discrete for the two-wheel bot): the 0 of the normalized score.
@@ -161,8 +172,16 @@ class TaskSpec:
                 f"{self.id}: the command asks for up to {self.command.top_target:g} m/s, "
                 f"beyond the {self.robot} robot's top speed {top_speed:g} m/s"
             )
-        if self.group is not None and self.robot != "two-wheel":
-            raise ValueError(f"{self.id}: several bots in one world are two-wheel bots only")
+        if self.scenario is None:
+            object.__setattr__(self, "scenario", implied_scenario(self.group))
+        if self.scenario not in SCENARIOS:
+            raise ValueError(
+                f"{self.id}: scenario must be one of {', '.join(map(repr, SCENARIOS))}, "
+                f"got {self.scenario!r}"
+            )
+        refused = SCENARIOS[self.scenario].refusal(self)
+        if refused:
+            raise ValueError(refused)
         if len(set(self.eval_seeds)) != len(self.eval_seeds):
             raise ValueError(f"{self.id}: eval_seeds must not repeat")
         if any(seed in TRAINING_SEEDS for seed in self.eval_seeds):
@@ -176,6 +195,11 @@ class TaskSpec:
     def robot_model(self) -> Robot:
         """The robot the task plays: its body, action spaces and observation layout."""
         return robot(self.robot)
+
+    @property
+    def scenario_class(self) -> type[Scenario]:
+        """The task's rules: `Scene` makes one of these per world."""
+        return SCENARIOS[self.scenario]
 
     @property
     def difficulty(self) -> float | None:
@@ -241,6 +265,8 @@ class TaskSpec:
             for key, value in _published_options(dataclasses.asdict(self)).items()
             if key not in _NOT_BEHAVIOUR_FIELDS
         }
+        if self.scenario == implied_scenario(self.group):  # as published: not hashed
+            del behaviour["scenario"]
         # Class names tell apart components whose fields happen to match: those of the
         # first published specs, in their order, then every other component found.
         published = [

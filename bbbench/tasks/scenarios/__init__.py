@@ -1,0 +1,18 @@
+"""The scenarios: each task's rules (`Scenario`), found by the name its spec gives."""
+
+from bbbench.tasks.scenarios.base import Scenario
+from bbbench.tasks.scenarios.crossing import Crossing
+from bbbench.tasks.scenarios.solo import Solo
+
+SCENARIOS: dict[str, type[Scenario]] = {cls.name: cls for cls in (Solo, Crossing)}
+
+
+def scenario(name: str) -> type[Scenario]:
+    """The scenario called `name` (`TaskSpec.scenario`), or a KeyError that lists them."""
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise KeyError(f"no scenario {name!r}: the scenarios are {', '.join(SCENARIOS)}") from None
+
+
+__all__ = ["SCENARIOS", "Crossing", "Scenario", "Solo", "scenario"]

@@ -1,0 +1,112 @@
+"""`Scenario`: a task's rules on one screen, beneath both env APIs.
+
+dm_control's `Task` (`initialize_episode`, `get_observation`, `get_reward`) and VMAS's
+`Scenario` (`make_world`, `reset_world_at`, `observation`, `reward`, `done`, `info`)
+keep what makes a task itself in one class; bbbench's does the same. A task spec names
+its scenario (`TaskSpec.scenario`) as it names its robot, and each env's `Scene` makes
+one instance of it for its world. The scene keeps the physics (world, ground, bots,
+stepping, reading); the scenario owns:
+
+| what                          | method                                  |
+|-------------------------------|-----------------------------------------|
+| extra bodies and constraints  | `build(client, bots)`                   |
+| the bots' starting poses      | `starts(rng)`, then `place(scene, rng)` |
+| the observation and its space | `observation_space()`, `observe(...)`   |
+| each step's outcome           | `outcome(...)` (single-bot: `outcome_one`) |
+| per-episode metrics           | `metrics`: info keys averaged per bot-step |
+| what an ended bot does        | `leave(scene, indices)`                 |
+
+A scenario is made per scene (`Scenario(task)`): it may keep what it built in the
+world (a beam's body id, its constraints) on itself. docs/architecture.md, "How to add
+a scenario", walks through writing one.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+
+if TYPE_CHECKING:  # the spec imports the scenarios, not the other way round
+    from bbbench.tasks.spec import TaskSpec
+
+Pose = tuple[tuple[float, float], float]  # (x, y) m and yaw rad; yaw 0 faces +y
+
+
+class Scenario:
+    """What makes a task itself; subclasses are registered in `SCENARIOS` by `name`.
+
+    Class attributes:
+        name: what `TaskSpec.scenario` holds.
+        summary: one line, for error messages and docs.
+        multi_agent: played by `MultiBalanceEnv` (PettingZoo, needs the spec's `Group`),
+            or by `BalanceEnv` (Gymnasium, one bot).
+        robots: the robots it can play (`bbbench.robots.ROBOTS` names); None for any.
+        metrics: the names of the per-episode metrics: each is an `info` key of every
+            agent's step, and an episode's value is its mean over the episode's
+            bot-steps (`bbbench.evaluation.play`). The results document writes them in
+            this order.
+        team: a fall ends every bot's episode (coupled bots: multiwalker's
+            `terminate_on_fall`), not just the fallen bot's.
+    """
+
+    name: ClassVar[str]
+    summary: ClassVar[str]
+    multi_agent: ClassVar[bool] = False
+    robots: ClassVar[tuple[str, ...] | None] = None
+    metrics: ClassVar[tuple[str, ...]] = ("velocity_error",)
+    team: ClassVar[bool] = False
+
+    def __init__(self, task: TaskSpec) -> None:
+        self.task = task
+        self.robot = task.robot_model
+        self.reward = task.reward
+
+    @classmethod
+    def refusal(cls, task: TaskSpec) -> str | None:
+        """Why the scenario cannot play `task` (its robot, its group); None if it can."""
+        if cls.robots is not None and task.robot not in cls.robots:
+            return (
+                f"{task.id}: the {cls.name!r} scenario cannot play the {task.robot} robot: "
+                f"it plays {', '.join(cls.robots)}"
+            )
+        if cls.multi_agent and task.group is None:
+            return f"{task.id}: the {cls.name!r} scenario needs several bots (a Group)"
+        if not cls.multi_agent and task.group is not None:
+            return f"{task.id}: the {cls.name!r} scenario plays one bot, not a Group"
+        return None
+
+    @property
+    def n_bots(self) -> int:
+        return self.task.group.n_bots if self.task.group is not None else 1
+
+    # -- the world --------------------------------------------------------------
+
+    def build(self, client: Any, bots: tuple[Any, ...]) -> None:
+        """Add the scenario's own bodies and constraints to a new world that holds the
+        ground and `bots` (none by default). Called once per world."""
+
+    # -- the episode's start ----------------------------------------------------
+
+    def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
+        """Each bot's starting pose and initial lean (rad), drawn from the episode's start
+        stream."""
+        raise NotImplementedError
+
+    def place(self, scene: Any, rng: np.random.Generator) -> None:
+        """After the bots stand at their starts: put the scenario's own bodies in place
+        for the episode (nothing by default). `rng` is the start stream, past `starts`."""
+
+    # -- observations -------------------------------------------------------------
+
+    def observation_space(self) -> spaces.Box:
+        """One agent's observation space (the same object every call)."""
+        raise NotImplementedError
+
+    # -- what a bot leaves behind -------------------------------------------------------
+
+    def leave(self, scene: Any, indices: list[int]) -> None:
+        """Bots `indices` have ended their episodes (a fall, the time limit, the team's
+        end): what becomes of their bodies. By default they stay where they are; never
+        move a body a constraint holds."""

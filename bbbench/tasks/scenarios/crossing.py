@@ -1,0 +1,61 @@
+"""`Crossing`: several bots in one world whose paths cross, each on its own target (the
+scenario of MultiBalance and MultiBumps)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from bbbench.tasks.group import spawn_poses
+from bbbench.tasks.observation import agent_observation_space, group_observations
+from bbbench.tasks.reward import step_outcome
+from bbbench.tasks.scenarios.base import Pose, Scenario
+
+
+class Crossing(Scenario):
+    """The group's bots start around a circle heading for its centre (`spawn_poses`), each
+    leaning U(-initial_pitch, initial_pitch). Each observes its robot's layout, then its
+    nearest neighbours (`group_observations`), and earns the shared reward for its own
+    target; a bot that falls ends its own episode alone and leaves the world (it is no
+    obstacle, and no neighbour, to the others)."""
+
+    name = "crossing"
+    summary = "bots whose paths cross, each on its own target; a fallen bot leaves the world"
+    multi_agent = True
+
+    def __init__(self, task) -> None:
+        super().__init__(task)
+        self.group = task.group
+        self._space = agent_observation_space(self.robot, task.group)
+        self._size = self._space.shape[0]
+
+    def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
+        pitch = self.task.initial_pitch
+        poses = spawn_poses(rng, self.group)
+        return poses, list(rng.uniform(-pitch, pitch, size=self.group.n_bots))
+
+    def observation_space(self) -> spaces.Box:
+        return self._space
+
+    def observe(self, states: list[Any], commands: list[float], targets: list[float]):
+        """The live bots' observations, one row each (`group_observations`)."""
+        return group_observations(self.robot, states, commands, targets, self.group, self._size)
+
+    def outcome(
+        self, agents: list[str], states: list[Any], targets: list[float], seed: int
+    ) -> tuple[dict[str, float], dict[str, bool], dict[str, dict[str, Any]]]:
+        """Each live agent's reward, whether it fell, and its info: the reward's two terms,
+        `velocity_error` and `episode_seed` (the same keys at reset and at every step)."""
+        rewards, terminations, infos = {}, {}, {}
+        reward = self.reward
+        for agent, state, target in zip(agents, states, targets, strict=True):
+            rewards[agent], terminations[agent], info = step_outcome(state, target, reward)
+            info["episode_seed"] = seed
+            infos[agent] = info
+        return rewards, terminations, infos
+
+    def leave(self, scene: Any, indices: list[int]) -> None:
+        """Out of the world: set aside, far away, colliding with nothing."""
+        scene.take_out(indices)
