@@ -267,7 +267,15 @@ class MultiBalanceEnv(ParallelEnv):
         commands = [bot.wheel_command for bot in self._scene.live_bots]
         return self._scenario.observe(states, commands, targets)
 
-    def render(self) -> np.ndarray | None:
+    def render(self, mode: str | None = None) -> np.ndarray | None:
+        """A frame of the whole group in the env's render mode. `mode` is for callers
+        that pass one (RLlib's `ParallelPettingZooEnv` passes its own, None unless set):
+        None or the env's own render mode."""
+        if mode is not None and mode != self.render_mode:
+            raise ValueError(
+                f"render({mode!r}): this env renders in its own render_mode "
+                f"{self.render_mode!r}; make it with render_mode={mode!r} instead"
+            )
         if not render_ready(self):
             return None
         self._scene.ground.paint()

@@ -23,13 +23,13 @@ a scenario", walks through writing one.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
 
-if TYPE_CHECKING:  # the spec imports the scenarios, not the other way round
-    from bbbench.tasks.spec import TaskSpec
+# The spec imports the scenarios, not the other way round: a task is typed `Task` here.
+Task = Any  # a `bbbench.tasks.spec.TaskSpec`
 
 Pose = tuple[tuple[float, float], float]  # (x, y) m and yaw rad; yaw 0 faces +y
 
@@ -58,13 +58,13 @@ class Scenario:
     metrics: ClassVar[tuple[str, ...]] = ("velocity_error",)
     team: ClassVar[bool] = False
 
-    def __init__(self, task: TaskSpec) -> None:
+    def __init__(self, task: Task) -> None:
         self.task = task
         self.robot = task.robot_model
         self.reward = task.reward
 
     @classmethod
-    def refusal(cls, task: TaskSpec) -> str | None:
+    def refusal(cls, task: Task) -> str | None:
         """Why the scenario cannot play `task` (its robot, its group); None if it can."""
         if cls.robots is not None and task.robot not in cls.robots:
             return (
