@@ -36,6 +36,22 @@ def check_output_path(path: str | Path, flag: str) -> Path:
     return path
 
 
+def check_distinct_outputs(outputs: Mapping[str, str | Path | None]) -> None:
+    """`ValueError` if two of a command's outputs (flag: path, None for one not asked
+    for) name one file: the second written would replace the first."""
+    seen: dict[str, str] = {}
+    for flag, path in outputs.items():
+        if path is None:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise ValueError(
+                f"{seen[key]} and {flag} both name {path}: the second would replace the "
+                f"first; give each output a file of its own"
+            )
+        seen[key] = flag
+
+
 @contextlib.contextmanager
 def replacing(path: str | Path, suffix: str = "") -> Iterator[Path]:
     """A fresh temporary file beside `path` to write; on success it replaces `path` at

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import TypeVar
+import numbers
+from typing import Any, TypeVar
+
+import numpy as np
 
 T = TypeVar("T", bound=type)
 
@@ -32,3 +35,9 @@ def parameters(cls: T) -> T:
 
     cls.__init__ = __init__
     return cls
+
+
+def is_real(value: Any) -> bool:
+    """Whether `value` is a real number of any type (Python's, numpy's scalars: float32,
+    int64, ...), but not a bool, which is a yes or no."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)

@@ -18,8 +18,16 @@ USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
 COMMANDS = (listing, rollout, terrain, evaluate, sweep, train, leaderboard, dev)
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, whose mistakes are one line that points to `--help` (argparse
+    prints the whole usage block first); its subcommands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(USAGE_ERROR, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="bbbench", description="A benchmark suite for two-wheeled balancing robots."
     )
     parser.add_argument("--version", action="version", version=f"bbbench {bbbench.__version__}")

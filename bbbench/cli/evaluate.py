@@ -17,7 +17,7 @@ from bbbench.cli.common import (
     results_table,
     say_normalization,
 )
-from bbbench.files import check_output_path, write_atomic
+from bbbench.files import check_distinct_outputs, check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 
 
@@ -84,6 +84,7 @@ def _checked(args: argparse.Namespace):
             file=sys.stderr,
         )
     try:  # everything the run will need, before any episode is played
+        check_distinct_outputs({"--json": args.json, "--video": args.video})
         if args.json is not None:
             check_output_path(args.json, "--json")
         if args.video is not None:

@@ -132,12 +132,24 @@ def _options(args: argparse.Namespace) -> dict:
     return {"workers": args.workers, "backend": args.backend, "address": args.address}
 
 
-def _root(args: argparse.Namespace):
+def _root(args: argparse.Namespace, board: bool = False):
+    """The leaderboard folder `--root` names; with `board`, one that holds a board's
+    submissions (what `check` checks)."""
     root = Path(args.root)
+    if root.is_file():
+        raise UsageError(f"--root {args.root}: is a file; give the leaderboard folder")
     if not root.is_dir():
         raise UsageError(
             f"--root {args.root}: no such folder (run from the repository's top, or give the "
             f"leaderboard folder)"
+        )
+    if board:
+        from bbbench.leaderboard.generation import SUBMISSIONS  # lazy: heavy, check's alone
+
+    if board and not (root / SUBMISSIONS).is_dir():
+        raise UsageError(
+            f"--root {args.root}: not a leaderboard folder (it has no submissions/ folder); "
+            f"give the folder `bbbench leaderboard build` wrote"
         )
     return root
 
@@ -191,7 +203,7 @@ def build(args: argparse.Namespace) -> int:
 def check(args: argparse.Namespace) -> int:
     from bbbench import leaderboard  # lazy: only this command needs it
 
-    root = _root(args)
+    root = _root(args, board=True)
     options = _options(args)
     progress, on_episodes = _playing("episodes re-scored")
     try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from bbbench.cli.common import (
     check_play_options,
     say_normalization,
 )
-from bbbench.files import check_output_path, write_atomic
+from bbbench.files import check_distinct_outputs, check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 
 PLOT_FORMATS = (".svg", ".png")
@@ -124,6 +125,7 @@ def _checked(args: argparse.Namespace):
     try:
         axis = check_axis(args.axis)
         values = standard_grid(axis) if args.values is None else parse_values(axis, args.values)
+        check_distinct_outputs({"--json": args.json, "--plot": args.plot})
         if args.json is not None:
             check_output_path(args.json, "--json")
         if args.plot is not None:
@@ -134,6 +136,7 @@ def _checked(args: argparse.Namespace):
                 )
         if args.backend == "ray":
             check_ray_address(args.address)
+        check_distinct_policies(args.policy)
         policies = [load_policy(name) for name in args.policy]
         requested = args.task or _default_tasks(axis, policies)
         for policy in policies:  # each fits every task, and every pair can be made
@@ -241,3 +244,18 @@ def _plot(document: dict, suffix: str) -> bytes:
         )
     figure = score_curves(panels)
     return svg_text(figure).encode() if suffix == ".svg" else png_bytes(figure)
+
+
+def check_distinct_policies(names: list[str]) -> None:
+    """`ValueError` for a policy given twice (by name, or two paths to one file): it would
+    be played twice and shown as two entries."""
+    seen: dict[str, str] = {}
+    for name in names:
+        key = os.path.realpath(name) if os.path.exists(name) else name
+        if key in seen:
+            raise ValueError(
+                f"{name} is given twice (as {seen[key]} and {name}): give each policy once"
+                if seen[key] != name
+                else f"{name} is given twice: give each policy once"
+            )
+        seen[key] = name

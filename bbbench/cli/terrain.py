@@ -6,6 +6,7 @@ import argparse
 
 import bbbench
 from bbbench.cli.common import UsageError, check_seed
+from bbbench.files import check_output_path
 from bbbench.tasks.spec import seed_streams
 from bbbench.terrain import HeightfieldTerrain
 
@@ -34,6 +35,10 @@ def run(args: argparse.Namespace) -> None:
             f"{spec.id} is on flat ground: there is no terrain to write. Tasks with terrain: "
             f"{', '.join(terrain_tasks)}"
         )
+    try:  # where it goes, before the terrain is made: no temporary name in an error
+        check_output_path(args.out, "--out")
+    except ValueError as error:
+        raise UsageError(str(error)) from None
     from bbbench.terrain.mesh import export  # lazy: trimesh, for this command only
 
     heightmap = spec.terrain.generate(seed_streams(check_seed(args.seed)).terrain)

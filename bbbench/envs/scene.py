@@ -16,6 +16,7 @@ constructors (`configure`) and the start of their `render()`.
 
 from __future__ import annotations
 
+import difflib
 import functools
 from typing import Any
 
@@ -396,9 +397,12 @@ def configure(
     if options.get("difficulty") is not None and not terrain:
         wrong.append("difficulty")
     if wrong:
+        names = ["action_mode", "render_mode", *accepted[2:]]
+        close = [m for w in wrong for m in difflib.get_close_matches(w, names, n=1, cutoff=0.7)]
         raise TypeError(
-            f"unknown keyword argument(s) {wrong} for {task.id}: accepted keyword "
-            f"arguments are {', '.join(accepted)}"
+            f"unknown keyword argument(s) {wrong} for {task.id}"
+            + (f" (did you mean {', '.join(close)}?)" if close else "")
+            + f": accepted keyword arguments are {', '.join(accepted)}"
             + (" (difficulty: a number in [0, 1])" if terrain else "")
         )
     for name, value in options.items():

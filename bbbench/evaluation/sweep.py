@@ -79,6 +79,8 @@ def parse_values(axis: str, text: str) -> list[float]:
     values = []
     for item in text.split(","):
         try:
+            if "_" in item:  # float() reads '1_0' as 10: a typo, not a number
+                raise ValueError(item)
             value = float(item)
         except ValueError:
             raise ValueError(

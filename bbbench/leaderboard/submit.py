@@ -77,8 +77,11 @@ def add(
             shutil.copyfile(source, folder / POLICY_FILE)
             if vecnormalize is not None:
                 shutil.copyfile(vecnormalize, folder / NORMALIZATION_FILE)
-        submission = read_submission(folder)
-        built = generate(root, board, extra=submission, **options)
+        try:
+            submission = read_submission(folder)
+            built = generate(root, board, extra=submission, **options)
+        except SubmissionError as error:  # named where it was to go, not where it was staged
+            raise SubmissionError(str(error).replace(str(folder), str(target))) from None
         os.rename(folder, target)  # the submission, whole, then its board
         write(root, built.files)
         return built

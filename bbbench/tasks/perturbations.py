@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from bbbench.parameters import parameters
+from bbbench.parameters import is_real, parameters
 from bbbench.tasks.sensors import NoisySensors, PerfectSensors
 
 # Seconds between two pushes: each waits U(2, 4) s after the last (the first, after the
@@ -64,8 +64,7 @@ class Perturbation:
         value, where = self.value, f"{self.keyword} must be"
         kind = "a whole number" if self.whole else "a number"
         if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
+            not is_real(value)
             or not math.isfinite(value)
             or (self.whole and value != int(value))
         ):
@@ -228,7 +227,7 @@ class Push(Perturbation):
     def __post_init__(self) -> None:
         super().__post_init__()
         growth = self.growth
-        if isinstance(growth, bool) or not isinstance(growth, int | float) or not growth >= 0:
+        if not is_real(growth) or not growth >= 0:
             raise ValueError(f"push growth must be a number >= 0 (N s per s), got {growth!r}")
         object.__setattr__(self, "growth", float(growth))
 

@@ -6,6 +6,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import operator
 import re
 from dataclasses import field
 from pathlib import Path
@@ -247,7 +248,18 @@ class TaskSpec:
 
     def with_time_limit(self, max_episode_steps: int) -> TaskSpec:
         """The same task with another time limit (a different fingerprint)."""
-        return dataclasses.replace(self, max_episode_steps=max_episode_steps)
+        try:
+            if isinstance(max_episode_steps, bool | np.bool_):
+                raise TypeError
+            steps = operator.index(max_episode_steps)  # 10 and np.int64(10), not 2.5 or '10'
+        except TypeError:
+            steps = 0
+        if steps < 1:
+            raise ValueError(
+                f"max_episode_steps must be a whole number of steps >= 1, got "
+                f"{max_episode_steps!r}"
+            )
+        return dataclasses.replace(self, max_episode_steps=steps)
 
     @property
     def max_return(self) -> float:

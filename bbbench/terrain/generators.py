@@ -14,15 +14,11 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench import portable
-from bbbench.parameters import parameters
+from bbbench.parameters import is_real, parameters
 
 
 def _check_difficulty(difficulty: float) -> float:
-    if (
-        isinstance(difficulty, bool)
-        or not isinstance(difficulty, int | float | np.integer | np.floating)
-        or not 0.0 <= difficulty <= 1.0
-    ):
+    if not is_real(difficulty) or not 0.0 <= difficulty <= 1.0:
         raise ValueError(f"difficulty must be a number in [0, 1], got {difficulty!r}")
     return float(difficulty)
 
