@@ -6,6 +6,7 @@ import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ import trimesh
 import bbbench
 from bbbench.cli import main
 from conftest import FLAT
+
+REPO = Path(__file__).resolve().parent.parent
 
 
 def test_list_prints_every_task_with_its_fingerprint(capsys):
@@ -41,12 +44,33 @@ def test_unknown_task_is_exit_2_with_a_suggestion_and_no_traceback(capsys):
     assert "Traceback" not in err
 
 
-def test_rollout_of_a_multi_bot_task_says_what_to_use(capsys):
-    assert main(["rollout", "--task", "bbbench/MultiBalance-v0"]) == 2
-    err = capsys.readouterr().err
-    assert "multi-bot task" in err
-    assert "make_parallel" in err
-    assert "Traceback" not in err
+def test_rollout_plays_a_multi_bot_task_with_a_zip_shared_by_every_bot(capsys):
+    folder = REPO / "leaderboards/submissions/ppo-multibalance-v1-s0"
+    argv = ["rollout", "--task", "bbbench/MultiBalance-v1", "--policy", str(folder / "policy.zip")]
+    argv += ["--vecnormalize", str(folder / "vecnormalize.pkl"), "--episodes", "2", "--seed", "4"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "shared by 4 bots" in out
+    rows = [line for line in out.splitlines() if line.split()[:1] in (["4"], ["5"])]
+    assert len(rows) == 2
+    for row in rows:
+        _, _, mean, falls = row.split()[:4]
+        bots = dict(re.findall(r"(bot_\d) (-?[\d.]+)", row))
+        assert sorted(bots) == ["bot_0", "bot_1", "bot_2", "bot_3"]
+        assert float(mean) == pytest.approx(sum(map(float, bots.values())) / 4, abs=0.01)
+        fell = re.findall(r"bot_\d -?[\d.]+ \((\d+)\)", row)  # the step each fallen bot fell at
+        assert falls == f"{len(fell)}/4"
+    assert "mean return per bot" in out
+
+
+def test_rollout_video_of_a_multi_bot_task_shows_the_group(tmp_path, capsys):
+    iio = pytest.importorskip("imageio.v3")
+    path = tmp_path / "group.gif"
+    argv = ["rollout", "--task", "bbbench/MultiBalance-v1", "--policy", "random"]
+    assert main([*argv, "--episodes", "1", "--seed", "3", "--video", str(path)]) == 0
+    assert f"wrote {path}" in capsys.readouterr().out
+    frames = iio.imread(path)
+    assert frames.shape[1:3] == (360, 480)  # the group's camera, not a single bot's
 
 
 def test_terrain_of_a_multi_bot_task_is_written(tmp_path, capsys):

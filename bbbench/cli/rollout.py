@@ -20,7 +20,7 @@ def add_parser(commands) -> None:
         default="pd",
         metavar="POLICY",
         help=f"a built-in ({', '.join(builtin_policies())}) or a stable-baselines3 .zip "
-        f"(default pd)",
+        f"(default pd); on a multi-bot task every bot plays it",
     )
     rollout.add_argument("--episodes", type=int, default=5, help="episodes to run (default 5)")
     rollout.add_argument("--seed", type=int, default=0, help="seed of the first episode")
@@ -32,12 +32,16 @@ def add_parser(commands) -> None:
     rollout.add_argument(
         "--vecnormalize", metavar="PKL", help="VecNormalize statistics the zip was trained with"
     )
+    rollout.add_argument(
+        "--video",
+        metavar="OUT",
+        help="write the first episode (.gif or .mp4); on a multi-bot task, the whole group",
+    )
     rollout.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> None:
-    from bbbench.evaluation.episodes import action_generator  # lazy: only this command needs it
-    from bbbench.evaluation.play import Lockstep  # lazy: only this command needs it
+    from bbbench.evaluation.video import check_video_path  # lazy: only this command needs it
 
     try:
         spec = bbbench.spec(args.task)
@@ -46,13 +50,9 @@ def run(args: argparse.Namespace) -> None:
     if args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
     check_seed(args.seed)
-    if spec.multi_agent:
-        raise UsageError(
-            f"{spec.id} is a multi-bot task and rollout plays single-bot tasks: "
-            f"choose one of {', '.join(bbbench.list_tasks(multi_agent=False))}, or play it "
-            f"from Python with bbbench.make_parallel({spec.id!r})"
-        )
     try:
+        if args.video is not None:
+            check_video_path(args.video)
         policy = load_policy(
             args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
         )
@@ -62,18 +62,42 @@ def run(args: argparse.Namespace) -> None:
                 f"{policy.name} ({policy.spaces_text()}) cannot play {spec.id}: {reason}"
             )
         actor = policy.actor(spec.id)
-    except PolicyError as error:
+    except (PolicyError, ValueError) as error:
         raise UsageError(str(error)) from None
     say_normalization(policy)
-    env = bbbench.make(spec.id, action_mode=policy.action_mode, **policy.env_options())
     acting = "random actions" if policy.random_actions else "deterministic"
+    shared = f", shared by {spec.group.n_bots} bots" if spec.multi_agent else ""
     print(
-        f"{spec.id}: {args.episodes} episode(s) of the {policy.name!r} policy ({acting}), "
+        f"{spec.id}: {args.episodes} episode(s) of the {policy.name!r} policy ({acting}{shared}), "
         f"seeds {args.seed}..{args.seed + args.episodes - 1}"
     )
+    seeds = range(args.seed, args.seed + args.episodes)
+    play = _play_group if spec.multi_agent else _play_alone
+    returns, lengths = play(spec, policy, actor, seeds)
+    per_bot = " per bot" if spec.multi_agent else ""
+    print(
+        f"mean return{per_bot} {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
+        f"mean length {statistics.fmean(lengths):.0f} of {spec.max_episode_steps} steps; "
+        f"{sum(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
+        f"episodes reached the time limit"
+    )
+    if args.video is not None:
+        from bbbench.evaluation.video import record_episode  # lazy: imageio, for --video only
+
+        frames = record_episode(policy, spec.id, args.seed, args.video)
+        args.written.append(args.video)
+        print(f"wrote {args.video}: {spec.id}, episode seed {args.seed}, {frames} frames")
+
+
+def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
+    """Single-bot episodes, one row each: steps, return, what ended it."""
+    from bbbench.evaluation.episodes import action_generator  # lazy: only this command
+    from bbbench.evaluation.play import Lockstep  # lazy: only this command needs it
+
+    env = bbbench.make(spec.id, action_mode=policy.action_mode, **policy.env_options())
     print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  ended by")
     returns, lengths = [], []
-    for seed in range(args.seed, args.seed + args.episodes):
+    for seed in seeds:
         rngs = [action_generator(seed)] if policy.random_actions else None
         (result,) = Lockstep([env], actor, [seed], spec.max_episode_steps, rngs).play()
         ended = result.failure or ("fall" if result.falls else "time limit")
@@ -81,9 +105,37 @@ def run(args: argparse.Namespace) -> None:
         lengths.append(result.length)
         print(f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {ended}")
     env.close()
+    return returns, lengths
+
+
+def _play_group(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
+    """Multi-bot episodes, the policy shared by every bot: one row each with the mean return
+    per bot and the falls, then each bot's return and the step it fell at."""
+    from bbbench.evaluation.episodes import action_generator  # lazy: only this command
+    from bbbench.evaluation.play import MultiEpisode  # lazy: only this command needs it
+
+    env = bbbench.make_parallel(spec.id, action_mode=policy.action_mode)
+    bots = len(env.possible_agents)
     print(
-        f"mean return {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
-        f"mean length {statistics.fmean(lengths):.0f} of {spec.max_episode_steps} steps; "
-        f"{sum(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
-        f"episodes reached the time limit"
+        f"{'seed':>8}  {'steps':>5}  {'return':>8}  {'falls':>5}  each bot: return (fell at step)"
     )
+    returns, lengths = [], []
+    for seed in seeds:
+        rng = action_generator(seed) if policy.random_actions else None
+        episode = MultiEpisode(env, actor, seed, rng)
+        result = episode.play()
+        returns.append(result.episode_return)
+        lengths.append(result.length)
+        each = "  ".join(
+            f"{agent} {episode.returns[agent]:.2f}"
+            + (f" ({episode.fell[agent]})" if agent in episode.fell else "")
+            for agent in env.possible_agents
+        )
+        falls = f"{result.falls}/{bots}"
+        failure = f"  {result.failure}" if result.failure else ""
+        print(
+            f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {falls:>5}  "
+            f"{each}{failure}"
+        )
+    env.close()
+    return returns, lengths

@@ -204,12 +204,15 @@ class MultiEpisode:
     ) -> None:
         self.env, self.act, self.seed, self.rng = env, act, seed, rng
         self.result: PlayedEpisode | None = None
+        self.returns: dict[str, float] = {}  # after play: each agent's return
+        self.fell: dict[str, int] = {}  # after play: the step each fallen agent fell at
 
     def __iter__(self) -> Iterator[MultiStep]:
         env, act, rng = self.env, self.act, self.rng
         observations, _ = env.reset(seed=self.seed)
         yield MultiStep(0, observations, None)
-        returns = dict.fromkeys(env.possible_agents, 0.0)
+        self.returns = returns = dict.fromkeys(env.possible_agents, 0.0)
+        self.fell = fell = {}
         names = metric_names(env)
         sums = [0.0] * len(names)
         bot_steps = steps = falls = 0
@@ -235,6 +238,9 @@ class MultiEpisode:
                 for k, name in enumerate(names):
                     sums[k] += info[name]
             bot_steps += len(rewards)
+            for agent, terminated in terminations.items():
+                if terminated:
+                    fell[agent] = steps
             falls += sum(terminations.values())
             yield MultiStep(steps, observations, rewards)
         self.result = PlayedEpisode(
