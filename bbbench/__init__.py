@@ -24,7 +24,7 @@ register_suite()
 def __getattr__(name: str):
     # make_vec imports stable-baselines3 (and torch): only when it is asked for.
     if name == "make_vec":
-        from bbbench.vec import make_vec  # lazy: stable-baselines3 and torch
+        from bbbench.vec import make_vec  # lazy: stable_baselines3, torch
 
         return make_vec
     raise AttributeError(f"module 'bbbench' has no attribute {name!r}")

@@ -122,7 +122,7 @@ class Layer:
         y = self.float64(x)
         bound = np.abs(x) @ self.size
         bound += self.bias_size
-        return _settle(y, bound, lambda i, j: _exact_dot(x[i], self.weight[:, j], self.bias[j]))
+        return _settle(y, bound, lambda i, j: exact_dot(x[i], self.weight[:, j], self.bias[j]))
 
     def float64(self, x: np.ndarray) -> np.ndarray:
         """`x @ weight + bias` for float64 x, in float64 (BLAS, no rounding to float32):
@@ -171,7 +171,7 @@ def tanh(x: np.ndarray) -> np.ndarray:
     y = np.tanh(np.asarray(x, dtype=np.float64))
     bound = np.abs(y)
     bound *= _TANH_ERROR
-    settled = _settle(y, bound, lambda *index: _exact_tanh(float(x[index])))
+    settled = _settle(y, bound, lambda *index: exact_tanh(float(x[index])))
     return np.copysign(settled, y, out=settled)  # -0.0 stays -0.0
 
 
@@ -205,13 +205,13 @@ def _nearest_float32(value: float, above) -> np.float32:
     return first if side == 0 else (high if side > 0 else low)
 
 
-def _exact_dot(x: np.ndarray, weight: np.ndarray, bias: float) -> np.float32:
+def exact_dot(x: np.ndarray, weight: np.ndarray, bias: float) -> np.float32:
     terms = [*(x * weight).tolist(), float(bias)]  # each product exact in float64
     value = math.fsum(terms)
     return _nearest_float32(value, lambda: math.fsum([*terms, -value]))
 
 
-def _exact_tanh(value: float) -> np.float32:
+def exact_tanh(value: float) -> np.float32:
     with decimal.localcontext() as context:
         context.prec = 80
         e = (decimal.Decimal(value) * 2).exp()

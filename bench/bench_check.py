@@ -49,9 +49,9 @@ def synthetic_board(root: Path, entries: int) -> None:
             if copy:
                 metadata["name"] = f"{metadata['name']} (copy {copy})"[:60]
             metadata_path.write_text(json.dumps(metadata, indent=2) + "\n")
-            for suffix in (".json", ".profile.json"):
-                source = BOARD / "results" / f"{slug}{suffix}"
-                if source.exists():
+            for source in (BOARD / "results").glob(f"{slug}.*json"):  # results, profiles
+                suffix = source.name.removeprefix(slug)
+                if suffix == ".json" or suffix.endswith(".profile.json"):
                     shutil.copyfile(source, root / "results" / f"{new}{suffix}")
         copy += 1
 

@@ -30,6 +30,7 @@ SuperSuit 3.11.0's `black_death_v3` + `pettingzoo_env_to_vec_env_v1` +
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import time
 
@@ -258,8 +259,9 @@ def compare_neighbour_passes(n_bots: int, steps: int, rounds: int = 5) -> None:
     recorded = record_steps(n_bots, steps)
     env = bbbench.make_parallel(MULTI_TASKS[0], n_bots=n_bots)
     group, size = env.task.group, env.observation_space(env.possible_agents[0]).shape[0]
+    robot = env.task.robot_model
     passes = {
-        "plain Python (shipped)": group_observations,
+        "plain Python (shipped)": functools.partial(group_observations, robot),
         "numpy, one pass": numpy_group_observations,
     }
     elapsed = dict.fromkeys(passes, 0.0)

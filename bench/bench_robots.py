@@ -97,18 +97,24 @@ def main() -> None:
 
 def split(loop: TaskLoop, steps: int) -> tuple[float, float]:
     """Mean microseconds per env step: in the world's step, and in all."""
-    scene = loop.env.scene
-    world_step, spent = scene._world_step, [0.0]
+    scene = loop.env.unwrapped.scene
+    world = scene.world
+    world_step, spent = world.step, [0.0]
 
     def timed() -> None:
         began = time.perf_counter()
         world_step()
         spent[0] += time.perf_counter() - began
 
-    scene._world_step = timed
+    # The scene binds the world's step when it builds the world: rebuild it, timed.
+    world.step = timed
+    scene.close()
+    loop.observation = loop.reset()
     before, stepped = loop.stepping, loop.steps
     loop.run(steps)
-    scene._world_step = world_step
+    del world.step
+    scene.close()
+    loop.observation = loop.reset()
     return 1e6 * spent[0] / steps, 1e6 * (loop.stepping - before) / (loop.steps - stepped)
 
 

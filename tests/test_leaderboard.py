@@ -105,8 +105,9 @@ def test_builds_are_byte_identical_twice_and_with_two_workers(built, board, tmp_
     fresh = tmp_path / "fresh"
     shutil.copytree(built / "submissions", fresh / "submissions")
     rebuilt = leaderboard.build(fresh, BOARD, workers=2, cache=False)
-    # ppo plays no multi-bot task; each of the three has a profile
-    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
+    # ppo plays no multi-bot task; pd and random have a profile on each of the two
+    # tracks, ppo on the single-bot one
+    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
     assert files(fresh) == files(built)
 
 
@@ -136,7 +137,7 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     for path in (built / "results").glob("*.json"):
         is_profile = path.name.endswith(".profile.json")
         jsonschema.validate(json.loads(path.read_text()), profiles if is_profile else results)
-    assert len(list((built / "results").glob("*.profile.json"))) == 3
+    assert len(list((built / "results").glob("*.profile.json"))) == 5
     submission_schema = json.loads((DOCS / "submission-schema.json").read_text())
     for path in (built / "submissions").glob("*/submission.json"):
         jsonschema.validate(json.loads(path.read_text()), submission_schema)
@@ -170,17 +171,51 @@ def test_the_submission_schema_and_the_checks_in_code_name_the_same_fields():
     assert schema["properties"]["builtin"]["enum"] == list(bbbench.policies.BUILTIN_POLICIES)
 
 
+def test_an_entry_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
+    document = json.loads((built / "bbbench-v0.json").read_text())
+    profiled = {
+        (track["track"], entry["slug"]): entry["robustness"]
+        for track in document["tracks"]
+        for entry in track["entries"]
+    }
+    for slug in ("pd", "random"):
+        single, multi = profiled["single", slug], profiled["multi", slug]
+        assert single["task"] == "bbbench/VelocityTracking-v1"
+        assert single["profile"] == f"results/{slug}.single.profile.json"
+        assert multi["task"] == "bbbench/MultiBalance-v1"
+        assert multi["profile"] == f"results/{slug}.multi.profile.json"
+        assert set(single["axes"]) == set(multi["axes"]) == {"action_delay", "push"}
+        assert single["score"] != multi["score"]
+    assert profiled["single", "ppo"]["task"] == "bbbench/VelocityTracking-v1"
+
+
+def test_a_board_built_before_profiles_were_per_track_reuses_its_profiles(board):
+    results = board / "results"
+    for path in results.glob("*.single.profile.json"):  # as the old builds named them
+        path.rename(results / path.name.replace(".single.profile.json", ".profile.json"))
+    rebuilt = leaderboard.build(board, BOARD, workers=1)
+    assert rebuilt.played == 0
+    assert sorted(path.name for path in results.glob("*.profile.json")) == [
+        "pd.multi.profile.json",
+        "pd.single.profile.json",
+        "ppo.single.profile.json",
+        "random.multi.profile.json",
+        "random.single.profile.json",
+    ]
+    assert leaderboard.check(board, BOARD, workers=1).problems == []
+
+
 def test_check_passes_on_a_fresh_build(board):
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.problems == []
     assert checked.rescored == []
     # One episode per (entry, task) and per (entry, profile point): pd and random play the
-    # four tasks, ppo three; each profile has 2 x 5 points.
-    assert checked.spot_checked == checked.episodes == (4 + 4 + 3) + 3 * 10
+    # four tasks, ppo three; each of the five profiles has 2 x 5 points.
+    assert checked.spot_checked == checked.episodes == (4 + 4 + 3) + 5 * 10
     assert checked.entries == 3
     full = leaderboard.check(board, BOARD, workers=1, full=True)
     assert full.problems == []
-    assert full.episodes == 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
+    assert full.episodes == 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
 
 
 def forge(board: Path, slug: str, task_id: str, seed: int) -> None:
@@ -211,14 +246,14 @@ def test_a_forged_episode_is_caught_when_the_spot_check_draws_it(board):
 
 
 def test_a_tampered_aggregate_is_always_caught(board):
-    path = board / "results" / "random.profile.json"
+    path = board / "results" / "random.single.profile.json"
     document = json.loads(path.read_text())
     document["axes"][0]["points"][1]["aggregate"]["mean"] += 0.001
     path.write_text(dumps(document))
     for draw in range(2):
         problems = leaderboard.check(board, BOARD, workers=1, rng=np.random.default_rng(draw))
         assert len(problems.problems) == 1
-        assert "random.profile.json.axes[" in problems.problems[0]
+        assert "random.single.profile.json.axes[" in problems.problems[0]
         assert ".aggregate.mean: checked in" in problems.problems[0]
 
 
@@ -231,7 +266,7 @@ def test_figures_are_compared_only_under_the_pinned_plotting_stack(board, monkey
     assert checked.problems == []
     assert checked.notes == [
         "figures not compared (index.html): they are drawn byte for byte by matplotlib 0.0.1 "
-        f"only, and this is matplotlib {leaderboard.checking._plotting_stack()['matplotlib']}"
+        f"only, and this is matplotlib {leaderboard.checking.plotting_stack()['matplotlib']}"
     ]
 
 
@@ -312,7 +347,7 @@ def test_add_plays_only_the_new_submission(board):
     built = leaderboard.add(
         board, "pd", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
     )
-    assert built.played == sum(counted) == 4 * 4 + PROFILE  # pd on the 4 tasks, its profile
+    assert built.played == sum(counted) == 4 * 4 + 2 * PROFILE  # pd on the 4 tasks, 2 profiles
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
 
@@ -392,14 +427,14 @@ def test_show_prints_the_ranked_tables(command_board, capsys):
 
 def test_build_and_check_from_the_command(command_board, capsys):
     assert main(["leaderboard", "build", "--root", str(command_board), "--workers", "1"]) == 0
-    episodes = 3 * 3 * 4 + 2 * 4 + 3 * PROFILE
+    episodes = 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
     assert f"{episodes} episodes (0 played, {episodes} from stored results)" in (
         capsys.readouterr().out
     )
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("leaderboard check ok: 3 entries, 4 tasks; every number recomputed")
-    assert "re-scored in full (inputs changed): none; 41 episodes of the others replayed" in out
+    assert "re-scored in full (inputs changed): none; 61 episodes of the others replayed" in out
     assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
     assert f"{episodes} episodes played again" in capsys.readouterr().out
     (command_board / "README.md").write_text("edited\n")

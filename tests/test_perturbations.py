@@ -72,15 +72,15 @@ def test_payload_mass_and_motor_strength_reach_the_robot():
     env = gym.make(VELOCITY, payload_mass=0.75, motor_strength=0.5)
     env.reset(seed=SEED)
     bot = env.unwrapped.scene.bots[0]
-    mass = bot._client.getDynamicsInfo(bot.body, -1)[0]
+    mass = bot.client.getDynamicsInfo(bot.body, -1)[0]
     assert mass == pytest.approx(0.8 + 0.75)  # the URDF's 0.8 kg torso, and the payload
-    assert bot._motor_forces == (0.5 * bot.model.motor_torque_limit,) * 2
+    assert bot.motor_forces == (0.5 * bot.model.motor_torque_limit,) * 2
 
 
 def test_every_bot_of_a_multi_bot_task_carries_the_payload():
     env = bbbench.make_parallel("bbbench/MultiBalance-v1", payload_mass=0.4)
     env.reset(seed=SEED)
-    masses = {bot._client.getDynamicsInfo(bot.body, -1)[0] for bot in env.scene.bots}
+    masses = {bot.client.getDynamicsInfo(bot.body, -1)[0] for bot in env.scene.bots}
     assert len(masses) == 1
     assert env.task.perturbations == (PayloadMass(0.4),)
     env.close()
@@ -164,7 +164,7 @@ def test_com_offset_moves_the_centre_of_mass_not_the_torso_or_its_readings():
     plain_state, state = plain.scene.bots[0].read(), bot.read()
     assert np.allclose(state.axle, plain_state.axle, atol=1e-12)
     assert np.allclose(state.position, plain_state.position, atol=1e-12)
-    centre = bot._client.getBasePositionAndOrientation(bot.body)[0]
+    centre = bot.client.getBasePositionAndOrientation(bot.body)[0]
     heading = np.array([*state.heading, 0.0])
     # The centre of mass is 3 cm further along the torso's forward axis (leaning, so
     # not quite horizontal: compare along the heading).
@@ -177,7 +177,7 @@ def test_pushes_come_every_two_to_four_seconds_and_start_at_their_step():
     plain, pushed = gym.make(VELOCITY).unwrapped, gym.make(VELOCITY, push=0.5).unwrapped
     plain.reset(seed=SEED)
     pushed.reset(seed=SEED)
-    steps = sorted(pushed.scene._pushes)
+    steps = sorted({step for step, _, _ in pushed.scene.episode.pushes})
     low, high = (round(t / pushed.task.control_dt) for t in PUSH_INTERVAL)
     assert low <= steps[0] <= high
     assert all(low - 1 <= b - a <= high + 1 for a, b in itertools.pairwise(steps))
@@ -192,7 +192,7 @@ def test_pushes_come_every_two_to_four_seconds_and_start_at_their_step():
 def test_pushes_reach_every_bot_of_a_multi_bot_task_at_their_own_times():
     env = bbbench.make_parallel("bbbench/MultiBalance-v1", push=0.5)
     env.reset(seed=SEED)
-    pushed = {bot for pushes in env.scene._pushes.values() for bot, _ in pushes}
+    pushed = {bot for _, bot, _ in env.scene.episode.pushes}
     assert pushed == set(range(env.scene.n_bots))
     env.close()
 

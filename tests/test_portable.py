@@ -47,7 +47,7 @@ def test_tanh_is_the_nearest_float32(samples):
     assert result.dtype == np.float32
     picks = np.random.default_rng(0).choice(len(samples), 3000, replace=False)
     for i in [*picks, *range(len(samples) - 9, len(samples))]:
-        assert result[i] == portable._exact_tanh(float(samples[i])), samples[i]
+        assert result[i] == portable.exact_tanh(float(samples[i])), samples[i]
 
 
 def test_tanh_keeps_the_sign_of_zero():
@@ -68,17 +68,17 @@ def test_layer_gives_the_float32_nearest_the_exact_value(batch, outputs):
     x64, w64 = x.astype(np.float64), weight_t.astype(np.float64)
     for i in range(batch):
         for j in range(outputs):
-            assert result[i, j] == portable._exact_dot(x64[i], w64[:, j], float(bias[j]))
+            assert result[i, j] == portable.exact_dot(x64[i], w64[:, j], float(bias[j]))
 
 
 def test_halfway_values_round_by_what_lies_beyond_them():
     """Sums whose float64 rounding falls exactly halfway between two float32: the exact
     remainder decides, ties go to even."""
     one, step = 1.0, 2.0**-24  # halfway between 1 and the next float32
-    assert portable._exact_dot(np.array([one, step]), np.ones(2), 0.0) == np.float32(1.0)
-    beyond = portable._exact_dot(np.array([one, step, 2.0**-80]), np.ones(3), 0.0)
+    assert portable.exact_dot(np.array([one, step]), np.ones(2), 0.0) == np.float32(1.0)
+    beyond = portable.exact_dot(np.array([one, step, 2.0**-80]), np.ones(3), 0.0)
     assert beyond == np.nextafter(np.float32(1.0), np.float32(2.0))
-    below = portable._exact_dot(np.array([one, step, -(2.0**-80)]), np.ones(3), 0.0)
+    below = portable.exact_dot(np.array([one, step, -(2.0**-80)]), np.ones(3), 0.0)
     assert below == np.float32(1.0)
 
 

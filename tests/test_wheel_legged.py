@@ -312,11 +312,15 @@ def test_training_picks_the_robots_action_mode_or_says_what_to_use():
 
 def test_the_board_ranks_the_legged_tasks_on_a_track_of_their_own():
     import bbbench
-    from bbbench.leaderboard.board import Board, track_of
+    from bbbench.leaderboard.board import Board
+    from bbbench.tasks.tracks import track_of
 
-    assert {track_of(bbbench.spec(t)) for t in LEGGED_TASKS} == {"wheel-legged"}
-    assert track_of(bbbench.spec("bbbench/Bumps-v2")) == "single"
-    assert track_of(bbbench.spec("bbbench/MultiBalance-v1")) == "multi"
+    assert {track_of(bbbench.spec(t)).name for t in LEGGED_TASKS} == {"wheel-legged"}
+    assert track_of(bbbench.spec("bbbench/Bumps-v2")).name == "single"
+    assert track_of(bbbench.spec("bbbench/MultiBalance-v1")).name == "multi"
+    assert track_of(bbbench.spec("bbbench/LeggedBumps-v0")).profiled_on == (
+        "bbbench/LeggedVelocityTracking-v0"
+    )
     assert Board().ranked("wheel-legged") == sorted(LEGGED_TASKS)
     assert not set(Board().ranked("single")) & set(LEGGED_TASKS)
 

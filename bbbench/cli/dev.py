@@ -31,14 +31,14 @@ def add_parser(commands) -> None:
 
 
 def run_golden(args: argparse.Namespace) -> None:
-    from bbbench.dev import golden  # lazy: only this command needs it
+    from bbbench.dev import golden  # lazy: bbbench.dev
 
     for line in golden.report(add=args.add):
         print(line)
 
 
 def run_random_reference(args: argparse.Namespace) -> None:
-    from bbbench.dev.random_reference import measure  # lazy: only this command needs it
+    from bbbench.dev.random_reference import measure  # lazy: bbbench.dev.random_reference
 
     for task_id, value in measure(workers=args.workers).items():
         print(f"{task_id:30} measured {value!r:22} stored {spec(task_id).random_return!r}")

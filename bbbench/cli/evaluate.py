@@ -67,12 +67,12 @@ def run(args: argparse.Namespace) -> int:
 def _checked(args: argparse.Namespace):
     """The policy, the tasks and the episodes per task, every option checked before any
     episode is played."""
-    from bbbench import evaluation  # lazy: only this command needs it
-    from bbbench.evaluation.backends import (  # lazy: only this command needs it
+    from bbbench import evaluation  # lazy: bbbench.evaluation
+    from bbbench.evaluation.backends import (  # lazy: bbbench.evaluation.backends
         check_ray_address,
         default_workers,
     )
-    from bbbench.evaluation.video import check_video_path  # lazy: only this command needs it
+    from bbbench.evaluation.video import check_video_path  # lazy: bbbench.evaluation.video
 
     check_play_options(args)
     cores = default_workers()
@@ -106,7 +106,7 @@ def _checked(args: argparse.Namespace):
 
 def _played(args: argparse.Namespace, policy, task_ids: list[str], per_task: int):
     """`evaluate`, with a progress bar on a terminal."""
-    from bbbench import evaluation  # lazy: only this command needs it
+    from bbbench import evaluation  # lazy: bbbench.evaluation
 
     console = Console(stderr=True)
     with Progress(
@@ -138,8 +138,8 @@ def _played(args: argparse.Namespace, policy, task_ids: list[str], per_task: int
 
 def _reported(args: argparse.Namespace, policy, task_ids: list[str], result) -> int:
     """The table, the files asked for, and the exit code (1 if episodes are missing)."""
-    from bbbench import evaluation  # lazy: only this command needs it
-    from bbbench.evaluation.video import record_episode  # lazy: only this command needs it
+    from bbbench import evaluation  # lazy: bbbench.evaluation
+    from bbbench.evaluation.video import record_episode  # lazy: bbbench.evaluation.video
 
     document = result.document
     out = Console()

@@ -13,6 +13,7 @@ from rich.table import Table
 from rich.text import Text
 
 from bbbench.cli.common import UsageError, add_play_options
+from bbbench.tasks.tracks import TRACKS
 
 
 def add_parser(commands) -> None:
@@ -51,15 +52,13 @@ def add_parser(commands) -> None:
     checking.set_defaults(run=check)
     _add_parser_of_add(actions)
     showing = _with_common(actions.add_parser("show", help="print the ranked tables"), plays=False)
-    showing.add_argument(
-        "--track", choices=("single", "multi", "wheel-legged"), help="one track (default all)"
-    )
+    showing.add_argument("--track", choices=tuple(TRACKS), help="one track (default all)")
     showing.set_defaults(run=show)
 
 
 def track_name(track: str) -> str:
     """'single-bot', 'multi-bot' or 'wheel-legged': how the messages name a track."""
-    return track if track not in ("single", "multi") else f"{track}-bot"
+    return TRACKS[track].label
 
 
 def _with_common(parser: argparse.ArgumentParser, plays: bool = True):
@@ -118,7 +117,7 @@ def _add_parser_of_add(actions) -> None:
 
 def _options(args: argparse.Namespace) -> dict:
     """The options every leaderboard command that plays episodes shares, checked."""
-    from bbbench.evaluation.backends import check_ray_address  # lazy: only this command needs it
+    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation.backends
 
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
@@ -144,7 +143,7 @@ def _root(args: argparse.Namespace, board: bool = False):
             f"leaderboard folder)"
         )
     if board:
-        from bbbench.leaderboard.generation import SUBMISSIONS  # lazy: heavy, check's alone
+        from bbbench.leaderboard.generation import SUBMISSIONS  # lazy: bbbench.leaderboard
 
     if board and not (root / SUBMISSIONS).is_dir():
         raise UsageError(
@@ -169,7 +168,7 @@ def _playing(what: str):
 
 
 def build(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard  # lazy: only this command needs it
+    from bbbench import leaderboard  # lazy: bbbench.leaderboard
 
     root = _root(args)
     options = _options(args)
@@ -201,7 +200,7 @@ def build(args: argparse.Namespace) -> int:
 
 
 def check(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard  # lazy: only this command needs it
+    from bbbench import leaderboard  # lazy: bbbench.leaderboard
 
     root = _root(args, board=True)
     options = _options(args)
@@ -241,7 +240,7 @@ def check(args: argparse.Namespace) -> int:
 
 
 def add(args: argparse.Namespace) -> int:
-    from bbbench import leaderboard  # lazy: only this command needs it
+    from bbbench import leaderboard  # lazy: bbbench.leaderboard
 
     root = _root(args)
     options = _options(args)
@@ -296,8 +295,8 @@ def add(args: argparse.Namespace) -> int:
 
 
 def show(args: argparse.Namespace) -> int:
-    from bbbench.leaderboard import DOCUMENT  # lazy: only this command needs it
-    from bbbench.leaderboard.views import rows  # lazy: only this command needs it
+    from bbbench.leaderboard import DOCUMENT  # lazy: bbbench.leaderboard
+    from bbbench.leaderboard.views import rows  # lazy: bbbench.leaderboard.views
 
     path = _root(args) / DOCUMENT
     try:

@@ -41,7 +41,7 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
-    from bbbench.evaluation.video import check_video_path  # lazy: only this command needs it
+    from bbbench.evaluation.video import check_video_path  # lazy: bbbench.evaluation.video
 
     try:
         spec = bbbench.spec(args.task)
@@ -91,8 +91,8 @@ def run(args: argparse.Namespace) -> None:
 
 def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
     """Single-bot episodes, one row each: steps, return, what ended it."""
-    from bbbench.evaluation.episodes import action_generator  # lazy: only this command
-    from bbbench.evaluation.play import Lockstep  # lazy: only this command needs it
+    from bbbench.evaluation.episodes import action_generator  # lazy: bbbench.evaluation.episodes
+    from bbbench.evaluation.play import Lockstep  # lazy: bbbench.evaluation.play
 
     env = bbbench.make(spec.id, action_mode=policy.action_mode, **policy.env_options())
     print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  ended by")
@@ -111,8 +111,8 @@ def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
 def _play_group(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
     """Multi-bot episodes, the policy shared by every bot: one row each with the mean return
     per bot and the falls, then each bot's return and the step it fell at."""
-    from bbbench.evaluation.episodes import action_generator  # lazy: only this command
-    from bbbench.evaluation.play import MultiEpisode  # lazy: only this command needs it
+    from bbbench.evaluation.episodes import action_generator  # lazy: bbbench.evaluation.episodes
+    from bbbench.evaluation.play import MultiEpisode  # lazy: bbbench.evaluation.play
 
     env = bbbench.make_parallel(spec.id, action_mode=policy.action_mode)
     bots = len(env.possible_agents)

@@ -25,7 +25,7 @@ PLOT_FORMATS = (".svg", ".png")
 
 
 def add_parser(commands) -> None:
-    from bbbench.evaluation.sweep import AXES  # lazy: the suite's modules, not the CLI's
+    from bbbench.evaluation.sweep import AXES  # lazy: bbbench.evaluation
 
     sweep = commands.add_parser(
         "sweep",
@@ -55,8 +55,8 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bbbench.evaluation.results import dumps  # lazy: only this command needs it
-    from bbbench.evaluation.sweep import sweep  # lazy: only this command needs it
+    from bbbench.evaluation.results import dumps  # lazy: bbbench.evaluation.results
+    from bbbench.evaluation.sweep import sweep  # lazy: bbbench.evaluation.sweep
 
     policies, axis, values, task_ids = _checked(args)
     console = Console(stderr=True)
@@ -112,9 +112,9 @@ def run(args: argparse.Namespace) -> int:
 def _checked(args: argparse.Namespace):
     """The policies, the axis, its values and the tasks, every pair checked before any
     episode is played."""
-    from bbbench.evaluation import select_tasks  # lazy: only this command needs it
-    from bbbench.evaluation.backends import check_ray_address  # lazy: only this command
-    from bbbench.evaluation.sweep import (  # lazy: only this command needs it
+    from bbbench.evaluation import select_tasks  # lazy: bbbench.evaluation
+    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation.backends
+    from bbbench.evaluation.sweep import (  # lazy: bbbench.evaluation.sweep
         check_axis,
         parse_values,
         standard_grid,
@@ -155,13 +155,13 @@ def _checked(args: argparse.Namespace):
 
 def _default_tasks(axis: str, policies) -> list[str]:
     """The tasks the axis is swept on when none is given."""
-    from bbbench.evaluation.sweep import applying_tasks  # lazy: only this command needs it
-    from bbbench.policies.registry import fitting_tasks
+    from bbbench.evaluation.sweep import applying_tasks  # lazy: bbbench.evaluation.sweep
+    from bbbench.policies.registry import fitting_tasks  # lazy: bbbench.policies
 
     if axis not in ("difficulty", "n_bots"):
         # The task the robustness profile plays: VelocityTracking for the two-wheel bot,
         # LeggedVelocityTracking for the wheel-legged robot (the latest versions).
-        from bbbench.evaluation.profile import profile_task  # lazy: only this command needs it
+        from bbbench.evaluation.profile import profile_task  # lazy: bbbench.evaluation.profile
 
         tasks = {profile_task(policy) for policy in policies}
         if len(tasks) != 1 or None in tasks:

@@ -49,7 +49,7 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bbbench import training  # lazy: only this command needs it
+    from bbbench import training  # lazy: bbbench.training
 
     try:
         tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)

@@ -53,7 +53,9 @@ class MultiBalanceEnv(ParallelEnv):
     Per agent, the single-bot action space (`action_mode="discrete"`:
     `Discrete(9)`, `"continuous"`: `Box(-1, 1, (1,))`), a change of the
     commanded wheel speed, documented in `BalanceEnv`. `step()` takes a dict
-    with one action for every agent in `env.agents`, and no other key.
+    with one action for every agent in `env.agents`; actions for agents whose
+    episode has ended are ignored (TorchRL sends one for every possible agent),
+    and an unknown agent name is refused.
 
     ## Observation Space
 
@@ -83,8 +85,11 @@ class MultiBalanceEnv(ParallelEnv):
     the first reward, `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity -
     target_velocity|`, at most 0.1. There is no collision penalty: a collision
     costs what it costs, a fall ends that bot's episode. `infos[agent]` carries
-    the two terms, `"reward_upright"` and `"reward_velocity"`, and
-    `"velocity_error"`, |forward_velocity - target_velocity| in m/s.
+    the two terms, `"reward_upright"` and `"reward_velocity"`,
+    `"velocity_error"`, |forward_velocity - target_velocity| in m/s, and
+    `"episode_seed"`: the same keys at reset (the terms the starting state would
+    earn) and at every step. The rules are the task's scenario's
+    (`bbbench.tasks.scenarios.Crossing`).
 
     ## Starting State
 

@@ -198,6 +198,7 @@ class Scene:
         # (tests/test_determinism.py: an episode does not depend on the ones before it).
         for bot in self._bots:
             bot.move_clear()
+        self.scenario.move_clear(self)  # and the scenario's own bodies
         self.world.detect_collisions()
         for bot, ((x, y), yaw), pitch in zip(self._bots, poses, pitches, strict=True):
             bot.reset(

@@ -253,8 +253,8 @@ def run_ray(
 ) -> list[Results]:
     """Run `jobs` as tasks of `workers` Ray actors, on a local Ray or the cluster at
     `address`. Ray restarts a dead actor and retries its task once."""
-    import ray  # lazy: Ray is optional (the ray extra)
-    from ray.exceptions import RayActorError  # lazy: as ray
+    import ray  # lazy: ray, optional (the ray extra)
+    from ray.exceptions import RayActorError  # lazy: ray
 
     started = not ray.is_initialized()
     if started:

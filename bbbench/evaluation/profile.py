@@ -1,10 +1,11 @@
 """Robustness profiles: one fixed, cheap protocol that gives every policy a measured
 profile on the standard axes (`bbbench.tasks.perturbations`).
 
-The protocol (`PROTOCOL`, a `Protocol`): a single-bot policy plays the latest VelocityTracking, a
-multi-bot policy the latest MultiBalance (where `sensor_noise` does not apply), a
-wheel-legged policy the latest LeggedVelocityTracking, at each
-value of each axis's standard grid, on the first `PROFILE_EPISODES` evaluation seeds,
+The protocol (`PROTOCOL`, a `Protocol`): on each leaderboard track a policy plays the
+latest version of the track's profile task (`bbbench.tasks.tracks`: VelocityTracking on
+the single-bot track, MultiBalance on the multi-bot one, where `sensor_noise` does not
+apply, LeggedVelocityTracking on the wheel-legged one), at each value of each axis's
+standard grid, on the first `PROFILE_EPISODES` evaluation seeds,
 with deterministic actions; every (axis, value) point through the harness's player, all
 on one pool of workers. Per axis the robustness score is the mean normalized score over
 its grid and the worst case the least; the profile's own are the mean of the axes'
@@ -29,19 +30,14 @@ from bbbench.evaluation.sweep import robustness, variant
 from bbbench.policies.policy import Policy
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.spec import TaskSpec
-from bbbench.tasks.suite import latest_version, spec
+from bbbench.tasks.suite import spec
+from bbbench.tasks.tracks import TRACKS
 
 SCHEMA = "bbbench-profile/1"
 PROFILE_EPISODES = 20
 # Bumped when the protocol plays anything else: a stored profile is reused only when its
 # protocol matches.
 PROTOCOL_VERSION = 1
-# Newest versions played; the first a policy fits profiles it.
-PROFILE_TASKS = (
-    "bbbench/VelocityTracking-v1",
-    "bbbench/MultiBalance-v1",
-    "bbbench/LeggedVelocityTracking-v0",
-)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,12 +78,11 @@ PROTOCOL = Protocol()
 
 
 def profile_task(policy: Policy) -> str | None:
-    """The task the protocol profiles `policy` on: the first of `PROFILE_TASKS` (newest
-    version) it fits; None if it fits none."""
-    for task_id in PROFILE_TASKS:
-        latest = latest_version(task_id)
-        if policy.mismatch(latest) is None:
-            return latest
+    """The task the protocol profiles `policy` on first: the profile task of the first
+    track (in the board's order) whose profile task it fits; None if it fits none."""
+    for track in TRACKS.values():
+        if policy.mismatch(track.profiled_on) is None:
+            return track.profiled_on
     return None
 
 
@@ -98,12 +93,15 @@ def profile(
     address: str | None = None,
     on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
     protocol: Protocol = PROTOCOL,
+    task_id: str | None = None,
 ) -> dict[str, Any]:
-    """Play the protocol with `policy` and return its profile document; `ValueError` if
-    it fits no profile task, `RuntimeError` if an episode is lost (worker died twice)."""
-    task_id = profile_task(policy)
-    if task_id is None:
-        raise ValueError(f"{policy.name} fits none of the profile's tasks {PROFILE_TASKS}")
+    """Play the protocol on `task_id` (a track's profile task; default `profile_task`) with
+    `policy` and return its profile document; `ValueError` if it does not fit the task,
+    `RuntimeError` if an episode is lost (worker died twice)."""
+    task_id = task_id or profile_task(policy)
+    if task_id is None or policy.mismatch(task_id) is not None:
+        tasks = ", ".join(track.profiled_on for track in TRACKS.values())
+        raise ValueError(f"{policy.name} fits none of the profile's tasks ({tasks})")
     tasks = [task for _, _, task in protocol.specs(task_id, policy.height_scan)]
     played = play_tasks(
         policy, tasks, protocol.episodes, workers, backend, address, False, on_result

@@ -28,7 +28,7 @@ def check_video_path(path: str | Path) -> Path:
         import imageio.v3  # noqa: F401
 
         if path.suffix.lower() == ".mp4":
-            # lazy: imageio-ffmpeg, for .mp4 only
+            # lazy: imageio_ffmpeg, for .mp4 only
             import imageio_ffmpeg  # noqa: F401
     except ImportError:
         raise ValueError(

@@ -6,7 +6,8 @@ A leaderboard folder (`leaderboards/` in the repository) holds:
     submissions/<slug>/submission.json   metadata (docs/submission-schema.json)
     submissions/<slug>/policy.zip        the policy, unless it names a built-in
     results/<slug>.json                  its `bbbench eval --json` document
-    results/<slug>.profile.json          its robustness profile (`bbbench.evaluation.profile`)
+    results/<slug>.<track>.profile.json  its robustness profile on each track it is on
+                                         (`bbbench.evaluation.profile`)
     bbbench-v0.json                      the ranked board (docs/leaderboard-schema.json)
     README.md, index.html                the board as people read it
 

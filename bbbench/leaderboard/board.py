@@ -22,12 +22,10 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import PlayedEpisode, evaluate, results_document, stats
 from bbbench.evaluation.profile import (
-    PROFILE_TASKS,
     PROTOCOL,
     Protocol,
     profile,
     profile_document,
-    profile_task,
     stored_records,
 )
 from bbbench.evaluation.profile import SCHEMA as PROFILE_SCHEMA
@@ -35,24 +33,16 @@ from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
-from bbbench.tasks.spec import TaskSpec
-from bbbench.tasks.suite import latest_version, list_tasks, spec
+from bbbench.tasks.suite import list_tasks, spec
+from bbbench.tasks.tracks import TRACKS
 
 SCHEMA = "bbbench-leaderboard/1"
-PROFILE_SUFFIX = ".profile.json"  # results/<slug>.profile.json: an entry's robustness profile
-TRACKS = {
-    "single": "single-bot tasks",
-    "multi": "multi-bot tasks (one policy shared by every bot)",
-    "wheel-legged": "the wheel-legged robot's tasks",
-}
+PROFILE_SUFFIX = ".profile.json"  # results/<slug>.<track>.profile.json: a robustness profile
 
 
-def track_of(task: TaskSpec) -> str:
-    """The track a task is ranked on: the two-wheel bot's single- and multi-bot tasks, and
-    each other robot's tasks on a track of their own."""
-    if task.robot != "two-wheel":
-        return task.robot
-    return "multi" if task.multi_agent else "single"
+def profile_file(slug: str, track: str) -> str:
+    """The name of an entry's robustness profile on a track, in the results folder."""
+    return f"{slug}.{track}{PROFILE_SUFFIX}"
 
 
 RANK_RULE = (
@@ -84,7 +74,7 @@ class Board:
 
     def track_tasks(self, track: str) -> list[str]:
         """The track's tasks: by name, each name's versions newest first."""
-        tasks = [t for t in self.tasks if track_of(spec(t)) == track]
+        tasks = [t for t in self.tasks if TRACKS[track].holds(spec(t))]
         return sorted(tasks, key=lambda t: (spec(t).name, -spec(t).version))
 
     def ranked(self, track: str) -> list[str]:
@@ -97,14 +87,14 @@ class Board:
 
 @dataclasses.dataclass(frozen=True)
 class Scored:
-    """A submission, its results document and its robustness profile (None for a policy
-    that fits no profile task); `played`: episodes played to get them (the rest came from
-    stored results)."""
+    """A submission, its results document and its robustness profiles, one for each track
+    it is on whose profile task it fits (track name -> profile document); `played`:
+    episodes played to get them (the rest came from stored results)."""
 
     submission: Submission
     results: dict[str, Any]
     played: int
-    profile: dict[str, Any] | None = None
+    profiles: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
 
 
 def inputs_key(submission: Submission, board: Board) -> str:
@@ -126,7 +116,7 @@ def inputs_key(submission: Submission, board: Board) -> str:
         "tasks": {t: [spec(t).fingerprint, seeds_hash(board.seeds(t))] for t in board.tasks},
         "profile": None
         if board.profile is None
-        else [board.profile.record(latest_version(task_id)) for task_id in PROFILE_TASKS],
+        else [board.profile.record(track.profiled_on) for track in TRACKS.values()],
     }
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
@@ -183,34 +173,54 @@ def score(
                 raise BuildError(f"{submission.slug}: episodes lost (worker died twice): {lost}")
             played = _episodes(evaluation.document)
         results = {t: reused[t] if t in reused else played[t] for t in task_ids}
-        protocol, robustness, profiled = board.profile, None, 0
-        if protocol is not None and stored_here is not None:
-            robustness = _stored_profile(stored_here, submission.slug, policy, protocol)
-        if protocol is not None and robustness is None and profile_task(policy) is not None:
-            robustness = profile(policy, workers, backend, address, on_result, protocol)
-            profiled = sum(len(records) for records in stored_records(robustness))
+        protocol, profiles, profiled = board.profile, {}, 0
+        tracks = [] if protocol is None else _profiled_tracks(policy, task_ids)
+        for track in tracks:  # the entry's profile on each track it is on
+            robustness = None
+            if stored_here is not None:
+                robustness = _stored_profile(stored_here, submission.slug, track, policy, protocol)
+            if robustness is None:
+                robustness = profile(
+                    policy, workers, backend, address, on_result, protocol, track.profiled_on
+                )
+                profiled += sum(len(records) for records in stored_records(robustness))
+            profiles[track.name] = robustness
         scored.append(
             Scored(
                 submission,
                 results_document(policy, results),
                 sum(len(played[t]) for t in pending) + profiled,
-                robustness,
+                profiles,
             )
         )
     return scored
 
 
+def _profiled_tracks(policy: Policy, task_ids: Sequence[str]) -> list[Any]:
+    """The tracks an entry playing `task_ids` is on whose profile task `policy` fits."""
+    return [
+        track
+        for track in TRACKS.values()
+        if any(track.holds(spec(task_id)) for task_id in task_ids)
+        and policy.mismatch(track.profiled_on) is None
+    ]
+
+
 def _stored_profile(
-    folder: Path, slug: str, policy: Policy, protocol: Protocol
+    folder: Path, slug: str, track: Any, policy: Policy, protocol: Protocol
 ) -> dict[str, Any] | None:
-    """`folder/<slug>.profile.json` when it is today's profile of `policy`: the same
-    policy, protocol and versions, and every point the spec it played then."""
+    """`folder/<slug>.<track>.profile.json` when it is today's profile of `policy` on the
+    track: the same policy, protocol and versions, and every point the spec it played then
+    (a board built before profiles were per track kept one, `<slug>.profile.json`: it is
+    today's when its protocol is the track's)."""
     try:
-        old = json.loads((folder / f"{slug}{PROFILE_SUFFIX}").read_text())
-        task_id = profile_task(policy)
+        path = folder / profile_file(slug, track.name)
+        if not path.is_file():  # a board built before profiles were per track
+            path = folder / f"{slug}{PROFILE_SUFFIX}"
+        old = json.loads(path.read_text())
+        task_id = track.profiled_on
         if (
-            task_id is None
-            or old["schema"] != PROFILE_SCHEMA
+            old["schema"] != PROFILE_SCHEMA
             or old["harness_version"] != HARNESS_VERSION
             or old["bbbench_version"] != bbbench.__version__
             or old["policy"] != policy.record()
@@ -340,7 +350,7 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
                     if task_id in member.blocks
                 },
                 "overall": member.overall,
-                "robustness": _robustness(member),
+                "robustness": _robustness(member, track),
                 "versus_next": versus,
             }
         )
@@ -349,7 +359,7 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
             rank = position + 2
     return {
         "track": track,
-        "title": TRACKS[track],
+        "title": TRACKS[track].title,
         "tasks": [
             {
                 "task": task_id,
@@ -365,16 +375,17 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
     }
 
 
-def _robustness(member: _Member) -> dict[str, Any] | None:
-    """The entry's profile as the board shows it: its two figures, and per axis the
-    normalized score at each grid value (None: the policy fits no profile task)."""
-    document = member.scored.profile
+def _robustness(member: _Member, track: str) -> dict[str, Any] | None:
+    """The entry's profile on `track` as the board shows it: its two figures, and per axis
+    the normalized score at each grid value (None: the policy fits not the track's profile
+    task)."""
+    document = member.scored.profiles.get(track)
     if document is None:
         return None
     return {
         **document["robustness"],
         "task": document["protocol"]["task"],
-        "profile": f"results/{member.slug}{PROFILE_SUFFIX}",
+        "profile": f"results/{profile_file(member.slug, track)}",
         "axes": {
             block["axis"]: {
                 "score": block["score"],

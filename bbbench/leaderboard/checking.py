@@ -94,7 +94,7 @@ def check(
     built = generate(root, board, cache=not full, on_episodes=on_episodes, keys=keys, **play)
     notes = []
     files = built.files
-    stack = _plotting_stack()
+    stack = plotting_stack()
     skipped = [name for name in files if name in FIGURE_FILES]
     if stack != PLOTTING_STACK and skipped:
         files = {name: data for name, data in files.items() if name not in FIGURE_FILES}
@@ -121,7 +121,7 @@ def check(
     )
 
 
-def _plotting_stack() -> dict[str, str | None]:
+def plotting_stack() -> dict[str, str | None]:
     found = {}
     for package in PLOTTING_STACK:
         try:
@@ -156,9 +156,9 @@ def _spot_check(
             )
             for block in entry.results["tasks"]
         ]
-        if entry.profile is not None:
-            task_id = entry.profile["protocol"]["task"]
-            points = [p for block in entry.profile["axes"] for p in block["points"]]
+        for document in entry.profiles.values():
+            task_id = document["protocol"]["task"]
+            points = [p for block in document["axes"] for p in block["points"]]
             strata += [
                 (task, {record["seed"]: record for record in point["episodes"]})
                 for (_, _, task), point in zip(

@@ -11,7 +11,7 @@ from typing import Any
 from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
 from bbbench.files import write_all_atomic
-from bbbench.leaderboard.board import PROFILE_SUFFIX, Board, Scored, leaderboard_document, score
+from bbbench.leaderboard.board import Board, Scored, leaderboard_document, profile_file, score
 from bbbench.leaderboard.submissions import Submission, read_submissions
 from bbbench.leaderboard.views import (
     README_FIGURE,
@@ -84,16 +84,17 @@ def generate(
 def _files(scored: list[Scored], board: Board) -> Built:
     document = leaderboard_document(scored, board)
     results = {entry.submission.slug: entry.results for entry in scored}
-    profiles = {e.submission.slug: e.profile for e in scored if e.profile is not None}
+    profiles = {
+        profile_file(entry.submission.slug, track): doc
+        for entry in scored
+        for track, doc in entry.profiles.items()
+    }
     files = {
         DOCUMENT: dumps(document).encode(),
         "README.md": markdown(document).encode(),
         "index.html": page(document, results).encode(),
         **{f"{RESULTS}/{slug}.json": dumps(doc).encode() for slug, doc in results.items()},
-        **{
-            f"{RESULTS}/{slug}{PROFILE_SUFFIX}": dumps(doc).encode()
-            for slug, doc in profiles.items()
-        },
+        **{f"{RESULTS}/{name}": dumps(doc).encode() for name, doc in profiles.items()},
     }
     episodes = sum(
         block["aggregate"]["episodes"] for doc in results.values() for block in doc["tasks"]

@@ -31,19 +31,19 @@ def _svg(figure) -> str:
 
 
 def _figure(width: float, height: float):
-    from matplotlib.figure import Figure  # lazy: the board's pages only
+    from matplotlib.figure import Figure  # lazy: matplotlib, for the board's pages only
 
     return Figure(figsize=(width, height), layout="constrained")
 
 
 def _style():
-    import matplotlib  # lazy: the board's pages only
+    import matplotlib  # lazy: matplotlib, for the board's pages only
 
     return matplotlib.rc_context(_STYLE)
 
 
 def _colors(count: int) -> list:
-    import matplotlib  # lazy: the board's pages only
+    import matplotlib  # lazy: matplotlib, for the board's pages only
 
     palette = matplotlib.colormaps["tab10" if count <= 10 else "tab20"]
     size = 10 if count <= 10 else 20

@@ -27,9 +27,10 @@ random policy's mean return, 1 the task's maximum return. **Overall** is the IQM
 above 0.5. A superseded task version leaves the board; its last numbers stay in
 the repository's history. Per task: normalized score of the mean return, and in
 brackets the success rate (episodes with no fall). **Robustness** (not part of the
-rank): the entry's profile under one fixed protocol, the latest VelocityTracking (a
-multi-bot entry: MultiBalance) on 20 evaluation seeds at each value of each
-perturbation's standard grid (payload, centre of mass, friction, motor strength,
+rank): the entry's profile on the track, under one fixed protocol per track: the latest
+version of the track's profile task (VelocityTracking; MultiBalance on the multi-bot
+track, LeggedVelocityTracking on the wheel-legged one) on 20 evaluation seeds at each
+value of each perturbation's standard grid (payload, centre of mass, friction, motor strength,
 action delay, sensor noise, pushes): the mean over the axes of each axis's mean
 normalized score, and in brackets the worst case, the least normalized score at any
 point (`bbbench sweep` plays any axis of it)."""

@@ -162,6 +162,11 @@ class BalanceBot(Body):
         limit = self.model.motor_torque_limit * factor
         self._motor_forces = (limit, limit)
 
+    @property
+    def motor_forces(self) -> tuple[float, float]:
+        """The wheel servos' torque limits now (N m): the URDF's, times the motor strength."""
+        return self._motor_forces
+
     def set_action_delay(self, steps: int) -> None:
         """Send each wheel-speed command to the servos `steps` commands later (0: at
         once). `wheel_command` stays the command asked for; the servos hold the one

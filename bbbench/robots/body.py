@@ -177,6 +177,11 @@ class Body:
         raise NotImplementedError
 
     @property
+    def client(self) -> BulletClient:
+        """The bullet client of the body's world."""
+        return self._client
+
+    @property
     def client_id(self) -> int:
         """The `physicsClientId` of the body's world."""
         return self._client_id

@@ -63,11 +63,7 @@ class Perturbation:
     def __post_init__(self) -> None:
         value, where = self.value, f"{self.keyword} must be"
         kind = "a whole number" if self.whole else "a number"
-        if (
-            not is_real(value)
-            or not math.isfinite(value)
-            or (self.whole and value != int(value))
-        ):
+        if not is_real(value) or not math.isfinite(value) or (self.whole and value != int(value)):
             raise ValueError(f"{where} {kind} ({self.meaning}), got {value!r}")
         if not (self.low < value if self.low_open else self.low <= value) or value > self.high:
             bracket = "(" if self.low_open else "["

@@ -256,8 +256,7 @@ class TaskSpec:
             steps = 0
         if steps < 1:
             raise ValueError(
-                f"max_episode_steps must be a whole number of steps >= 1, got "
-                f"{max_episode_steps!r}"
+                f"max_episode_steps must be a whole number of steps >= 1, got {max_episode_steps!r}"
             )
         return dataclasses.replace(self, max_episode_steps=steps)
 
@@ -270,33 +269,6 @@ class TaskSpec:
     def spec_hash(self) -> str:
         """A hash of everything that decides the task's behaviour, robot model included."""
         return _spec_hash(self)
-
-    def _behaviour_hash(self) -> str:
-        behaviour = {
-            key: value
-            for key, value in _published_options(dataclasses.asdict(self)).items()
-            if key not in _NOT_BEHAVIOUR_FIELDS
-        }
-        if self.scenario == implied_scenario(self.group):  # as published: not hashed
-            del behaviour["scenario"]
-        # Class names tell apart components whose fields happen to match: those of the
-        # first published specs, in their order, then every other component found.
-        published = [
-            self.terrain,
-            getattr(self.terrain, "generator", None),
-            self.command,
-            self.sensors,
-            self.reward,
-            self.group,
-        ]
-        behaviour["components"] = [type(component).__name__ for component in published] + [
-            type(component).__name__
-            for component in _components(self)[1:]  # [0] is the spec itself
-            if not any(component is known for known in published)
-        ]
-        digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
-        digest.update(self.robot_model.urdf_path.read_bytes())
-        return digest.hexdigest()[:16]
 
     @property
     def name(self) -> str:
@@ -319,6 +291,35 @@ class TaskSpec:
         return hashlib.sha256(f"{self.spec_hash}:{rollout}".encode()).hexdigest()[:16]
 
 
+def _behaviour_hash(task: TaskSpec) -> str:
+    """`TaskSpec.spec_hash`, computed: everything that decides the task's behaviour."""
+    behaviour = {
+        key: value
+        for key, value in _published_options(dataclasses.asdict(task)).items()
+        if key not in _NOT_BEHAVIOUR_FIELDS
+    }
+    if task.scenario == implied_scenario(task.group):  # as published: not hashed
+        del behaviour["scenario"]
+    # Class names tell apart components whose fields happen to match: those of the
+    # first published specs, in their order, then every other component found.
+    published = [
+        task.terrain,
+        getattr(task.terrain, "generator", None),
+        task.command,
+        task.sensors,
+        task.reward,
+        task.group,
+    ]
+    behaviour["components"] = [type(component).__name__ for component in published] + [
+        type(component).__name__
+        for component in _components(task)[1:]  # [0] is the spec itself
+        if not any(component is known for known in published)
+    ]
+    digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
+    digest.update(task.robot_model.urdf_path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 _SPEC_HASHES: dict[str, str] = {}  # repr(spec): its hash
 
 
@@ -330,7 +331,7 @@ def _spec_hash(task: TaskSpec) -> str:
     if key not in _SPEC_HASHES:
         if len(_SPEC_HASHES) >= 4096:  # a long sweep's variants: keep memory bounded
             _SPEC_HASHES.clear()
-        _SPEC_HASHES[key] = task._behaviour_hash()
+        _SPEC_HASHES[key] = _behaviour_hash(task)
     return _SPEC_HASHES[key]
 
 

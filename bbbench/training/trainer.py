@@ -129,9 +129,9 @@ def train(
     budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
     `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
     """
-    import torch  # lazy: torch and stable-baselines3, for training only
+    import torch  # lazy: torch, stable_baselines3, for training only
 
-    from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable-baselines3
+    from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable_baselines3
 
     tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps)
     plan = recipe(algorithm, key)
@@ -222,10 +222,10 @@ def _dumps(document: dict[str, Any]) -> bytes:
 def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: int):
     """The VecEnv a recipe trains in: `n_envs` envs of the task (worlds of bots for a
     multi-bot task; for several tasks, sub-env i plays task i mod len(tasks)), seeded."""
-    from stable_baselines3.common.monitor import Monitor  # lazy: stable-baselines3
+    from stable_baselines3.common.monitor import Monitor  # lazy: stable_baselines3
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from bbbench.vec import make_vec  # lazy: stable-baselines3
+    from bbbench.vec import make_vec  # lazy: stable_baselines3
 
     if len(tasks) == 1:
         env = make_vec(tasks[0], n_envs=n_envs, action_mode=mode)
@@ -236,7 +236,7 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
         )
     env.seed(seed)
     if plan.normalize is not None:
-        from stable_baselines3.common.vec_env import VecNormalize  # lazy: stable-baselines3
+        from stable_baselines3.common.vec_env import VecNormalize  # lazy: stable_baselines3
 
         gamma = plan.hyperparameters.get("gamma", 0.99)  # rl-zoo3 passes the recipe's
         env = VecNormalize(env, gamma=gamma, **plan.normalize)
@@ -245,7 +245,7 @@ def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: i
 
 def build_model(plan: Recipe, env, seed: int):
     """The stable-baselines3 model of `plan` on `env`, seeded, on the CPU."""
-    from stable_baselines3.common.noise import NormalActionNoise  # lazy: stable-baselines3
+    from stable_baselines3.common.noise import NormalActionNoise  # lazy: stable_baselines3
 
     extra = {}
     if plan.noise_std is not None:

@@ -10,7 +10,7 @@ stepping, reading); the scenario owns:
 | what                          | method                                  |
 |-------------------------------|-----------------------------------------|
 | extra bodies and constraints  | `build(client, bots)`                   |
-| the bots' starting poses      | `starts(rng)`, then `place(scene, rng)` |
+| the bots' starting poses      | `starts(rng)`; its bodies: `move_clear`, `place` |
 | the observation and its space | `observation_space()`, `observe(...)`   |
 | each step's outcome           | `outcome(...)` (single-bot: `outcome_one`) |
 | per-episode metrics           | `metrics`: info keys averaged per bot-step |
@@ -93,6 +93,11 @@ class Scenario:
         """Each bot's starting pose and initial lean (rad), drawn from the episode's start
         stream."""
         raise NotImplementedError
+
+    def move_clear(self, scene: Any) -> None:
+        """At reset, before the bots are placed: move the scenario's own bodies clear of
+        everything (as each bot's `move_clear`), so that the scene's one collision pass
+        drops their contact points of the last episode (nothing by default)."""
 
     def place(self, scene: Any, rng: np.random.Generator) -> None:
         """After the bots stand at their starts: put the scenario's own bodies in place

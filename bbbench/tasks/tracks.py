@@ -1,0 +1,82 @@
+"""The leaderboard's tracks, each declared once: its title, the tasks it ranks (derived
+from the suite: a robot's single- or multi-bot tasks) and the task its entries' robustness
+profile plays. The board (`bbbench.leaderboard`), the CLI's track choices and the profile
+protocol (`bbbench.evaluation.profile`) all read this table."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.suite import SUITE, latest_version
+
+
+@dataclasses.dataclass(frozen=True)
+class Track:
+    """One ranking: the tasks of one robot, played by one bot or by several."""
+
+    name: str  # what the board document and `--track` say
+    label: str  # how messages name it: 'the single-bot track'
+    title: str  # the board's heading
+    robot: str  # `TaskSpec.robot`
+    multi_agent: bool  # several bots in one world (one policy shared by every bot)
+    profile_task: str  # a task of the track: its latest version is what profiles play
+
+    def __post_init__(self) -> None:
+        if not self.holds(SUITE[self.profile_task]):
+            raise ValueError(
+                f"track {self.name}: its profile task {self.profile_task} is not its own"
+            )
+
+    def holds(self, task: TaskSpec) -> bool:
+        """Whether the track ranks `task` (any version of it)."""
+        return task.robot == self.robot and task.multi_agent == self.multi_agent
+
+    @property
+    def profiled_on(self) -> str:
+        """The latest version of the profile task: what its entries' profiles play."""
+        return latest_version(self.profile_task)
+
+
+# In the board's order.
+TRACKS: dict[str, Track] = {
+    track.name: track
+    for track in (
+        Track(
+            "single",
+            "single-bot",
+            "single-bot tasks",
+            "two-wheel",
+            False,
+            "bbbench/VelocityTracking-v1",
+        ),
+        Track(
+            "multi",
+            "multi-bot",
+            "multi-bot tasks (one policy shared by every bot)",
+            "two-wheel",
+            True,
+            "bbbench/MultiBalance-v1",
+        ),
+        Track(
+            "wheel-legged",
+            "wheel-legged",
+            "the wheel-legged robot's tasks",
+            "wheel-legged",
+            False,
+            "bbbench/LeggedVelocityTracking-v0",
+        ),
+    )
+}
+
+
+def track_of(task: TaskSpec) -> Track:
+    """The track that ranks `task`; a clear error for a task no track holds."""
+    for track in TRACKS.values():
+        if track.holds(task):
+            return track
+    kind = "multi-bot" if task.multi_agent else "single-bot"
+    raise ValueError(
+        f"{task.id}: no track ranks the {task.robot} robot's {kind} tasks; declare one in "
+        f"bbbench/tasks/tracks.py"
+    )

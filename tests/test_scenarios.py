@@ -1,0 +1,204 @@
+"""Scenarios: each task's rules in one class (`bbbench.tasks.scenarios`).
+
+The throwaway scenario here follows docs/architecture.md, "How to add a scenario" and
+"How to add a multi-bot task with a shared object", step by step: a class on `Scenario`,
+registered in `SCENARIOS`, named by a task spec, played by the multi-bot env.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pybullet
+import pytest
+from gymnasium import spaces
+from pettingzoo.test import parallel_api_test
+
+import bbbench
+from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.evaluation.play import MultiEpisode
+from bbbench.tasks.group import Group
+from bbbench.tasks.observation import agent_observation_space
+from bbbench.tasks.scenarios import SCENARIOS, Crossing, Scenario, Solo
+from bbbench.tasks.spec import TaskSpec
+from bbbench.tasks.suite import SUITE
+
+REPO = Path(__file__).resolve().parent.parent
+BALL_RADIUS = 0.15  # m
+PARKED = (0.0, -500.0, 5.0)  # where the ball waits between episodes, clear of everything
+
+
+class Ball(Crossing):
+    """The guide's example: Crossing's bots with a ball among them. The ball rests at a
+    random point near the centre of the circle; each bot also observes the ball's offset
+    in its own frame, and the episode reports the mean distance of the bots to it."""
+
+    name = "ball"
+    summary = "bots whose paths cross, with a ball among them"
+    metrics = ("velocity_error", "ball_distance")
+
+    def __init__(self, task) -> None:
+        super().__init__(task)
+        single = agent_observation_space(self.robot, task.group)
+        reach = task.group.neighbour_range
+        self._space = spaces.Box(
+            low=np.concatenate([single.low, [-reach, -reach]]).astype(np.float32),
+            high=np.concatenate([single.high, [reach, reach]]).astype(np.float32),
+        )
+        self._size = single.shape[0]
+        self.ball = None
+
+    def build(self, client, bots) -> None:
+        shape = client.createCollisionShape(pybullet.GEOM_SPHERE, radius=BALL_RADIUS)
+        self.ball = client.createMultiBody(baseMass=0.5, baseCollisionShapeIndex=shape)
+        self._client = client
+
+    def move_clear(self, scene) -> None:
+        self._client.resetBasePositionAndOrientation(self.ball, PARKED, (0, 0, 0, 1))
+
+    def place(self, scene, rng) -> None:
+        x, y = rng.uniform(-0.5, 0.5, size=2)
+        self.centre = (float(x), float(y))
+        height = scene.ground.spawn_height(x, y) + BALL_RADIUS
+        self._client.resetBasePositionAndOrientation(self.ball, (x, y, height), (0, 0, 0, 1))
+        self._client.resetBaseVelocity(self.ball, (0, 0, 0), (0, 0, 0))
+
+    def observation_space(self):
+        return self._space
+
+    def _ball(self) -> complex:
+        (x, y, _), _ = self._client.getBasePositionAndOrientation(self.ball)
+        return complex(x, y)
+
+    def observe(self, states, commands, targets):
+        rows = super().observe(states, commands, targets)
+        ball = self._ball()
+        extra = []
+        for state in states:
+            forward_x, forward_y = state.heading
+            offset = (ball - complex(*state.position[:2])) * complex(forward_y, forward_x)
+            reach = self.group.neighbour_range
+            extra.append([min(max(v, -reach), reach) for v in (offset.real, offset.imag)])
+        return np.hstack([rows, np.array(extra, dtype=np.float32)])
+
+    def outcome(self, agents, states, targets, seed):
+        rewards, terminations, infos = super().outcome(agents, states, targets, seed)
+        ball = self._ball()
+        for agent, state in zip(agents, states, strict=True):
+            infos[agent]["ball_distance"] = abs(ball - complex(*state.position[:2]))
+        return rewards, terminations, infos
+
+
+@pytest.fixture
+def ball_task(monkeypatch) -> TaskSpec:
+    monkeypatch.setitem(SCENARIOS, "ball", Ball)
+    return dataclasses.replace(
+        SUITE["bbbench/MultiBalance-v1"], id="bbbench/BallCrossing-v0", scenario="ball"
+    )
+
+
+def test_every_published_task_plays_solo_or_crossing():
+    for task in SUITE.values():
+        assert task.scenario_class is (Crossing if task.multi_agent else Solo)
+
+
+def test_naming_the_implied_scenario_leaves_the_fingerprint():
+    task = SUITE["bbbench/MultiBalance-v1"]
+    named = dataclasses.replace(task, scenario="crossing")
+    assert named.spec_hash == task.spec_hash
+    assert dataclasses.replace(task, scenario="solo", group=None).spec_hash != task.spec_hash
+
+
+def test_a_scenario_given_a_robot_it_cannot_play_names_both(monkeypatch):
+    class TwoWheelOnly(Crossing):
+        name = "two-wheel-only"
+        robots = ("two-wheel",)
+
+    monkeypatch.setitem(SCENARIOS, "two-wheel-only", TwoWheelOnly)
+    task = SUITE["bbbench/MultiBalance-v1"]
+    with pytest.raises(ValueError, match=r"'two-wheel-only' scenario cannot play the wheel-legged"):
+        dataclasses.replace(task, scenario="two-wheel-only", robot="wheel-legged")
+    with pytest.raises(ValueError, match=r"scenario must be one of 'solo', 'crossing'"):
+        dataclasses.replace(task, scenario="carry")
+    with pytest.raises(ValueError, match=r"'solo' scenario plays one bot"):
+        dataclasses.replace(task, scenario="solo")
+
+
+def test_wheel_legged_bots_share_one_world():
+    task = dataclasses.replace(
+        SUITE["bbbench/MultiBalance-v1"],
+        id="bbbench/LeggedCrossing-v0",
+        robot="wheel-legged",
+        group=Group(n_bots=3),
+        random_return=None,
+    )
+    env = MultiBalanceEnv(task, action_mode="continuous")
+    parallel_api_test(env, num_cycles=50)
+    observations, _ = env.reset(seed=1)
+    # The robot's own 17 values (asked of the robot), then 3 neighbours of 4 values.
+    assert env.observation_space("bot_0").shape == (17 + 4 * 3,)
+    legged = bbbench.make("bbbench/LeggedFlatBalance-v0").unwrapped
+    first = env.scene.bots[0].read()
+    alone = legged.scene.robot.values(
+        (first.pitch, first.pitch_rate, first.wheel_speed), 0.0, env.scene.live_targets(0)[0], first
+    )
+    np.testing.assert_array_equal(observations["bot_0"][:17], np.float32(alone))
+    assert len({bot.body for bot in env.scene.bots}) == 3
+    for _ in range(20):
+        env.step({agent: np.zeros(6, dtype=np.float32) for agent in env.agents})
+    assert env.agents  # they stand, legs at rest and wheels still
+
+
+def test_the_guides_scenario_adds_a_body_observation_and_metric(ball_task):
+    env = MultiBalanceEnv(ball_task)
+    observations, infos = env.reset(seed=4)
+    crossing = MultiBalanceEnv("bbbench/MultiBalance-v1")
+    plain, _ = crossing.reset(seed=4)
+    client = env.scene.world.client
+    assert client.getNumBodies() == crossing.scene.world.client.getNumBodies() + 1
+    assert env.observation_space("bot_0").shape == (19,)
+    for agent in env.agents:  # the robot's and neighbours' values as Crossing's, then the ball
+        np.testing.assert_array_equal(observations[agent][:17], plain[agent])
+        right, ahead = observations[agent][17:]
+        assert math.hypot(right, ahead) == pytest.approx(infos[agent]["ball_distance"], abs=0.2)
+    assert env.metrics == ("velocity_error", "ball_distance")
+    result = MultiEpisode(env, lambda batch, rngs: [4] * len(batch), 4).play()
+    assert list(result.metrics) == ["velocity_error", "ball_distance"]
+    assert 0.0 < result.metrics["ball_distance"] < 5.0
+    assert list(result.record())[5:7] == ["velocity_error", "ball_distance"]
+
+
+def test_the_guides_scenario_plays_an_episode_the_same_after_any_other(ball_task):
+    def episode(env, seed):
+        observations, _ = env.reset(seed=seed)
+        rows = [observations["bot_0"].copy()]
+        for _ in range(60):
+            observations, *_ = env.step(dict.fromkeys(env.agents, 6))
+            if "bot_0" in observations:
+                rows.append(observations["bot_0"].copy())
+        return np.array(rows)
+
+    fresh = episode(MultiBalanceEnv(ball_task), 7)
+    reused = MultiBalanceEnv(ball_task)
+    episode(reused, 8)
+    np.testing.assert_array_equal(episode(reused, 7), fresh)
+
+
+def test_every_file_the_guide_names_exists():
+    text = (REPO / "docs/architecture.md").read_text()
+    guide = text[text.index("- **A scenario.**") : text.index("## One episode, written once")]
+    named = set(re.findall(r"`((?:bbbench|tests|docs)/[\w/.<>-]+)`", guide))
+    assert len(named) >= 5
+    for path in named:
+        if "<" not in path:  # `bbbench/tasks/scenarios/<name>.py` is the new file
+            assert (REPO / path).exists(), path
+
+
+def test_the_scenario_base_lists_what_a_scenario_owns():
+    for method in ("build", "move_clear", "starts", "place", "observation_space", "leave"):
+        assert method in Scenario.__dict__
+    assert Scenario.metrics == ("velocity_error",)
