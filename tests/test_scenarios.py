@@ -12,6 +12,7 @@ import math
 import re
 from pathlib import Path
 
+import cloudpickle
 import numpy as np
 import pybullet
 import pytest
@@ -186,6 +187,16 @@ def test_the_guides_scenario_plays_an_episode_the_same_after_any_other(ball_task
     reused = MultiBalanceEnv(ball_task)
     episode(reused, 8)
     np.testing.assert_array_equal(episode(reused, 7), fresh)
+
+
+def test_a_pickled_copy_of_the_guides_scenario_builds_its_own_world(ball_task):
+    env = MultiBalanceEnv(ball_task)
+    first, _ = env.reset(seed=3)
+    copy = cloudpickle.loads(cloudpickle.dumps(env))
+    again, _ = copy.reset(seed=3)
+    assert copy.scene.world.client_id != env.scene.world.client_id
+    for agent, observation in first.items():
+        np.testing.assert_array_equal(again[agent], observation)
 
 
 def test_every_file_the_guide_names_exists():

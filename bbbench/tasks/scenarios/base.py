@@ -7,18 +7,19 @@ its scenario (`TaskSpec.scenario`) as it names its robot, and each env's `Scene`
 one instance of it for its world. The scene keeps the physics (world, ground, bots,
 stepping, reading); the scenario owns:
 
-| what                          | method                                  |
-|-------------------------------|-----------------------------------------|
-| extra bodies and constraints  | `build(client, bots)`                   |
-| the bots' starting poses      | `starts(rng)`; its bodies: `move_clear`, `place` |
-| the observation and its space | `observation_space()`, `observe(...)`   |
-| each step's outcome           | `outcome(...)` (single-bot: `outcome_one`) |
-| per-episode metrics           | `metrics`: info keys averaged per bot-step |
-| what an ended bot does        | `leave(scene, indices)`                 |
+| what it owns                        | where                                              |
+|-------------------------------------|----------------------------------------------------|
+| extra bodies and constraints        | `build(client, bots)`                              |
+| the starting poses                  | `starts(rng)`; its bodies: `move_clear`, `place`   |
+| the observation and its space       | `observation_space()`, `observe` / `observe_one`   |
+| each step's outcome                 | `outcome` / `outcome_one`; `team`: a fall ends all |
+| the per-episode metrics             | `metrics`: info keys averaged per bot-step         |
+| what becomes of a bot that has ended | `leave(scene, indices)`                           |
 
 A scenario is made per scene (`Scenario(task)`): it may keep what it built in the
-world (a beam's body id, its constraints) on itself. docs/architecture.md, "How to add
-a scenario", walks through writing one.
+world (a beam's body id, its constraints, the world's client) on itself; a pickled
+copy drops the client, and its first reset builds the world and calls `build` again.
+docs/architecture.md, "How to add a scenario", walks through writing one.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
+from pybullet_utils.bullet_client import BulletClient
 
 # The spec imports the scenarios, not the other way round: a task is typed `Task` here.
 Task = Any  # a `bbbench.tasks.spec.TaskSpec`
@@ -108,6 +110,11 @@ class Scenario:
     def observation_space(self) -> spaces.Box:
         """One agent's observation space (the same object every call)."""
         raise NotImplementedError
+
+    def __getstate__(self) -> dict[str, Any]:
+        # A pickled scene carries no world (cloudpickle copies of an env must not share
+        # one): the copy's first reset builds a new world, and `build` runs again there.
+        return {k: v for k, v in self.__dict__.items() if not isinstance(v, BulletClient)}
 
     # -- what a bot leaves behind -------------------------------------------------------
 
