@@ -27,6 +27,7 @@ from bbbench.tasks.observation import agent_observation_space
 from bbbench.tasks.scenarios import SCENARIOS, Crossing, Scenario, Solo
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE
+from bbbench.tasks.tracks import track_of
 
 REPO = Path(__file__).resolve().parent.parent
 BALL_RADIUS = 0.15  # m
@@ -213,3 +214,13 @@ def test_the_scenario_base_lists_what_a_scenario_owns():
     for method in ("build", "move_clear", "starts", "place", "observation_space", "leave"):
         assert method in Scenario.__dict__
     assert Scenario.metrics == ("velocity_error",)
+
+
+def test_every_task_of_the_suite_is_on_a_declared_track_and_an_undeclared_one_is_refused():
+    for task in SUITE.values():
+        assert track_of(task).holds(task)
+    legged_group = dataclasses.replace(
+        SUITE["bbbench/MultiBalance-v1"], id="bbbench/LeggedCrossing-v0", robot="wheel-legged"
+    )
+    with pytest.raises(ValueError, match=r"no track ranks the wheel-legged robot's multi-bot"):
+        track_of(legged_group)

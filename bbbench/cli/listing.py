@@ -77,7 +77,8 @@ def describe(task_id: str) -> None:
     print(f"\n{spec.description.strip()}\n")
     bots = spec.group.n_bots if spec.multi_agent else 1
     print(
-        f"robot {spec.robot}, bots {bots}, {spec.max_episode_steps} steps of "
+        f"robot {spec.robot}, scenario {spec.scenario} ({spec.scenario_class.summary}), "
+        f"bots {bots}, {spec.max_episode_steps} steps of "
         f"{spec.control_dt:g} s, max return {spec.max_return:g}, "
         f"{len(spec.eval_seeds)} eval seeds, fingerprint {spec.fingerprint}"
     )

@@ -34,7 +34,7 @@ from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
 from bbbench.tasks.suite import list_tasks, spec
-from bbbench.tasks.tracks import TRACKS
+from bbbench.tasks.tracks import TRACKS, track_of
 
 SCHEMA = "bbbench-leaderboard/1"
 PROFILE_SUFFIX = ".profile.json"  # results/<slug>.<track>.profile.json: a robustness profile
@@ -68,6 +68,10 @@ class Board:
     episodes: int | None = None
     # The robustness profile every entry gets (None: none).
     profile: Protocol | None = PROTOCOL
+
+    def __post_init__(self) -> None:
+        for task_id in self.tasks:  # a task no track ranks would silently leave the board
+            track_of(spec(task_id))
 
     def seeds(self, task_id: str) -> list[int]:
         return list(spec(task_id).eval_seeds[: self.episodes])
