@@ -26,6 +26,7 @@ from gymnasium import logger
 from bbbench.robots import Body, BotState
 from bbbench.sim import World
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
+from bbbench.tasks.scenarios import Scenario
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
 from bbbench.terrain import Heightmap, load_ground
@@ -117,6 +118,9 @@ class Scene:
         self.plain = (
             self.perfect_sensors and not task.height_scan and self.robot.observes_shared_only
         )
+        # Called before every multi-bot world step only by scenarios that couple bots.
+        overridden = type(scenario).before_step is not Scenario.before_step
+        self._before_step = scenario.before_step if overridden else None
 
     def _clear(self) -> None:
         """Forget the world's bodies (closed, or never built: a new or unpickled scene)."""
@@ -172,10 +176,7 @@ class Scene:
         ground = self._ground
         ground.reset(streams.terrain)
         poses, pitches = self.scenario.starts(streams.start)
-        rows = [
-            task.command.targets(streams.command, task.max_episode_steps, task.control_dt)
-            for _ in range(n)
-        ]
+        rows = self.scenario.targets(streams.command)
         self._errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
         self._targets = rows[0]  # floats, for the hot path
         # [step][bot], for several bots
@@ -250,6 +251,8 @@ class Scene:
 
     def advance_live(self) -> list[BotState]:
         """Step the world once and read the live bots, in order."""
+        if self._before_step is not None:
+            self._before_step(self)
         if self.steps == self._next_push:
             self._push()
         self._world_step()

@@ -54,6 +54,7 @@ class RobotModel(WheeledModel):
     motor_torque_limit: float  # N m per wheel, the velocity servo's effort limit
     axle_height: float  # m, axle above the link origin
     torso_com_height: float  # m, torso centre of mass above the link origin
+    torso_top_height: float  # m, the top of the torso's box above the link origin
 
     @property
     def com_above_axle(self) -> float:
@@ -75,6 +76,8 @@ def read_model(urdf_path: Path = URDF_PATH) -> RobotModel:
         motor_torque_limit=float(limit.get("effort")),
         axle_height=float(left.find("origin").get("xyz").split()[2]),
         torso_com_height=float(torso.find("inertial/origin").get("xyz").split()[2]),
+        torso_top_height=float(torso.find("collision/origin").get("xyz").split()[2])
+        + float(torso.find("collision/geometry/box").get("size").split()[2]) / 2,
     )
 
 

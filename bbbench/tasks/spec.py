@@ -17,6 +17,7 @@ import numpy as np
 from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
+from bbbench.tasks.coupling import Beam, Tether
 from bbbench.tasks.group import Group
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
@@ -58,6 +59,7 @@ _OPTIONS_ADDED_LATER = {
     "lateral_period": None,
     "perturbations": (),
     "robot": "two-wheel",
+    "coupling": None,
 }
 
 
@@ -142,6 +144,8 @@ class TaskSpec:
     # observation, outcome, metrics. None: the one its group implies, "crossing" for a
     # group and "solo" for one bot (the published tasks' scenarios, hashed as if absent).
     scenario: str | None = None
+    # What couples a team's bots (`bbbench.tasks.coupling`): a beam, tethers, or nothing.
+    coupling: Beam | Tether | None = None
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, in the robot's default
     # action mode (discrete for the two-wheel bot): the 0 of the normalized score.

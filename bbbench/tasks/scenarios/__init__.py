@@ -1,10 +1,13 @@
 """The scenarios: each task's rules (`Scenario`), found by the name its spec gives."""
 
 from bbbench.tasks.scenarios.base import Scenario
+from bbbench.tasks.scenarios.column import BeamCarry, Column, Convoy
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
 
-SCENARIOS: dict[str, type[Scenario]] = {cls.name: cls for cls in (Solo, Crossing)}
+SCENARIOS: dict[str, type[Scenario]] = {
+    cls.name: cls for cls in (Solo, Crossing, BeamCarry, Convoy)
+}
 
 
 def scenario(name: str) -> type[Scenario]:
@@ -15,4 +18,4 @@ def scenario(name: str) -> type[Scenario]:
         raise KeyError(f"no scenario {name!r}: the scenarios are {', '.join(SCENARIOS)}") from None
 
 
-__all__ = ["SCENARIOS", "Crossing", "Scenario", "Solo", "scenario"]
+__all__ = ["SCENARIOS", "BeamCarry", "Column", "Convoy", "Crossing", "Scenario", "Solo", "scenario"]

@@ -105,10 +105,30 @@ class Scenario:
         """After the bots stand at their starts: put the scenario's own bodies in place
         for the episode (nothing by default). `rng` is the start stream, past `starts`."""
 
+    def targets(self, rng: np.random.Generator) -> list[list[float]]:
+        """Each bot's target velocity (m/s) after reset and after each step, drawn from the
+        episode's command stream: by default a schedule of the task's command per bot."""
+        task = self.task
+        return [
+            task.command.targets(rng, task.max_episode_steps, task.control_dt)
+            for _ in range(self.n_bots)
+        ]
+
+    # -- stepping -------------------------------------------------------------------
+
+    def before_step(self, scene: Any) -> None:
+        """Just before every world step of a multi-bot episode: apply the forces the
+        scenario's own couplings exert (bullet clears external forces after each step).
+        Nothing by default, and then the scene does not call it."""
+
     # -- observations -------------------------------------------------------------
 
     def observation_space(self) -> spaces.Box:
-        """One agent's observation space (the same object every call)."""
+        """One agent's observation space (the same object every call).
+
+        `observe` runs once after every reset and every step, before `outcome`: a
+        scenario reads its own bodies there, once a step, and keeps what `outcome` and
+        `before_step` need."""
         raise NotImplementedError
 
     def __getstate__(self) -> dict[str, Any]:

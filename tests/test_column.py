@@ -1,0 +1,169 @@
+"""Coupled teams in a column (`bbbench.tasks.scenarios.column`): a beam carried by every
+bot (`BeamCarry`) and tethers from each bot to the next (`Convoy`), on tasks made here
+from MultiBalance-v1's row (the suite's rows come with their calibration)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.policies.pd import PDController
+from bbbench.robots.layout import INDEX
+from bbbench.tasks.commands import ConstantVelocity, PiecewiseConstantVelocity
+from bbbench.tasks.coupling import Beam, Tether
+from bbbench.tasks.group import Group
+from bbbench.tasks.scenarios import BeamCarry, Convoy
+from bbbench.tasks.suite import SUITE
+
+GRAVITY = 9.81
+TARGET = INDEX["target_velocity"]
+
+
+def team_task(coupling, n_bots: int = 3, command=None, **changes):
+    scenario = "beam-carry" if isinstance(coupling, Beam) else "convoy"
+    return dataclasses.replace(
+        SUITE["bbbench/MultiBalance-v1"],
+        id="bbbench/TeamTest-v0",
+        scenario=scenario,
+        coupling=coupling,
+        group=Group(n_bots=n_bots),
+        command=command or PiecewiseConstantVelocity(low=-2.0, high=2.0, hold=(2.0, 5.0)),
+        random_return=None,
+        **changes,
+    )
+
+
+def field(env, name: str) -> int:
+    return [f.name for f in env.scene.scenario.layout].index(name)
+
+
+PD = PDController()
+
+
+def pd_actions(env, observations):
+    return {agent: PD(observations[agent][:5]) for agent in env.agents}
+
+
+@pytest.mark.parametrize("coupling", [Beam(), Tether()])
+def test_pettingzoo_api_and_seed_tests_pass(coupling):
+    parallel_api_test(MultiBalanceEnv(team_task(coupling)), num_cycles=100)
+
+
+def test_the_beam_rests_on_the_torsos_tops_and_its_weight_is_shared():
+    env = MultiBalanceEnv(team_task(Beam(mass=1.5), command=ConstantVelocity(0.0)))
+    observations, _ = env.reset(seed=2**31)
+    for _ in range(200):
+        observations, *_ = env.step(pd_actions(env, observations))
+    assert len(env.agents) == 3
+    across = [observations[agent][field(env, "hinge_force_across")] for agent in env.agents]
+    # The beam presses down on the bots: together they hold its weight.
+    assert sum(across) == pytest.approx(-1.5 * GRAVITY, rel=0.05)
+    assert all(force < 0 for force in across)
+    assert abs(observations["bot_0"][field(env, "beam_pitch")]) < 0.02
+    scenario = env.scene.scenario
+    (_, _, z), _ = env.scene.world.client.getBasePositionAndOrientation(scenario.beam)
+    assert z == pytest.approx(0.5 + 0.02, abs=0.02)  # on the 0.5 m tops
+
+
+def test_only_the_front_bot_observes_the_team_target_and_end_bots_have_one_neighbour():
+    env = MultiBalanceEnv(team_task(Beam(), command=ConstantVelocity(1.5)))
+    observations, _ = env.reset(seed=3)
+    assert observations["bot_0"][TARGET] == pytest.approx(1.5)
+    assert observations["bot_1"][TARGET] == observations["bot_2"][TARGET] == 0.0
+    ahead, behind = field(env, "ahead_present"), field(env, "behind_present")
+    assert [observations[a][ahead] for a in env.agents] == [0.0, 1.0, 1.0]
+    assert [observations[a][behind] for a in env.agents] == [1.0, 1.0, 0.0]
+    forward = field(env, "ahead_forward")
+    assert observations["bot_1"][forward] == pytest.approx(0.6, abs=1e-3)
+    assert env.observation_space("bot_0").shape == (19,)
+    assert env.observation_space("bot_0").contains(observations["bot_1"])
+
+
+@pytest.mark.parametrize("coupling", [Beam(), Tether()])
+def test_the_team_earns_one_reward_and_a_fall_of_any_bot_ends_every_agent(coupling):
+    env = MultiBalanceEnv(team_task(coupling, command=ConstantVelocity(0.0)))
+    observations, _ = env.reset(seed=5)
+    rng = np.random.default_rng(0)
+    steps = 0
+    while env.agents:
+        actions = {agent: int(rng.integers(9)) for agent in env.agents}  # random
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+        steps += 1
+        assert len(set(rewards.values())) == 1
+        assert 0.0 <= rewards["bot_0"] <= 0.1
+        terms = infos["bot_0"]["reward_upright"] + infos["bot_0"]["reward_velocity"]
+        assert terms == rewards["bot_0"]
+    assert steps < 1500
+    assert all(terminations.values())  # every agent ends in the same step ...
+    assert not any(truncations.values())
+    tilts = [bot.read().tilt for bot in env.scene.bots]
+    assert max(tilts) > 1.0  # ... at the first bot's fall
+    assert env.ended_at == dict.fromkeys(env.possible_agents, steps)
+
+
+def test_a_tether_pulls_a_follower_that_ignores_it():
+    def follower_speed(stiffness: float) -> float:
+        tether = Tether(stiffness=stiffness, damping=0.0, breaking_stretch=5.0)
+        env = MultiBalanceEnv(team_task(tether, n_bots=2, command=ConstantVelocity(0.8)))
+        observations, _ = env.reset(seed=7)
+        for _ in range(250):
+            observations, *_ = env.step(pd_actions(env, observations))
+        return float(env.scene.bots[1].read().forward_velocity)
+
+    assert abs(follower_speed(0.0)) < 0.1  # PD holds the 0 it observes
+    assert follower_speed(40.0) > 0.2  # dragged along by the leader
+
+
+def test_a_tether_stretched_past_its_breaking_stretch_ends_the_team():
+    tether = Tether(stiffness=0.0, damping=0.0, breaking_stretch=0.05)
+    env = MultiBalanceEnv(team_task(tether, n_bots=2, command=ConstantVelocity(1.0)))
+    observations, _ = env.reset(seed=7)
+    stretch = field(env, "stretch_behind")
+    while env.agents:
+        last = observations["bot_0"][stretch]
+        observations, _, terminations, _, _ = env.step(pd_actions(env, observations))
+    assert all(terminations.values())
+    assert observations["bot_0"][stretch] > 0.05 >= last
+    assert all(bot.read().tilt < 1.0 for bot in env.scene.bots)  # ended by the break
+
+
+@pytest.mark.parametrize("coupling", [Beam(), Tether()])
+def test_an_episode_plays_the_same_after_any_other(coupling):
+    def episode(env, seed):
+        observations, _ = env.reset(seed=seed)
+        rows = [observations["bot_1"].copy()]
+        for _ in range(150):
+            observations, *_ = env.step(pd_actions(env, observations))
+            if not env.agents:
+                break
+            rows.append(observations["bot_1"].copy())
+        return np.array(rows)
+
+    fresh = episode(MultiBalanceEnv(team_task(coupling)), 11)
+    reused = MultiBalanceEnv(team_task(coupling))
+    episode(reused, 12)
+    np.testing.assert_array_equal(episode(reused, 11), fresh)
+
+
+def test_what_a_team_task_refuses_says_the_task_and_what_it_takes():
+    with pytest.raises(ValueError, match=r"n_bots must be from 2 to 4 for the 'beam-carry'"):
+        team_task(Beam(), n_bots=5)
+    with pytest.raises(ValueError, match=r"'beam-carry' scenario cannot play the wheel-legged"):
+        team_task(Beam(), robot="wheel-legged")
+    with pytest.raises(ValueError, match=r"'convoy' scenario needs a Tether coupling"):
+        dataclasses.replace(team_task(Tether()), coupling=Beam())
+    with pytest.raises(ValueError, match=r"Beam mass must be a number in \[0.1, 10\] kg"):
+        Beam(mass=-1.0)
+    with pytest.raises(ValueError, match=r"Tether breaking_stretch must be a number"):
+        Tether(breaking_stretch=math.nan)
+
+
+def test_the_layouts_name_every_value_once():
+    for scenario in (BeamCarry, Convoy):
+        names = [f.name for f in scenario(team_task(scenario.coupling_type())).layout]
+        assert len(names) == len(set(names)) == 19
