@@ -87,12 +87,12 @@ def test_only_the_front_bot_observes_the_team_target_and_end_bots_have_one_neigh
 @pytest.mark.parametrize("coupling", [Beam(), Tether()])
 def test_the_team_earns_one_reward_and_a_fall_of_any_bot_ends_every_agent(coupling):
     env = MultiBalanceEnv(team_task(coupling, command=ConstantVelocity(0.0)))
-    observations, _ = env.reset(seed=5)
+    env.reset(seed=5)
     rng = np.random.default_rng(0)
     steps = 0
     while env.agents:
         actions = {agent: int(rng.integers(9)) for agent in env.agents}  # random
-        observations, rewards, terminations, truncations, infos = env.step(actions)
+        _, rewards, terminations, truncations, infos = env.step(actions)
         steps += 1
         assert len(set(rewards.values())) == 1
         assert 0.0 <= rewards["bot_0"] <= 0.1
