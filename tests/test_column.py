@@ -13,6 +13,7 @@ from pettingzoo.test import parallel_api_test
 
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.policies.pd import PDController
+from bbbench.policies.team import TeamController
 from bbbench.robots.layout import INDEX
 from bbbench.tasks.commands import ConstantVelocity, PiecewiseConstantVelocity
 from bbbench.tasks.coupling import Beam, Tether
@@ -167,3 +168,36 @@ def test_the_layouts_name_every_value_once():
     for scenario in (BeamCarry, Convoy):
         names = [f.name for f in scenario(team_task(scenario.coupling_type())).layout]
         assert len(names) == len(set(names)) == 19
+
+
+def play_team(env, seed: int, control) -> tuple[int, float]:
+    """One episode under `control` (an observation in, an action out, for every bot): its
+    length and the team's return."""
+    observations, _ = env.reset(seed=seed)
+    total = 0.0
+    for step in range(env.task.max_episode_steps):
+        actions = {agent: control(observations[agent]) for agent in env.agents}
+        observations, rewards, terminations, _, _ = env.step(actions)
+        total += rewards["bot_0"]
+        if any(terminations.values()):
+            return step + 1, total
+    return env.task.max_episode_steps, total
+
+
+@pytest.mark.parametrize("coupling", [Beam(mass=1.0), Tether()])
+def test_the_team_controller_beats_bots_that_ignore_each_other(coupling):
+    """The coupling matters: followers under PD alone hold the 0 they observe and are
+    dragged, or drag, where the team controller's follow the bot ahead and the pull."""
+    env = MultiBalanceEnv(team_task(coupling))
+    team = TeamController([f.name for f in env.scene.scenario.layout])
+    seeds = [2**31 + k for k in range(6)]
+    naive = [play_team(env, seed, lambda observation: PD(observation[:5])) for seed in seeds]
+    led = [play_team(env, seed, team) for seed in seeds]
+    assert sum(length == 1500 for length, _ in naive) <= 4  # naive bots fall ...
+    assert all(length == 1500 for length, _ in led)  # ... where the team stays up
+    assert sum(r for _, r in led) > 1.5 * sum(r for _, r in naive)
+
+
+def test_the_team_controller_refuses_a_task_without_a_column():
+    with pytest.raises(ValueError, match=r"the team controller plays the column tasks"):
+        TeamController(["pitch", "pitch_rate", "wheel_speed", "wheel_command", "target_velocity"])

@@ -11,7 +11,6 @@ from gymnasium import spaces
 
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import Group
-from bbbench.tasks.observation import agent_observation_space
 from bbbench.tasks.perturbations import Push
 from bbbench.tasks.reward import StayUpReward
 from bbbench.tasks.sensors import NoisySensors
@@ -471,9 +470,9 @@ def agent_spaces(
     task_id: str, action_mode: str, height_scan: bool = False
 ) -> tuple[spaces.Box, spaces.Space]:
     """The observation and action space of one bot of a task (every bot's, on a multi-bot
-    task, which has no height scan), without building the task."""
+    task, which has no height scan: its scenario's), without building the task's world."""
     task = spec(task_id)
     robot = task.robot_model
     if task.group is None:
         return robot.observation_space(height_scan), robot.action_space(action_mode)
-    return agent_observation_space(robot, task.group), robot.action_space(action_mode)
+    return task.scenario_class(task).observation_space(), robot.action_space(action_mode)
