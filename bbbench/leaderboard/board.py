@@ -34,7 +34,7 @@ from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
 from bbbench.tasks.suite import list_tasks, spec
-from bbbench.tasks.tracks import TRACKS, track_of
+from bbbench.tasks.tracks import TRACKS, Track, track_of
 
 SCHEMA = "bbbench-leaderboard/1"
 PROFILE_SUFFIX = ".profile.json"  # results/<slug>.<track>.profile.json: a robustness profile
@@ -200,7 +200,7 @@ def score(
     return scored
 
 
-def _profiled_tracks(policy: Policy, task_ids: Sequence[str]) -> list[Any]:
+def _profiled_tracks(policy: Policy, task_ids: Sequence[str]) -> list[Track]:
     """The tracks an entry playing `task_ids` is on whose profile task `policy` fits."""
     return [
         track
@@ -211,7 +211,7 @@ def _profiled_tracks(policy: Policy, task_ids: Sequence[str]) -> list[Any]:
 
 
 def _stored_profile(
-    folder: Path, slug: str, track: Any, policy: Policy, protocol: Protocol
+    folder: Path, slug: str, track: Track, policy: Policy, protocol: Protocol
 ) -> dict[str, Any] | None:
     """`folder/<slug>.<track>.profile.json` when it is today's profile of `policy` on the
     track: the same policy, protocol and versions, and every point the spec it played then
@@ -381,8 +381,8 @@ def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]
 
 def _robustness(member: _Member, track: str) -> dict[str, Any] | None:
     """The entry's profile on `track` as the board shows it: its two figures, and per axis
-    the normalized score at each grid value (None: the policy fits not the track's profile
-    task)."""
+    the normalized score at each grid value (None: the policy does not fit the track's
+    profile task)."""
     document = member.scored.profiles.get(track)
     if document is None:
         return None
