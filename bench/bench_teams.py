@@ -14,30 +14,18 @@ to MultiBalance-v1's (the issue's targets: at most 1.3 for the beam, 1.5 for the
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 
 import bbbench
+from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.policies.pd import PDController
 from bbbench.policies.team import TeamController
-from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.coupling import Beam, Tether
-from bbbench.tasks.group import Group
-from bbbench.tasks.suite import SUITE
 
 
-def column(scenario: str, coupling) -> MultiBalanceEnv:
-    task = dataclasses.replace(
-        SUITE["bbbench/MultiBalance-v1"],
-        id="bbbench/TeamBench-v0",
-        scenario=scenario,
-        coupling=coupling,
-        group=Group(n_bots=3),
-        command=PiecewiseConstantVelocity(low=-2.0, high=2.0, hold=(2.0, 5.0)),
-        random_return=None,
-    )
-    return MultiBalanceEnv(task)
+def column(coupling) -> MultiBalanceEnv:
+    return MultiBalanceEnv(candidate_task(coupling, 3, 2.0, task_id="bbbench/TeamBench-v0"))
 
 
 class Loop:
@@ -68,7 +56,7 @@ def main() -> None:
     args = parser.parse_args()
     pd = PDController()
     plain = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=3)
-    beam, convoy = column("beam-carry", Beam()), column("convoy", Tether())
+    beam, convoy = column(Beam()), column(Tether())
     loops = {
         "MultiBalance-v1 x3": Loop(plain, lambda observation: pd(observation[:5])),
         "BeamCarry x3": Loop(beam, TeamController([f.name for f in beam.scene.scenario.layout])),

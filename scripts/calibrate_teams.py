@@ -5,10 +5,11 @@ controller (`bbbench.policies.team`), on the first evaluation seeds.
     python scripts/calibrate_teams.py [--episodes 100] [--workers 2]
 
 Each candidate is a spec made from MultiBalance-v1's row with a column scenario, a
-coupling and a target range (`CANDIDATES`). A row says, per policy, the share of
-episodes finished and the mean team return as a fraction of the most (0.1 a step), then
-naive and team normalized against random (0 = random's mean return, 1 = the most), and
-P(team > naive) with its 95% interval (`bbbench.evaluation.stats`). The targets a task
+coupling and a target range (`CANDIDATES`, `bbbench.dev.teams.candidate_task`). A row
+says, per policy, the share of episodes finished and the mean team return as a fraction
+of the most (0.1 a step), then naive and team normalized against random (0 = random's
+mean return, 1 = the most), and P(team > naive) with its 95% interval
+(`bbbench.evaluation.stats`). The targets a task
 must meet: team clearly above naive (the interval above 0.5), team at most 0.7
 normalized or at most 60% finished, random finishing none.
 """
@@ -16,42 +17,28 @@ normalized or at most 60% finished, random finishing none.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation import stats
+from bbbench.evaluation.play import MultiEpisode
 from bbbench.policies.pd import PDController
 from bbbench.policies.team import TeamController
-from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.coupling import Beam, Tether
-from bbbench.tasks.group import Group
 from bbbench.tasks.spec import EVAL_SEEDS
-from bbbench.tasks.suite import SUITE
 
 POLICIES = ("random", "naive", "team")
 
 
-def candidate(scenario: str, coupling, n_bots: int, speed: float):
-    return dataclasses.replace(
-        SUITE["bbbench/MultiBalance-v1"],
-        id="bbbench/TeamCandidate-v0",
-        scenario=scenario,
-        coupling=coupling,
-        group=Group(n_bots=n_bots),
-        command=PiecewiseConstantVelocity(low=-speed, high=speed, hold=(2.0, 5.0)),
-        random_return=None,
-    )
-
-
 CANDIDATES = {
-    "beam 1.5 kg, 3 bots, [-2, 2] m/s": candidate("beam-carry", Beam(), 3, 2.0),
-    "beam 1.0 kg, 3 bots, [-2, 2] m/s": candidate("beam-carry", Beam(mass=1.0), 3, 2.0),
-    "beam 2.0 kg, 4 bots, [-2, 2] m/s": candidate("beam-carry", Beam(mass=2.0), 4, 2.0),
-    "convoy (20 N/m, 5 N s/m), 3 bots, [-2, 2] m/s": candidate("convoy", Tether(), 3, 2.0),
-    "convoy (20 N/m, 5 N s/m), 3 bots, [-1, 1] m/s": candidate("convoy", Tether(), 3, 1.0),
+    "beam 1.5 kg, 3 bots, [-2, 2] m/s": candidate_task(Beam(), 3, 2.0),
+    "beam 1.0 kg, 3 bots, [-2, 2] m/s": candidate_task(Beam(mass=1.0), 3, 2.0),
+    "beam 2.0 kg, 4 bots, [-2, 2] m/s": candidate_task(Beam(mass=2.0), 4, 2.0),
+    "convoy (20 N/m, 5 N s/m), 3 bots, [-2, 2] m/s": candidate_task(Tether(), 3, 2.0),
+    "convoy (20 N/m, 5 N s/m), 3 bots, [-1, 1] m/s": candidate_task(Tether(), 3, 1.0),
 }
 
 
@@ -62,20 +49,15 @@ def play(job: tuple[str, str, int]) -> tuple[int, float]:
     pd = PDController()
     team = TeamController([f.name for f in env.scene.scenario.layout])
     rng = np.random.default_rng([0x5EED, seed])
-    observations, _ = env.reset(seed=seed)
-    total = 0.0
-    for step in range(env.task.max_episode_steps):
-        if policy == "random":
-            actions = {agent: int(rng.integers(9)) for agent in env.agents}
-        elif policy == "naive":
-            actions = {agent: pd(observations[agent][:5]) for agent in env.agents}
-        else:
-            actions = {agent: team(observations[agent]) for agent in env.agents}
-        observations, rewards, terminations, _, _ = env.step(actions)
-        total += rewards["bot_0"]
-        if any(terminations.values()):
-            return step + 1, total
-    return env.task.max_episode_steps, total
+    controls = {
+        "random": lambda observation: int(rng.integers(9)),
+        "naive": lambda observation: pd(observation[:5]),
+        "team": team,
+    }
+    control = controls[policy]
+    # The team reward is every bot's: the per-bot mean return is the team's.
+    result = MultiEpisode(env, lambda batch, _: [control(row) for row in batch], seed).play()
+    return result.length, result.episode_return
 
 
 def main() -> None:

@@ -11,32 +11,24 @@ import numpy as np
 import pytest
 from pettingzoo.test import parallel_api_test
 
+from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.evaluation.play import MultiEpisode
 from bbbench.policies.pd import PDController
 from bbbench.policies.team import TeamController
 from bbbench.robots.layout import INDEX
-from bbbench.tasks.commands import ConstantVelocity, PiecewiseConstantVelocity
+from bbbench.tasks.commands import ConstantVelocity
 from bbbench.tasks.coupling import Beam, Tether
-from bbbench.tasks.group import Group
 from bbbench.tasks.scenarios import BeamCarry, Convoy
-from bbbench.tasks.suite import SUITE
 
 GRAVITY = 9.81
 TARGET = INDEX["target_velocity"]
 
 
 def team_task(coupling, n_bots: int = 3, command=None, **changes):
-    scenario = "beam-carry" if isinstance(coupling, Beam) else "convoy"
-    return dataclasses.replace(
-        SUITE["bbbench/MultiBalance-v1"],
-        id="bbbench/TeamTest-v0",
-        scenario=scenario,
-        coupling=coupling,
-        group=Group(n_bots=n_bots),
-        command=command or PiecewiseConstantVelocity(low=-2.0, high=2.0, hold=(2.0, 5.0)),
-        random_return=None,
-        **changes,
-    )
+    if command is not None:
+        changes["command"] = command
+    return candidate_task(coupling, n_bots, task_id="bbbench/TeamTest-v0", **changes)
 
 
 def field(env, name: str) -> int:
@@ -172,16 +164,9 @@ def test_the_layouts_name_every_value_once():
 
 def play_team(env, seed: int, control) -> tuple[int, float]:
     """One episode under `control` (an observation in, an action out, for every bot): its
-    length and the team's return."""
-    observations, _ = env.reset(seed=seed)
-    total = 0.0
-    for step in range(env.task.max_episode_steps):
-        actions = {agent: control(observations[agent]) for agent in env.agents}
-        observations, rewards, terminations, _, _ = env.step(actions)
-        total += rewards["bot_0"]
-        if any(terminations.values()):
-            return step + 1, total
-    return env.task.max_episode_steps, total
+    length and the team's return (every bot's, as the reward is the team's)."""
+    result = MultiEpisode(env, lambda batch, _: [control(row) for row in batch], seed).play()
+    return result.length, result.episode_return
 
 
 @pytest.mark.parametrize("coupling", [Beam(mass=1.0), Tether()])

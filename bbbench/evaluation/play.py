@@ -46,11 +46,6 @@ class PlayedEpisode:
         """Every bot reached the time limit."""
         return self.falls == 0 and self.failure is None
 
-    @property
-    def velocity_error(self) -> float:
-        """The mean |forward velocity - target| per bot-step, m/s (every scenario's metric)."""
-        return self.metrics["velocity_error"]
-
     def record(self) -> dict[str, Any]:
         """As the results JSON writes it: the metrics between `success` and `failure`."""
         return {
