@@ -1,14 +1,16 @@
-"""Coupled teams (issue 39): a 3-bot column step against a 3-bot MultiBalance-v1 step.
+"""Coupled teams (issue 39): a 3-bot team step against a 3-bot MultiBalance-v1 step, and
+a new-terrain reset of BeamCarryBumps-v0 against one of MultiBumps-v1.
 
-    python bench/bench_teams.py [--steps 30000] [--chunk 250]
+    python bench/bench_teams.py [--steps 30000] [--chunk 250] [--resets 200]
 
-Three worlds of 3 bots, each driven by PD on every bot (the team controller on the
-column tasks: the same PD, a few more Python operations an observation), stepped in
-alternating chunks so they share the machine's slow and fast phases; only `env.step` is
-timed, resets excluded. The column tasks are made here from MultiBalance-v1's row (their
-suite rows come with their calibration): a 1.5 kg beam (`BeamCarry`) and tethers
-(`Convoy`), targets in [-2, 2] m/s. Reported: microseconds per world-step and the ratio
-to MultiBalance-v1's (the issue's targets: at most 1.3 for the beam, 1.5 for the convoy).
+Steps: three worlds of 3 bots, MultiBalance-v1 under PD on every bot, BeamCarry-v0 and
+Convoy-v0 under the team controller (the same PD, a few more Python operations an
+observation), stepped in alternating chunks so they share the machine's slow and fast
+phases; only `env.step` is timed, resets excluded. Resets: each task as made by default
+(MultiBumps 4 bots on a 12 x 12 m square, BeamCarryBumps 3 bots and a beam on a 4 x 36 m
+strip), `reset(seed=...)` with a new seed each time (a new terrain), alternating. Reported:
+microseconds per world-step or per reset, and the ratio to the reference (the issue's
+targets: at most 1.3 for the beam's step, 1.5 for the convoy's, 1.2 for the reset).
 """
 
 from __future__ import annotations
@@ -17,15 +19,9 @@ import argparse
 import time
 
 import bbbench
-from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.policies.pd import PDController
 from bbbench.policies.team import TeamController
-from bbbench.tasks.coupling import Beam, Tether
-
-
-def column(coupling) -> MultiBalanceEnv:
-    return MultiBalanceEnv(candidate_task(coupling, 3, 2.0, task_id="bbbench/TeamBench-v0"))
 
 
 class Loop:
@@ -53,14 +49,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=30_000, help="world-steps per task")
     parser.add_argument("--chunk", type=int, default=250)
+    parser.add_argument("--resets", type=int, default=200, help="resets per task")
     args = parser.parse_args()
     pd = PDController()
     plain = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=3)
-    beam, convoy = column(Beam()), column(Tether())
+    beam = bbbench.make_parallel("bbbench/BeamCarry-v0")
+    convoy = bbbench.make_parallel("bbbench/Convoy-v0")
     loops = {
         "MultiBalance-v1 x3": Loop(plain, lambda observation: pd(observation[:5])),
-        "BeamCarry x3": Loop(beam, TeamController([f.name for f in beam.scene.scenario.layout])),
-        "Convoy x3": Loop(convoy, TeamController([f.name for f in convoy.scene.scenario.layout])),
+        "BeamCarry-v0 x3": Loop(beam, TeamController(_layout(beam))),
+        "Convoy-v0 x3": Loop(convoy, TeamController(_layout(convoy))),
     }
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
@@ -70,6 +68,26 @@ def main() -> None:
     for name, loop in loops.items():
         per_step = loop.spent / loop.steps
         print(f"{name:22} {1e6 * per_step:14.2f} {per_step / reference:6.3f}")
+    resets = {name: bbbench.make_parallel(name) for name in ("bbbench/MultiBumps-v1", _BUMPS)}
+    for env in resets.values():  # the first reset builds the world: not timed
+        env.reset(seed=0)
+    spent = dict.fromkeys(resets, 0.0)
+    for seed in range(2**31, 2**31 + args.resets):
+        for name, env in resets.items():
+            began = time.perf_counter()
+            env.reset(seed=seed)
+            spent[name] += time.perf_counter() - began
+    print(f"{'new-terrain reset':22} {'us/reset':>14} {'ratio':>6}")
+    for name, total in spent.items():
+        ratio = total / spent["bbbench/MultiBumps-v1"]
+        print(f"{name.removeprefix('bbbench/'):22} {1e6 * total / args.resets:14.0f} {ratio:6.3f}")
+
+
+_BUMPS = "bbbench/BeamCarryBumps-v0"
+
+
+def _layout(env: MultiBalanceEnv) -> list[str]:
+    return [field.name for field in env.scene.scenario.layout]
 
 
 if __name__ == "__main__":

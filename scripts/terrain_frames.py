@@ -1,17 +1,22 @@
-"""Write the README's frame of each terrain task (docs/images/*.png).
+"""Write the README's frame of each terrain task and team task (docs/images/*.png).
 
-    python scripts/terrain_frames.py   # needs pillow: pip install 'bbbench[video]'
+    python scripts/terrain_frames.py [--teams]  # needs pillow: pip install 'bbbench[video]'
 
 Each frame is the env's own `rgb_array` render, 1.5 s into the first evaluation seed
-with the robot's classical controller driving (PD; the wheel-legged robot's own).
+with the robot's classical controller driving (PD; the wheel-legged robot's own; the
+team controller on the team tasks, whose frame is the whole team).
 
-Also the README's GIF (docs/images/legged-bumps.gif): the legged controller's first
-LeggedBumps-v0 evaluation episode as `bbbench eval legged --video` writes it (15 s, 10 MB),
-cut to its first 10 s, every other frame, 240 x 180 and 64 colours (under 2 MB).
+Also the README's GIFs, each an evaluation episode as `bbbench eval POLICY --video`
+writes it (15 s, about 10 MB), cut to its first 10 s, every other frame, 240 x 180 and 64
+colours (under 2 MB): the legged controller's first LeggedBumps-v0 episode
+(docs/images/legged-bumps.gif), and the team controller carrying the beam over the hills
+of BeamCarryBumps-v0 (docs/images/beamcarry-bumps.gif). `--teams`: the team tasks' frames
+and GIF only.
 """
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import tempfile
 from pathlib import Path
@@ -21,6 +26,7 @@ from PIL import Image
 import bbbench
 from bbbench.policies import PDController
 from bbbench.policies.legged import LeggedController
+from bbbench.policies.team import TeamController
 
 TASKS = (
     "bbbench/Bumps-v1",
@@ -31,6 +37,7 @@ TASKS = (
     "bbbench/LeggedBumps-v0",
     "bbbench/LeggedObstacles-v0",
 )
+TEAM_TASKS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
 OUT = Path(__file__).resolve().parent.parent / "docs" / "images"
 
 
@@ -49,11 +56,25 @@ def main() -> None:
         print(f"wrote {path}")
 
 
-def legged_gif() -> None:
+def team_frames() -> None:
+    for task_id in TEAM_TASKS:
+        env = bbbench.make_parallel(task_id, render_mode="rgb_array")
+        team = TeamController([field.name for field in env.scene.scenario.layout])
+        observations, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
+        for _ in range(150):
+            observations, *_ = env.step({a: team(observations[a]) for a in env.agents})
+        path = OUT / f"{task_id.split('/')[1].lower()}.png"
+        Image.fromarray(env.render()).save(path, optimize=True)
+        env.close()
+        print(f"wrote {path}")
+
+
+def gif(policy: str, task_id: str, name: str) -> None:
+    """`policy`'s first evaluation episode of `task_id`, shrunk, as docs/images/`name`."""
     with tempfile.TemporaryDirectory() as folder:
         full = Path(folder) / "full.gif"
         subprocess.run(
-            ["bbbench", "eval", "legged", "--task", "bbbench/LeggedBumps-v0", "--episodes", "1",
+            ["bbbench", "eval", policy, "--task", task_id, "--episodes", "1",
              "--workers", "1", "--video", str(full)],
             check=True, stdout=subprocess.DEVNULL,
         )  # fmt: skip
@@ -62,11 +83,16 @@ def legged_gif() -> None:
             episode.seek(index)
             frame = episode.convert("RGB").resize((240, 180), Image.BILINEAR)
             frames.append(frame.quantize(colors=64, method=Image.Quantize.MEDIANCUT))
-    path = OUT / "legged-bumps.gif"
+    path = OUT / name
     frames[0].save(path, save_all=True, append_images=frames[1:], duration=80, loop=0)
     print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-    main()
-    legged_gif()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--teams", action="store_true", help="the team tasks only")
+    if not parser.parse_args().teams:
+        main()
+        gif("legged", "bbbench/LeggedBumps-v0", "legged-bumps.gif")
+    team_frames()
+    gif("team", "bbbench/BeamCarryBumps-v0", "beamcarry-bumps.gif")

@@ -44,6 +44,8 @@ LEGGED = (
     "bbbench/LeggedBumps-v0",
     "bbbench/LeggedObstacles-v0",
 )
+# The team tasks: PPO shared by every bot of the column, three seeds each.
+TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
 SEEDS = (0, 1, 2)
 
 
@@ -60,6 +62,7 @@ def runs() -> list[dict]:
         *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in LEGGED),
         *({"tasks": [task], "algo": "sac", "seed": 0} for task in LEGGED),
+        *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in TEAMS),
     ]
     for run in plan:
         name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
@@ -129,7 +132,7 @@ def table(root: Path, board: Path) -> str:
         "|---|---:|---:|---|---:|",
     ]
     plan = runs()
-    rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, "generalist"]
+    rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist"]
     rows += [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
     for row in rows:
         task_id, _, algo = row.partition(" ")
@@ -147,7 +150,7 @@ def table(root: Path, board: Path) -> str:
             name, pd = "generalist (the six before PushRecovery; by task, in that order)", ""
         else:
             scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
-            classical = "legged" if task_id in LEGGED else "pd"
+            classical = "legged" if task_id in LEGGED else "team" if task_id in TEAMS else "pd"
             name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
             pd = f"{score(classical, task_id):.3f}"
         steps = records[0]["steps"]

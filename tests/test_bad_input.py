@@ -156,3 +156,36 @@ def test_unknown_agents_are_listed_and_reset_options_warn_once():
         env.reset(seed=0, options={"n_bots": 8})
     with pytest.raises(ValueError, match=r"unknown agent\(s\) 'bot_9'.*agents bot_0, bot_1$"):
         env.step({"bot_0": 4, "bot_1": 4, "bot_9": 4})
+
+
+# -- the team tasks ------------------------------------------------------------------------
+
+BEAM = "bbbench/BeamCarry-v0"
+
+
+def test_a_team_given_a_number_of_bots_it_cannot_take_exits_2(capsys, monkeypatch):
+    monkeypatch.setattr(sweep_module, "sweep", never)
+    err = one_line_exit_2(
+        capsys, "sweep", "team", "--axis", "n_bots", "--values", "5", "--task", BEAM
+    )
+    assert "n_bots must be from 2 to 4 for the 'beam-carry' scenario" in err
+    with pytest.raises(ValueError, match=r"n_bots must be from 2 to 4"):
+        bbbench.make_parallel(BEAM, n_bots=5)
+
+
+def test_a_perturbation_a_team_task_cannot_take_names_the_task_and_what_it_takes(
+    capsys, monkeypatch
+):
+    monkeypatch.setattr(sweep_module, "sweep", never)
+    err = one_line_exit_2(capsys, "sweep", "team", "--axis", "com_offset", "--task", BEAM)
+    assert f"com_offset does not apply to {BEAM}: it takes payload_mass, friction" in err
+    err = one_line_exit_2(capsys, "sweep", "team", "--axis", "sensor_noise", "--task", BEAM)
+    assert "multi-bot tasks observe through perfect sensors only" in err
+
+
+def test_a_policy_for_another_robot_or_task_kind_on_a_team_task_exits_2(capsys, monkeypatch):
+    monkeypatch.setattr(evaluation, "evaluate", never)
+    err = one_line_exit_2(capsys, "eval", "legged", "--task", BEAM)
+    assert f"{BEAM} plays the two-wheel robot" in err
+    err = one_line_exit_2(capsys, "eval", "team", "--task", MULTI)
+    assert f"{MULTI} is not a team task; team plays {BEAM}" in err

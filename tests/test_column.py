@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from pettingzoo.test import parallel_api_test
 
+import bbbench
 from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation.play import MultiEpisode
@@ -186,3 +187,155 @@ def test_the_team_controller_beats_bots_that_ignore_each_other(coupling):
 def test_the_team_controller_refuses_a_task_without_a_column():
     with pytest.raises(ValueError, match=r"the team controller plays the column tasks"):
         TeamController(["pitch", "pitch_rate", "wheel_speed", "wheel_command", "target_velocity"])
+
+
+# -- the suite's rows --------------------------------------------------------------------
+
+TEAM_TASKS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
+
+
+def _table_rows(doc: str, header: str) -> dict[int, list[str]]:
+    """The rows of the docstring table whose header's second cell is `header`, by Num."""
+    lines = doc.splitlines()
+    start = next(i for i, line in enumerate(lines) if f"| Num | {header} " in line)
+    rows = {}
+    for line in lines[start + 2 :]:
+        if not line.strip().startswith("|"):
+            break
+        cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+        rows[int(cells[0])] = cells[1:]
+    return rows
+
+
+def test_the_docstring_tables_are_the_layouts():
+    doc = MultiBalanceEnv.__doc__
+    both = _table_rows(doc, "Both")
+    for header, task_id in (("BeamCarry", TEAM_TASKS[0]), ("Convoy", TEAM_TASKS[2])):
+        task = bbbench.spec(task_id)
+        layout = task.scenario_class(task).layout
+        rows = {**_table_rows(doc, header), **both}
+        assert sorted(rows) == list(range(5, 19))
+        for num, (name, low, high, unit, _) in rows.items():
+            field_ = layout[num]
+            assert (name, unit) == (field_.name, field_.unit)
+            assert float(low) == pytest.approx(field_.low, abs=1e-4)
+            assert float(high) == pytest.approx(field_.high, abs=1e-4)
+        assert [f.name for f in layout[:5]] == list(INDEX)
+
+
+@pytest.mark.parametrize("task_id", TEAM_TASKS)
+def test_each_team_task_is_a_row_with_three_bots_and_the_team_target(task_id):
+    env = bbbench.make_parallel(task_id)
+    observations, infos = env.reset(seed=2**31)
+    assert env.possible_agents == ["bot_0", "bot_1", "bot_2"]
+    assert env.observation_space("bot_0").shape == (19,)
+    assert bbbench.spec(task_id).command.top_target == 2.0
+    assert [observations[a][TARGET] == 0.0 for a in env.agents] == [False, True, True] or (
+        observations["bot_0"][TARGET] == 0.0  # a target of exactly 0 is possible
+    )
+    assert {info["episode_seed"] for info in infos.values()} == {2**31}
+
+
+@pytest.mark.parametrize("task_id", TEAM_TASKS)
+@pytest.mark.parametrize("action_mode", ["discrete", "continuous"])
+def test_pettingzoo_api_test_on_the_suite_rows(task_id, action_mode):
+    parallel_api_test(bbbench.make_parallel(task_id, action_mode=action_mode), num_cycles=100)
+
+
+@pytest.mark.parametrize("task_id", TEAM_TASKS)
+def test_observations_stay_in_their_space_under_random_actions(task_id):
+    env = bbbench.make_parallel(task_id, n_bots=4, action_mode="continuous")
+    rng = np.random.default_rng(0)
+    for seed in (1, 2):
+        observations, _ = env.reset(seed=seed)
+        while env.agents:
+            for agent, observation in observations.items():
+                assert env.observation_space(agent).contains(observation), (agent, observation)
+            actions = {a: rng.uniform(-1, 1, size=1).astype(np.float32) for a in env.agents}
+            observations, *_ = env.step(actions)
+
+
+def test_the_payload_loads_the_beam_and_com_offset_is_refused():
+    env = bbbench.make_parallel(TEAM_TASKS[0], payload_mass=1.0)
+    env.reset(seed=2**31)
+    scenario = env.scene.scenario
+    client = env.scene.world.client
+    assert client.getDynamicsInfo(scenario.beam, -1)[0] == pytest.approx(2.5)
+    torso = bbbench.make_parallel(TEAM_TASKS[0])
+    torso.reset(seed=2**31)
+    bodies = [bot.body for bot in env.scene.bots]
+    reference = [bot.body for bot in torso.scene.bots]
+    masses = [client.getDynamicsInfo(body, -1)[0] for body in bodies]
+    built = [torso.scene.world.client.getDynamicsInfo(body, -1)[0] for body in reference]
+    assert masses == built  # the torsos as built
+    with pytest.raises(ValueError, match=r"com_offset does not apply to bbbench/BeamCarry-v0: "):
+        bbbench.make_parallel(TEAM_TASKS[0], com_offset=0.02)
+    bbbench.make_parallel(TEAM_TASKS[2], com_offset=0.02).reset(seed=2**31)  # the convoy takes it
+
+
+@pytest.mark.parametrize("n_bots", [1, 5, 16])
+def test_n_bots_outside_2_to_4_is_refused(n_bots):
+    with pytest.raises(ValueError, match=r"n_bots must be"):
+        bbbench.make_parallel(TEAM_TASKS[1], n_bots=n_bots)
+
+
+def test_the_team_builtin_plays_the_team_tasks_only():
+    from bbbench.policies import load_policy
+
+    team = load_policy("team")
+    assert all(team.mismatch(task_id) is None for task_id in TEAM_TASKS)
+    assert "is not a team task" in team.mismatch("bbbench/MultiBalance-v1")
+    assert "plays the wheel-legged robot" in team.mismatch("bbbench/LeggedBumps-v0")
+
+
+def test_rollout_shows_the_team_return_its_error_and_what_ended_it(capsys):
+    from bbbench.cli import main
+
+    assert main(["rollout", "--task", TEAM_TASKS[2], "--policy", "pd", "--episodes", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "error m/s  ended by" in out
+    assert "mean return (the team's)" in out
+    rows = [line for line in out.splitlines() if line.strip()[:1].isdigit()]
+    assert len(rows) == 3
+    assert all(row.endswith(("time limit", "fell", "a tether broke")) for row in rows)
+
+
+def test_ending_names_the_fallen_bots_and_a_broken_tether():
+    env = bbbench.make_parallel(TEAM_TASKS[2])
+    env.reset(seed=2**31)
+    scenario = env.scene.scenario
+    states = [bot.read() for bot in env.scene.bots]
+    assert scenario.ending(states) == ""
+    fallen = [state._replace(tilt=1.2) if i == 1 else state for i, state in enumerate(states)]
+    assert scenario.ending(fallen) == "bot_1 fell"
+    scenario._tethers[0] = (scenario._tethers[0][0], 0.5, 0.0)  # stretched past 0.4 m
+    assert scenario.ending(fallen) == "bot_1 fell; a tether broke"
+
+
+def test_a_rendered_convoy_shows_its_tethers_and_plays_as_an_unrendered_one():
+    def play(render_mode):
+        env = bbbench.make_parallel(TEAM_TASKS[2], render_mode=render_mode)
+        team = TeamController([f.name for f in env.scene.scenario.layout])
+        observations, _ = env.reset(seed=2**31)
+        rows = []
+        for step in range(120):
+            observations, *_ = env.step({a: team(observations[a]) for a in env.agents})
+            if render_mode and step % 40 == 0:
+                assert env.render().shape == (360, 480, 3)
+            rows.append(np.stack(list(observations.values())))
+        return np.stack(rows), env
+
+    plain, _ = play(None)
+    drawn, env = play("rgb_array")
+    np.testing.assert_array_equal(plain, drawn)
+    env.render()
+    scenario, client = env.scene.scenario, env.scene.world.client
+    centres = [np.array(client.getBasePositionAndOrientation(b.body)[0]) for b in env.scene.bots]
+    assert len(scenario._beads) == 2
+    for j, beads in enumerate(scenario._beads):  # each tether's beads on the line between
+        for body in beads:
+            point = np.array(client.getBasePositionAndOrientation(body)[0])
+            a, b = centres[j], centres[j + 1]
+            along = np.dot(point - a, b - a) / np.dot(b - a, b - a)
+            assert 0 < along < 1
+            np.testing.assert_allclose(point, a + along * (b - a), atol=1e-9)

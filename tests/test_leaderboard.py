@@ -34,12 +34,19 @@ BOARD = Board(
         "bbbench/Bumps-v1",
         "bbbench/FlatBalance-v0",
         "bbbench/MultiBalance-v0",
+        # PD and random differ on its first 4 seeds (on BeamCarry's, PD falls in 2 as
+        # early as random does); the track's profile plays BeamCarry.
+        "bbbench/Convoy-v0",
     ),
     episodes=4,
     # Two axes, two seeds: a profile in seconds (the board's: seven axes, 20 seeds).
     profile=Protocol(episodes=2, axes=("action_delay", "push")),
 )
 PROFILE = 2 * 5 * 2  # a profile's episodes on BOARD: 2 axes, 5 values each, 2 seeds
+# Every episode of the test board: pd, random and ppo play the three single-bot tasks, pd
+# and random the multi-bot one and the team one; pd and random are profiled on the three
+# tracks, ppo on the single-bot one.
+EPISODES = 3 * 3 * 4 + 2 * 4 + 2 * 4 + 7 * PROFILE
 GENERATED = ("bbbench-v0.json", "README.md", "index.html")
 
 
@@ -105,9 +112,7 @@ def test_builds_are_byte_identical_twice_and_with_two_workers(built, board, tmp_
     fresh = tmp_path / "fresh"
     shutil.copytree(built / "submissions", fresh / "submissions")
     rebuilt = leaderboard.build(fresh, BOARD, workers=2, cache=False)
-    # ppo plays no multi-bot task; pd and random have a profile on each of the two
-    # tracks, ppo on the single-bot one
-    assert rebuilt.played == rebuilt.episodes == 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
+    assert rebuilt.played == rebuilt.episodes == EPISODES
     assert files(fresh) == files(built)
 
 
@@ -137,11 +142,11 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     for path in (built / "results").glob("*.json"):
         is_profile = path.name.endswith(".profile.json")
         jsonschema.validate(json.loads(path.read_text()), profiles if is_profile else results)
-    assert len(list((built / "results").glob("*.profile.json"))) == 5
+    assert len(list((built / "results").glob("*.profile.json"))) == 7
     submission_schema = json.loads((DOCS / "submission-schema.json").read_text())
     for path in (built / "submissions").glob("*/submission.json"):
         jsonschema.validate(json.loads(path.read_text()), submission_schema)
-    assert [track["track"] for track in document["tracks"]] == ["single", "multi"]
+    assert [track["track"] for track in document["tracks"]] == ["single", "multi", "cooperative"]
     single = document["tracks"][0]
     assert [(t["task"], t["ranked"]) for t in single["tasks"]] == [
         ("bbbench/Bumps-v1", True),
@@ -149,6 +154,7 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
         ("bbbench/FlatBalance-v0", True),
     ]
     assert [e["slug"] for e in document["tracks"][1]["entries"]] == ["pd", "random"]
+    assert [e["slug"] for e in document["tracks"][2]["entries"]] == ["pd", "random"]
 
 
 def test_the_repository_board_follows_the_schemas():
@@ -184,8 +190,12 @@ def test_an_entry_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
         assert single["profile"] == f"results/{slug}.single.profile.json"
         assert multi["task"] == "bbbench/MultiBalance-v1"
         assert multi["profile"] == f"results/{slug}.multi.profile.json"
+        team = profiled["cooperative", slug]
+        assert team["task"] == "bbbench/BeamCarry-v0"
+        assert team["profile"] == f"results/{slug}.cooperative.profile.json"
         assert set(single["axes"]) == set(multi["axes"]) == {"action_delay", "push"}
-        assert single["score"] != multi["score"]
+        assert set(team["axes"]) == {"action_delay", "push"}
+        assert single["score"] != multi["score"] != team["score"]
     assert profiled["single", "ppo"]["task"] == "bbbench/VelocityTracking-v1"
 
 
@@ -196,9 +206,11 @@ def test_a_board_built_before_profiles_were_per_track_reuses_its_profiles(board)
     rebuilt = leaderboard.build(board, BOARD, workers=1)
     assert rebuilt.played == 0
     assert sorted(path.name for path in results.glob("*.profile.json")) == [
+        "pd.cooperative.profile.json",
         "pd.multi.profile.json",
         "pd.single.profile.json",
         "ppo.single.profile.json",
+        "random.cooperative.profile.json",
         "random.multi.profile.json",
         "random.single.profile.json",
     ]
@@ -210,12 +222,12 @@ def test_check_passes_on_a_fresh_build(board):
     assert checked.problems == []
     assert checked.rescored == []
     # One episode per (entry, task) and per (entry, profile point): pd and random play the
-    # four tasks, ppo three; each of the five profiles has 2 x 5 points.
-    assert checked.spot_checked == checked.episodes == (4 + 4 + 3) + 5 * 10
+    # five tasks, ppo three; each of the seven profiles has 2 x 5 points.
+    assert checked.spot_checked == checked.episodes == (5 + 5 + 3) + 7 * 10
     assert checked.entries == 3
     full = leaderboard.check(board, BOARD, workers=1, full=True)
     assert full.problems == []
-    assert full.episodes == 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
+    assert full.episodes == EPISODES
 
 
 def forge(board: Path, slug: str, task_id: str, seed: int) -> None:
@@ -347,7 +359,7 @@ def test_add_plays_only_the_new_submission(board):
     built = leaderboard.add(
         board, "pd", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
     )
-    assert built.played == sum(counted) == 4 * 4 + 2 * PROFILE  # pd on the 4 tasks, 2 profiles
+    assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE  # pd on the 5 tasks, 3 profiles
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
 
@@ -427,14 +439,14 @@ def test_show_prints_the_ranked_tables(command_board, capsys):
 
 def test_build_and_check_from_the_command(command_board, capsys):
     assert main(["leaderboard", "build", "--root", str(command_board), "--workers", "1"]) == 0
-    episodes = 3 * 3 * 4 + 2 * 4 + 5 * PROFILE
+    episodes = EPISODES
     assert f"{episodes} episodes (0 played, {episodes} from stored results)" in (
         capsys.readouterr().out
     )
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("leaderboard check ok: 3 entries, 4 tasks; every number recomputed")
-    assert "re-scored in full (inputs changed): none; 61 episodes of the others replayed" in out
+    assert out.startswith("leaderboard check ok: 3 entries, 5 tasks; every number recomputed")
+    assert "re-scored in full (inputs changed): none; 83 episodes of the others replayed" in out
     assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
     assert f"{episodes} episodes played again" in capsys.readouterr().out
     (command_board / "README.md").write_text("edited\n")

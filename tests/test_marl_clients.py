@@ -52,6 +52,31 @@ def test_torchrl_pettingzoo_wrapper_rolls_out_300_steps_through_falls():
     assert observations_within(rollout["next", "bot", "observation"][mask], env)
 
 
+@pytest.mark.parametrize("task_id", ["bbbench/BeamCarry-v0", "bbbench/Convoy-v0"])
+def test_torchrl_wrapper_on_a_team_task_ends_every_agent_at_once_with_one_reward(task_id):
+    torch = pytest.importorskip("torch")
+    from torchrl.envs.libs.pettingzoo import PettingZooWrapper
+
+    env = bbbench.make_parallel(task_id)
+    wrapped = PettingZooWrapper(env, use_mask=True, done_on_any=False, categorical_actions=True)
+    wrapped.set_seed(0)
+    torch.manual_seed(0)
+    rollout = wrapped.rollout(600, break_when_any_done=False)  # random actions: the team falls
+    terminated = rollout["next", "bot", "terminated"].squeeze(-1)  # (600, 3)
+    ends = terminated.any(dim=1)
+    assert ends.sum() >= 2  # fell, reset, fell again
+    assert torch.equal(terminated[ends], torch.ones_like(terminated[ends]))  # all at once
+    assert rollout["next", "done"][ends].all()
+    mask = rollout["next", "bot", "mask"]
+    # No bot is left behind: the team ends together, and the reset brings every bot back.
+    assert torch.equal(mask, ~ends[:, None].expand_as(mask))
+    reward = rollout["next", "bot", "reward"].squeeze(-1)
+    assert torch.equal(reward, reward[:, :1].expand_as(reward))  # the team's, for every bot
+    info = rollout["next", "bot", "info"]
+    assert torch.allclose(reward[mask], (info["reward_upright"] + info["reward_velocity"])[mask])
+    assert observations_within(rollout["next", "bot", "observation"][mask], env)
+
+
 def observations_within(observations, env) -> bool:
     space = env.observation_space(env.possible_agents[0])
     values = observations.numpy()
@@ -68,9 +93,10 @@ def _rllib():
     return ParallelPettingZooEnv
 
 
-def test_rllib_parallel_pettingzoo_env_resets_steps_and_renders():
+@pytest.mark.parametrize("task_id", [MULTI, "bbbench/BeamCarry-v0"])
+def test_rllib_parallel_pettingzoo_env_resets_steps_and_renders(task_id):
     wrapper = _rllib()
-    env = wrapper(bbbench.make_parallel(MULTI, n_bots=3, render_mode="rgb_array"))
+    env = wrapper(bbbench.make_parallel(task_id, n_bots=3, render_mode="rgb_array"))
     observations, infos = env.reset(seed=5)
     assert set(observations) == set(infos) == {"bot_0", "bot_1", "bot_2"}
     assert infos["bot_0"]["episode_seed"] == 5

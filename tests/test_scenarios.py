@@ -103,9 +103,14 @@ def ball_task(monkeypatch) -> TaskSpec:
     )
 
 
-def test_every_published_task_plays_solo_or_crossing():
+def test_every_task_before_the_teams_plays_solo_or_crossing():
+    """The tasks published before the scenario seam name none, and play the scenario
+    their group implies; the team tasks name theirs."""
     for task in SUITE.values():
-        assert task.scenario_class is (Crossing if task.multi_agent else Solo)
+        if task.coupling is None:
+            assert task.scenario_class is (Crossing if task.multi_agent else Solo)
+        else:
+            assert task.scenario in ("beam-carry", "convoy")
 
 
 def test_naming_the_implied_scenario_leaves_the_fingerprint():

@@ -72,9 +72,10 @@ def run(args: argparse.Namespace) -> None:
         f"seeds {args.seed}..{args.seed + args.episodes - 1}"
     )
     seeds = range(args.seed, args.seed + args.episodes)
-    play = _play_group if spec.multi_agent else _play_alone
+    team = spec.multi_agent and spec.scenario_class.team
+    play = _play_team if team else _play_group if spec.multi_agent else _play_alone
     returns, lengths = play(spec, policy, actor, seeds)
-    per_bot = " per bot" if spec.multi_agent else ""
+    per_bot = " (the team's)" if team else " per bot" if spec.multi_agent else ""
     print(
         f"mean return{per_bot} {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
         f"mean length {statistics.fmean(lengths):.0f} of {spec.max_episode_steps} steps; "
@@ -104,6 +105,31 @@ def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
         returns.append(result.episode_return)
         lengths.append(result.length)
         print(f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {ended}")
+    env.close()
+    return returns, lengths
+
+
+def _play_team(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
+    """Team episodes, the policy shared by every bot: one row each with the team's return
+    (every bot's: the reward is the team's), its mean velocity error, and what ended it:
+    the bots that fell, a broken tether, or the time limit."""
+    from bbbench.evaluation.episodes import action_generator  # lazy: bbbench.evaluation.episodes
+    from bbbench.evaluation.play import MultiEpisode  # lazy: bbbench.evaluation.play
+
+    env = bbbench.make_parallel(spec.id, action_mode=policy.action_mode)
+    scenario = env.scene.scenario
+    print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  {'error m/s':>9}  ended by")
+    returns, lengths = [], []
+    for seed in seeds:
+        rng = action_generator(seed) if policy.random_actions else None
+        result = MultiEpisode(env, actor, seed, rng).play()
+        returns.append(result.episode_return)
+        lengths.append(result.length)
+        ended = result.failure or scenario.ending([bot.read() for bot in env.scene.bots])
+        print(
+            f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  "
+            f"{result.metrics['velocity_error']:>9.3f}  {ended or 'time limit'}"
+        )
     env.close()
     return returns, lengths
 

@@ -36,7 +36,8 @@ def add_parser(commands) -> None:
         f"Axes: {', '.join(AXES)}. Without --values, the axis's standard grid; without "
         "--task, VelocityTracking for a perturbation (the robot's own: LeggedVelocityTracking "
         "for the wheel-legged robot), the terrain tasks for difficulty and "
-        "the multi-bot tasks for n_bots (each the latest version the policies fit).",
+        "the multi-bot tasks that take 2 to 16 bots for n_bots (each the latest version the "
+        "policies fit).",
     )
     sweep.add_argument(
         "policy", nargs="+", metavar="POLICY", help="a .zip or a built-in, several to overlay"

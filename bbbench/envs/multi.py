@@ -109,6 +109,58 @@ class MultiBalanceEnv(ParallelEnv):
     - Truncation: after 1500 steps (15 s) every agent left is truncated.
     - `step({})` once no agent is left returns empty dicts.
 
+    ## Teams: BeamCarry, BeamCarryBumps, Convoy
+
+    In the team tasks (`bbbench.tasks.scenarios.column`) the bots need each
+    other. 3 bots (`n_bots` 2 to 4) stand in a column on one heading, centred
+    on the origin and 0.6 m apart, coupled: one beam hinged to the top of every
+    torso (BeamCarry; over hills in BeamCarryBumps), or a spring-damper tether
+    from each bot to the next (Convoy). The team follows one target schedule,
+    U(-2, 2) m/s held 2-5 s; only the front bot (`bot_0`) observes it, the
+    others read 0 in its slot.
+
+    Every agent receives the team's reward, the shared reward's form on the
+    team: `StayUpReward.terms(pitch, error)` with `pitch` the most tilted bot's
+    and `error` = |team velocity - target| (the beam's velocity along its
+    length; the convoy's mean forward velocity), 0-0.1 a step. `infos` carry
+    the team's terms. A fall of any bot, or a broken tether, terminates every
+    agent (multiwalker's `terminate_on_fall`); the bots stay where they are.
+
+    Per agent, `Box(19,)` of float32: the single-bot five (`BalanceEnv`'s,
+    unchanged but that only `bot_0` reads the target; the others read 0), four
+    values of the coupling, then the bot ahead and the bot behind:
+
+    | Num | BeamCarry          | Min      | Max     | Unit  | Meaning (the hinges' force)   |
+    |-----|--------------------|----------|---------|-------|-------------------------------|
+    | 5   | hinge_force_along  | -50      | 50      | N     | on the bot along the beam, + forward |
+    | 6   | hinge_force_across | -50      | 50      | N     | on the bot, square to it, + up |
+    | 7   | beam_pitch         | -1.5708  | 1.5708  | rad   | the beam's front end up       |
+    | 8   | beam_pitch_rate    | -34.9066 | 34.9066 | rad/s | its rate                      |
+
+    | Num | Convoy              | Min | Max | Unit | Meaning                               |
+    |-----|---------------------|-----|-----|------|---------------------------------------|
+    | 5   | stretch_ahead       | -5  | 5   | m    | the tether ahead beyond its rest length |
+    | 6   | stretch_rate_ahead  | -10 | 10  | m/s  | its rate                              |
+    | 7   | stretch_behind      | -5  | 5   | m    | the tether behind, the same           |
+    | 8   | stretch_rate_behind | -10 | 10  | m/s  | its rate                              |
+
+    | Num | Both                    | Min | Max | Unit | Meaning                           |
+    |-----|-------------------------|-----|-----|------|-----------------------------------|
+    | 9   | ahead_present           | 0   | 1   |      | 1 if there is a bot ahead, else 0 |
+    | 10  | ahead_right             | -5  | 5   | m    | the bot ahead: to the right       |
+    | 11  | ahead_forward           | -5  | 5   | m    | its distance ahead                |
+    | 12  | ahead_right_velocity    | -10 | 10  | m/s  | its velocity minus this bot's, right |
+    | 13  | ahead_forward_velocity  | -10 | 10  | m/s  | the same, ahead                   |
+    | 14  | behind_present          | 0   | 1   |      | 1 if there is a bot behind, else 0 |
+    | 15  | behind_right            | -5  | 5   | m    | the bot behind: to the right      |
+    | 16  | behind_forward          | -5  | 5   | m    | its distance ahead (negative)     |
+    | 17  | behind_right_velocity   | -10 | 10  | m/s  | its velocity minus this bot's, right |
+    | 18  | behind_forward_velocity | -10 | 10  | m/s  | the same, ahead                   |
+
+    Measured as the crossing tasks' neighbours, saturated; an end bot's missing
+    neighbour is all zeros, its presence bit 0. The hinge force is the force on
+    the bot (minus the constraint's force on the beam), 0 at reset.
+
     ## Arguments
 
     ```python
@@ -117,11 +169,13 @@ class MultiBalanceEnv(ParallelEnv):
     env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=4, action_mode="discrete")
     ```
 
-    - `n_bots`: 2 to 16 (default 4); changes the task's fingerprint.
+    - `n_bots`: 2 to 16 (default 4; the team tasks 2 to 4, default 3);
+      changes the task's fingerprint.
     - `action_mode`: `"discrete"` (default) or `"continuous"`.
     - `render_mode`: `None` or `"rgb_array"` (480 x 360 frames showing the
       whole group, headless).
-    - `difficulty` (MultiBumps only): in [0, 1], default 0.3.
+    - `difficulty` (MultiBumps and BeamCarryBumps only): in [0, 1], default
+      0.3 (MultiBumps) or 0.6 (BeamCarryBumps).
     - `max_episode_steps`: the time limit, default 1500.
 
     ## Version History
@@ -284,6 +338,7 @@ class MultiBalanceEnv(ParallelEnv):
         if not render_ready(self):
             return None
         self._scene.ground.paint()
+        self._scenario.draw(self._scene)
         target, distance = self.camera()
         return self._scene.world.camera_image(
             target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
@@ -337,13 +392,17 @@ def check_actions(actions: dict[str, Any], env: MultiBalanceEnv) -> None:
 
 
 def _ignored(options: Any, task_id: str) -> str:
-    """The warning for options `reset()` ignores."""
+    """The warning for options `reset()` ignores: where the first that is a keyword of
+    `make_parallel` goes (`n_bots=8` for `options={"n_bots": 8}`)."""
     named = sorted(map(repr, options)) if isinstance(options, dict) else [repr(options)]
+    keywords = ("n_bots", "difficulty", "max_episode_steps", "action_mode")
+    given = [(k, options[k]) for k in keywords if isinstance(options, dict) and k in options]
+    example = f"{given[0][0]}={given[0][1]!r}" if given else "max_episode_steps=500"
     return (
         f"{task_id}: reset() takes no options and ignored {', '.join(named)}; the task's "
         f"parameters are keywords of bbbench.make_parallel (n_bots, difficulty, "
         f"max_episode_steps, action_mode, and the perturbations), e.g. "
-        f"bbbench.make_parallel({task_id!r}, n_bots=8)"
+        f"bbbench.make_parallel({task_id!r}, {example})"
     )
 
 

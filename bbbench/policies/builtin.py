@@ -1,5 +1,5 @@
 """The classical baselines and reference policies every task can be scored against:
-PD, stand (PD holding 0 m/s), LQR, random and zero."""
+PD, stand (PD holding 0 m/s), LQR, random and zero; and the team tasks' own, team."""
 
 from __future__ import annotations
 
@@ -9,8 +9,10 @@ from bbbench.policies.legged import LeggedController
 from bbbench.policies.lqr import LQRController
 from bbbench.policies.pd import PDController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
+from bbbench.policies.team import TeamController
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
-from bbbench.tasks.suite import agent_spaces, spec
+from bbbench.tasks.scenarios import Column
+from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
 
 class TwoWheelPolicy(Policy):
@@ -65,6 +67,35 @@ class LQRPolicy(TwoWheelPolicy):
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         return PDActor(LQRController(action_mode=self.action_mode))
+
+
+class TeamPolicy(TwoWheelPolicy):
+    """The team tasks' classical controller (`bbbench.policies.team.TeamController`): PD
+    on a target each bot makes from its team, the front bot's target limited in how fast
+    it changes, a follower's from the bot ahead and the coupling's pull. It plays the
+    column tasks (BeamCarry, BeamCarryBumps, Convoy) only; on them, `pd` is the naive
+    baseline (a follower holds the 0 it observes)."""
+
+    name = algorithm = "team"
+
+    def __init__(self, action_mode: str = "discrete") -> None:
+        self.action_mode = action_mode
+
+    def mismatch(self, task_id: str) -> str | None:
+        refused = robot_mismatch(self, task_id)
+        if refused is None and not _is_team(task_id):
+            teams = [t for t in list_tasks(multi_agent=True, latest=True) if _is_team(t)]
+            return f"{task_id} is not a team task; team plays {', '.join(teams)}"
+        return refused
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        task = spec(task_id)
+        layout = [field.name for field in task.scenario_class(task).layout]
+        return PDActor(TeamController(layout, self.action_mode))
+
+
+def _is_team(task_id: str) -> bool:
+    return issubclass(spec(task_id).scenario_class, Column)
 
 
 class LeggedPolicy(Policy):

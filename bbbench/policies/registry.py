@@ -12,6 +12,7 @@ from bbbench.policies.builtin import (
     PDPolicy,
     RandomPolicy,
     StandPolicy,
+    TeamPolicy,
     ZeroPolicy,
 )
 from bbbench.policies.errors import PolicyError
@@ -45,6 +46,7 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "stand": StandPolicy,
     "lqr": LQRPolicy,
     "legged": LeggedPolicy,
+    "team": TeamPolicy,
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,

@@ -96,7 +96,8 @@ class RobotSetting(Perturbation):
 
 @parameters
 class PayloadMass(RobotSetting):
-    """`payload_mass`: kg added to the torso at its centre of mass (the bot weighs 1 kg)."""
+    """`payload_mass`: kg added to the torso at its centre of mass (the bot weighs 1 kg),
+    or to what the task's scenario carries (`Scenario.set_payload`: BeamCarry's beam)."""
 
     kg: float = 0.0
     keyword = "payload_mass"
@@ -109,6 +110,9 @@ class PayloadMass(RobotSetting):
         "up to four times the 1 kg bot: over 0-1 kg no policy measured lost score; PPO "
         "falls from 2 kg on, PD from 8"
     )
+
+    def apply(self, scene: Any, rng: np.random.Generator) -> None:
+        scene.scenario.set_payload(scene, self.kg)
 
 
 @parameters
@@ -251,6 +255,9 @@ def refusal(keyword: str, task: Any) -> str | None:
             f"{keyword} does not apply to {task.id}: multi-bot tasks observe through perfect "
             "sensors only"
         )
+    takes = task.scenario_class.perturbations
+    if takes is not None and keyword not in takes:
+        return f"{keyword} does not apply to {task.id}: it takes {', '.join(takes)}"
     return None
 
 

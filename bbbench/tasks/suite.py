@@ -10,6 +10,7 @@ import gymnasium
 from gymnasium import spaces
 
 from bbbench.tasks.commands import PiecewiseConstantVelocity
+from bbbench.tasks.coupling import Beam, Tether
 from bbbench.tasks.group import Group
 from bbbench.tasks.perturbations import Push
 from bbbench.tasks.reward import StayUpReward
@@ -379,6 +380,114 @@ difficulty, 0.8 (obstacles up to 0.01 m + 0.05 m x 0.8 = 0.05 m, each gap drawn 
     ),
 )
 SUITE.update((task.id, task) for task in _LEGGED)
+
+# Teams in a column (`bbbench.tasks.scenarios.column`): coupled bots, one team reward, led
+# by the front bot, the only one that observes the target. MultiBalance-v1's row (its
+# reward, control rate, time limit and evaluation seeds) with a column scenario, a
+# coupling and targets fast enough that bots which ignore the coupling are thrown.
+_TEAM_TARGETS = PiecewiseConstantVelocity(low=-2.0, high=2.0, hold=(2.0, 5.0))
+_TEAM_HISTORY = ("v0: initial release, on the shared reward's team form (Column).",)
+_TEAM_WHY = """\
+Only the front bot observes the team's target velocity; the others read 0 in that slot
+and must infer it from the coupling and from their neighbours. Targets are drawn from
+[-2, 2] m/s (the bot's top speed is 2.46 m/s) and held 2-5 s, as VelocityTracking's: at
+these speeds bots that ignore each other are thrown (at [-1, 1] m/s a hinged beam never
+threw PD). Every agent receives the team's reward, `StayUpReward.terms(pitch, error)`
+with the most tilted bot's pitch and `error` = |team velocity - target|: each step earns
+0-0.1, 0.01 for the team being upright and up to 0.09 more for its tracking. A fall of
+any bot ends every agent's episode (multiwalker's `terminate_on_fall`). The observation
+(19 values per bot, the table in `bbbench.envs.multi`): the shared five, four of the
+coupling, then the bot ahead and the bot behind, each with a presence bit. The naive
+baseline is `pd` (a follower holds the 0 it observes); the classical team controller is
+`team` (`bbbench.policies.team`); docs/tasks.md has the calibration."""
+
+
+def _team(task_id: str, summary: str, description: str, random_return: float, **fields):
+    """A column task on MultiBalance-v1's row (3 bots by default, `n_bots` 2-4)."""
+    return dataclasses.replace(
+        SUITE["bbbench/MultiBalance-v1"],
+        id=task_id,
+        summary=summary,
+        description=f"{description}\n\n{_TEAM_WHY}",
+        group=Group(n_bots=3),
+        command=_TEAM_TARGETS,
+        version_history=_TEAM_HISTORY,
+        random_return=random_return,
+        **fields,
+    )
+
+
+_BEAM_TABLE = """\
+| beam | value |
+|---|---|
+| mass | 1.5 kg |
+| length | (N - 1) x 0.6 m + 2 x 0.1 m (1.4 m for 3 bots) |
+| cross-section | 0.3 m across (along the axles) x 0.04 m high |
+| spacing | 0.6 m between neighbouring bots' hinges |
+| hinges | per bot, two point-to-point constraints 0.2 m apart on its torso's top: a hinge |
+| collisions | the ground only, not the bots |
+| target range | [-2, 2] m/s, each held 2-5 s |
+
+`payload_mass` loads the beam (kg at its centre); `com_offset` does not apply."""
+
+_TEAMS = (
+    _team(
+        "bbbench/BeamCarry-v0",
+        "a team of 3 bots (2-4) carrying one beam, led by the front bot, at [-2, 2] m/s",
+        f"""\
+A column of bots (3 by default, `n_bots` 2-4) on one heading, 0.6 m apart, carries one
+beam hinged to the top of every torso (`BeamCarry`, `Beam`) on flat ground. The team's
+velocity is the beam's, along its length. Each bot observes the force its hinges exert on
+it along the beam and square to it, and the beam's pitch and pitch rate.
+
+{_BEAM_TABLE}""",
+        random_return=1.9037218152528517,
+        scenario="beam-carry",
+        coupling=Beam(),
+    ),
+    _team(
+        "bbbench/Convoy-v0",
+        "a convoy of 3 bots (2-4), each tethered to the next, led by the front bot",
+        """\
+A column of bots (3 by default, `n_bots` 2-4) on one heading, each tethered to the next
+by a spring-damper between their torsos' centres of mass (`Convoy`, `Tether`) on flat
+ground. A tether pulls, never pushes: 20 N/m x (length - 0.6 m) + 5 N s/m x (its rate),
+applied to both bots before every world step; stretched more than 0.4 m beyond its rest
+length it breaks, and the team's episode ends. The bots start 0.6 m apart (the rest
+length). The team's velocity is the bots' mean forward velocity. Each bot observes the
+stretch of the tether ahead and of the one behind, and their rates (0 where there is
+none).""",
+        random_return=0.9912909542770169,
+        scenario="convoy",
+        coupling=Tether(),
+    ),
+)
+SUITE.update((task.id, task) for task in _TEAMS)
+_BEAM_BUMPS = _team(
+    "bbbench/BeamCarryBumps-v0",
+    "BeamCarry's team and beam over smooth random hills (`difficulty=` 0..1)",
+    f"""\
+BeamCarry's team, beam and targets on a 4 x 36 m strip of smooth random hills (Bumps'
+generator: white noise low-passed by a Gaussian of 0.35 m, on 0.2 m cells), a new one
+from each episode's seed, with flat ground around it. The column starts centred on a
+level disc of 1.2 m radius in the strip's middle, so that it can drive 18 m either way.
+`difficulty` (default 0.6, any number in [0, 1]) sets the hills' height, 0.02 m + 0.10 m
+x difficulty (0.08 m at the default, as high as Bumps-v0's at difficulty 1). On a hill the
+beam pitches: the hinges' force along it carries part of its weight.
+
+{_BEAM_TABLE}""",
+    random_return=1.9029908268947455,
+    scenario="beam-carry",
+    coupling=Beam(),
+    terrain=HeightfieldTerrain(
+        generator=Bumps(extra_height=0.10),
+        difficulty=0.6,
+        size=(4.0, 36.0),
+        start_margin=18.0,
+        start_pad=1.2,
+    ),
+)
+SUITE[_BEAM_BUMPS.id] = _BEAM_BUMPS
 
 
 def entry_point(task_id: str) -> str:

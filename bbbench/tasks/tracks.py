@@ -1,5 +1,5 @@
 """The leaderboard's tracks, each declared once: its title, the tasks it ranks (derived
-from the suite: a robot's single- or multi-bot tasks) and the task its entries' robustness
+from the suite: a robot's single-bot, multi-bot or team tasks) and the task its entries' robustness
 profile plays. The board (`bbbench.leaderboard`), the CLI's track choices and the profile
 protocol (`bbbench.evaluation.profile`) all read this table."""
 
@@ -13,7 +13,8 @@ from bbbench.tasks.suite import SUITE, latest_version
 
 @dataclasses.dataclass(frozen=True)
 class Track:
-    """One ranking: the tasks of one robot, played by one bot or by several."""
+    """One ranking: the tasks of one robot, played by one bot, by several, or by a team
+    (coupled bots that share one reward: a scenario whose `team` is set)."""
 
     name: str  # what the board document and `--track` say
     label: str  # how messages name it: 'the single-bot track'
@@ -21,6 +22,7 @@ class Track:
     robot: str  # `TaskSpec.robot`
     multi_agent: bool  # several bots in one world (one policy shared by every bot)
     profile_task: str  # a task of the track: its latest version is what profiles play
+    team: bool = False  # a team's tasks (cooperative), not bots each on their own
 
     def __post_init__(self) -> None:
         if not self.holds(SUITE[self.profile_task]):
@@ -30,7 +32,11 @@ class Track:
 
     def holds(self, task: TaskSpec) -> bool:
         """Whether the track ranks `task` (any version of it)."""
-        return task.robot == self.robot and task.multi_agent == self.multi_agent
+        return (
+            task.robot == self.robot
+            and task.multi_agent == self.multi_agent
+            and task.scenario_class.team == self.team
+        )
 
     @property
     def profiled_on(self) -> str:
@@ -57,6 +63,15 @@ TRACKS: dict[str, Track] = {
             "two-wheel",
             True,
             "bbbench/MultiBalance-v1",
+        ),
+        Track(
+            "cooperative",
+            "cooperative",
+            "cooperative tasks (coupled bots, one team reward, one policy shared by every bot)",
+            "two-wheel",
+            True,
+            "bbbench/BeamCarry-v0",
+            team=True,
         ),
         Track(
             "wheel-legged",

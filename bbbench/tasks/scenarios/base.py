@@ -15,6 +15,8 @@ stepping, reading); the scenario owns:
 | each step's outcome                 | `outcome` / `outcome_one`; `team`: a fall ends all |
 | the per-episode metrics             | `metrics`: info keys averaged per bot-step         |
 | what becomes of a bot that has ended | `leave(scene, indices)`                           |
+| where `payload_mass` goes            | `set_payload(scene, kg)`: each torso by default    |
+| what a frame shows beyond the bodies | `draw(scene)` (a tether), before each frame        |
 
 A scenario is made per scene (`Scenario(task)`): it may keep what it built in the
 world (a beam's body id, its constraints, the world's client) on itself; a pickled
@@ -51,6 +53,8 @@ class Scenario:
             this order.
         team: a fall ends every bot's episode (coupled bots: multiwalker's
             `terminate_on_fall`), not just the fallen bot's.
+        perturbations: the env keywords of the perturbations
+            (`bbbench.tasks.perturbations`) it takes; None for all.
     """
 
     name: ClassVar[str]
@@ -59,6 +63,7 @@ class Scenario:
     robots: ClassVar[tuple[str, ...] | None] = None
     metrics: ClassVar[tuple[str, ...]] = ("velocity_error",)
     team: ClassVar[bool] = False
+    perturbations: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, task: Task) -> None:
         self.task = task
@@ -88,6 +93,12 @@ class Scenario:
     def build(self, client: Any, bots: tuple[Any, ...]) -> None:
         """Add the scenario's own bodies and constraints to a new world that holds the
         ground and `bots` (none by default). Called once per world."""
+
+    def set_payload(self, scene: Any, kg: float) -> None:
+        """`payload_mass`: carry `kg` more. By default each bot at its torso's centre of
+        mass; a scenario that carries something (a beam) may put it there instead."""
+        for bot in scene.bots:
+            bot.set_payload(kg)
 
     # -- the episode's start ----------------------------------------------------
 
@@ -120,6 +131,11 @@ class Scenario:
         """Just before every world step of a multi-bot episode: apply the forces the
         scenario's own couplings exert (bullet clears external forces after each step).
         Nothing by default, and then the scene does not call it."""
+
+    def draw(self, scene: Any) -> None:
+        """Before a frame is rendered: show what the camera would not see of the
+        scenario (a tether is a force, not a body). Nothing by default. Whatever it adds
+        must not collide or weigh: a rendered episode plays as an unrendered one."""
 
     # -- observations -------------------------------------------------------------
 

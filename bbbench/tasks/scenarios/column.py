@@ -23,6 +23,7 @@ STRETCH_RANGE = 5.0  # m
 STRETCH_RATE_RANGE = 10.0  # m/s
 BEAM_HINGE_FORCE_LIMIT = 1000.0  # N: what one hinge may apply (pybullet's maxForce)
 _PARKED = (0.0, -2000.0, 20.0)  # m: where a coupling's body waits between episodes
+_BEADS_PER_TETHER = 12  # what a frame shows of a tether
 
 
 def _neighbour_fields(where: str) -> tuple[ObservationField, ...]:
@@ -44,9 +45,10 @@ NEIGHBOUR_LAYOUT = _neighbour_fields("ahead") + _neighbour_fields("behind")
 class Column(Scenario):
     """N bots (2 to 4) in a column on one heading, coupled by the task's `coupling`.
 
-    Bot 0 is at the front, at the origin heading along +y; bot i stands i x spacing
-    behind it. All lean by one pitch drawn from U(-initial_pitch, initial_pitch), so
-    that the coupling starts at rest. The team follows one target schedule; only the
+    The column is centred on the origin, heading along +y: bot 0 at the front, bot i
+    i x spacing behind it (so a start pad about the origin holds the whole team). All
+    lean by one pitch drawn from U(-initial_pitch, initial_pitch), so that the coupling
+    starts at rest. The team follows one target schedule; only the
     front bot observes it (the others read 0 in the target slot) and must infer it
     from the coupling and from their neighbours.
 
@@ -108,7 +110,8 @@ class Column(Scenario):
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         pitch = float(rng.uniform(-self.task.initial_pitch, self.task.initial_pitch))
         n = self.n_bots
-        return [((0.0, -self.spacing * i), 0.0) for i in range(n)], [pitch] * n
+        front = (n - 1) / 2 * self.spacing
+        return [((0.0, front - self.spacing * i), 0.0) for i in range(n)], [pitch] * n
 
     def targets(self, rng: np.random.Generator) -> list[list[float]]:
         task = self.task
@@ -151,6 +154,13 @@ class Column(Scenario):
     def broken(self) -> bool:
         """Whether the coupling itself ended the episode (from `read`)."""
         return False
+
+    def ending(self, states: list[Any]) -> str:
+        """What ended the team's episode, from every bot's last state: the bots that fell
+        and a broken coupling, or "" (the time limit)."""
+        fallen = [f"bot_{i}" for i, state in enumerate(states) if has_fallen(state)]
+        causes = [f"{', '.join(fallen)} fell"] if fallen else []
+        return "; ".join(causes + (["a tether broke"] if self.broken() else []))
 
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
@@ -200,11 +210,15 @@ class BeamCarry(Column):
     """The column carries one beam (`Beam`), hinged to the top of every torso. Each bot
     observes the force its two hinges exert on it, along the beam and across it
     (square to the beam, in its vertical plane), and the beam's pitch and pitch rate.
-    The team's velocity is the beam's, along its length."""
+    The team's velocity is the beam's, along its length.
+
+    `payload_mass` loads the beam (kg at its centre), not the torsos. `com_offset` does
+    not apply: it reloads a torso, and the hinges hold the torso as built."""
 
     name = "beam-carry"
     summary = "a column of bots carrying one beam hinged to every torso, led by the front bot"
     coupling_type = Beam
+    perturbations = ("payload_mass", "friction", "motor_strength", "action_delay", "push")
     coupling_layout = (
         ObservationField(
             "hinge_force_along",
@@ -276,6 +290,10 @@ class BeamCarry(Column):
 
     def move_clear(self, scene) -> None:
         self._client.resetBasePositionAndOrientation(self.beam, _PARKED, (0.0, 0.0, 0.0, 1.0))
+
+    def set_payload(self, scene, kg: float) -> None:
+        """`payload_mass`: `kg` more on the beam, at its centre."""
+        self._client.changeDynamics(self.beam, -1, mass=self.coupling.mass + kg)
 
     def place(self, scene, rng) -> None:
         """The beam level on the torsos' tops, along the column."""
@@ -370,6 +388,32 @@ class Convoy(Column):
     @staticmethod
     def coupling_spacing(coupling: Tether) -> float:
         return coupling.rest_length
+
+    def build(self, client, bots) -> None:
+        super().build(client, bots)
+        self._beads: list[list[int]] = []  # per tether, what `draw` shows of it
+
+    def draw(self, scene) -> None:
+        """Each tether as a line of beads between the torsos' centres: grey while slack,
+        turning red as it stretches towards its breaking stretch. Bodies without mass or
+        collision shape, made at the first frame."""
+        client = self._client
+        if not self._beads:
+            bead = client.createVisualShape(pybullet.GEOM_SPHERE, radius=0.015)
+            self._beads = [
+                [client.createMultiBody(0.0, -1, bead, _PARKED) for _ in range(_BEADS_PER_TETHER)]
+                for _ in self._tethers
+            ]
+        positions = [client.getBasePositionAndOrientation(b)[0] for b in self._bodies]
+        limit = self.coupling.breaking_stretch
+        for j, (beads, (_, stretch, _)) in enumerate(zip(self._beads, self._tethers, strict=True)):
+            strain = min(max(stretch / limit, 0.0), 1.0)
+            colour = (0.5 + 0.5 * strain, 0.5 * (1.0 - strain), 0.5 * (1.0 - strain), 1.0)
+            for k, body in enumerate(beads):
+                along = (k + 1) / (len(beads) + 1)
+                point = [a + along * (b - a) for a, b in zip(*positions[j : j + 2], strict=True)]
+                client.resetBasePositionAndOrientation(body, point, (0.0, 0.0, 0.0, 1.0))
+                client.changeVisualShape(body, -1, rgbaColor=colour)
 
     def read(self, states: list[Any]) -> None:
         """Each tether's direction, stretch and rate, from the bots' centres of mass."""
