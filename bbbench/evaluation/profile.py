@@ -4,7 +4,9 @@ profile on the standard axes (`bbbench.tasks.perturbations`).
 The protocol (`PROTOCOL`, a `Protocol`): on each leaderboard track a policy plays the
 latest version of the track's profile task (`bbbench.tasks.tracks`: VelocityTracking on
 the single-bot track, MultiBalance on the multi-bot one, where `sensor_noise` does not
-apply, LeggedVelocityTracking on the wheel-legged one), at each value of each axis's
+apply, BeamCarry on the cooperative one, which takes neither `sensor_noise` nor
+`com_offset` and puts `payload_mass` on the beam, LeggedVelocityTracking on the
+wheel-legged one), at each value of each axis's
 standard grid, on the first `PROFILE_EPISODES` evaluation seeds,
 with deterministic actions; every (axis, value) point through the harness's player, all
 on one pool of workers. Per axis the robustness score is the mean normalized score over

@@ -29,9 +29,11 @@ the repository's history. Per task: normalized score of the mean return, and in
 brackets the success rate (episodes with no fall). **Robustness** (not part of the
 rank): the entry's profile on the track, under one fixed protocol per track: the latest
 version of the track's profile task (VelocityTracking; MultiBalance on the multi-bot
-track, LeggedVelocityTracking on the wheel-legged one) on 20 evaluation seeds at each
-value of each perturbation's standard grid (payload, centre of mass, friction, motor strength,
-action delay, sensor noise, pushes): the mean over the axes of each axis's mean
+track, BeamCarry on the cooperative one, LeggedVelocityTracking on the wheel-legged one)
+on 20 evaluation seeds at each value of each perturbation's standard grid that applies
+(payload, centre of mass, friction, motor strength, action delay, sensor noise, pushes;
+a multi-bot task takes no sensor noise, BeamCarry no centre of mass and carries the
+payload on its beam): the mean over the axes of each axis's mean
 normalized score, and in brackets the worst case, the least normalized score at any
 point (`bbbench sweep` plays any axis of it)."""
 
