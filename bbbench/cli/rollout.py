@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> None:
     )
     seeds = range(args.seed, args.seed + args.episodes)
     team = spec.multi_agent and spec.scenario_class.team
-    play = _play_team if team else _play_group if spec.multi_agent else _play_alone
+    play = _play_group if spec.multi_agent else _play_alone
     returns, lengths = play(spec, policy, actor, seeds)
     per_bot = " (the team's)" if team else " per bot" if spec.multi_agent else ""
     print(
@@ -109,42 +109,18 @@ def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
     return returns, lengths
 
 
-def _play_team(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
-    """Team episodes, the policy shared by every bot: one row each with the team's return
-    (every bot's: the reward is the team's), its mean velocity error, and what ended it:
-    the bots that fell, a broken tether, or the time limit."""
-    from bbbench.evaluation.episodes import action_generator  # lazy: bbbench.evaluation.episodes
-    from bbbench.evaluation.play import MultiEpisode  # lazy: bbbench.evaluation.play
-
-    env = bbbench.make_parallel(spec.id, action_mode=policy.action_mode)
-    scenario = env.scene.scenario
-    print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  {'error m/s':>9}  ended by")
-    returns, lengths = [], []
-    for seed in seeds:
-        rng = action_generator(seed) if policy.random_actions else None
-        result = MultiEpisode(env, actor, seed, rng).play()
-        returns.append(result.episode_return)
-        lengths.append(result.length)
-        ended = result.failure or scenario.ending([bot.read() for bot in env.scene.bots])
-        print(
-            f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  "
-            f"{result.metrics['velocity_error']:>9.3f}  {ended or 'time limit'}"
-        )
-    env.close()
-    return returns, lengths
-
-
 def _play_group(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
-    """Multi-bot episodes, the policy shared by every bot: one row each with the mean return
-    per bot and the falls, then each bot's return and the step it fell at."""
+    """Multi-bot episodes, the policy shared by every bot, one row each: the mean return
+    per bot and the falls, then each bot's return and the step it fell at; on a team task
+    the team's return (every bot's), its mean velocity error, and what ended it (the bots
+    that fell, a broken tether, or the time limit)."""
     from bbbench.evaluation.episodes import action_generator  # lazy: bbbench.evaluation.episodes
     from bbbench.evaluation.play import MultiEpisode  # lazy: bbbench.evaluation.play
 
     env = bbbench.make_parallel(spec.id, action_mode=policy.action_mode)
-    bots = len(env.possible_agents)
-    print(
-        f"{'seed':>8}  {'steps':>5}  {'return':>8}  {'falls':>5}  each bot: return (fell at step)"
-    )
+    team = spec.scenario_class.team
+    head = "error m/s  ended by" if team else "falls  each bot: return (fell at step)"
+    print(f"{'seed':>8}  {'steps':>5}  {'return':>8}  {head}")
     returns, lengths = [], []
     for seed in seeds:
         rng = action_generator(seed) if policy.random_actions else None
@@ -152,16 +128,22 @@ def _play_group(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
         result = episode.play()
         returns.append(result.episode_return)
         lengths.append(result.length)
-        each = "  ".join(
-            f"{agent} {episode.returns[agent]:.2f}"
-            + (f" ({episode.fell[agent]})" if agent in episode.fell else "")
-            for agent in env.possible_agents
-        )
-        falls = f"{result.falls}/{bots}"
-        failure = f"  {result.failure}" if result.failure else ""
-        print(
-            f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {falls:>5}  "
-            f"{each}{failure}"
-        )
+        row = _team_row(env, result) if team else _bots_row(env, episode, result)
+        print(f"{seed:>8}  {result.length:>5}  {result.episode_return:>8.2f}  {row}")
     env.close()
     return returns, lengths
+
+
+def _bots_row(env, episode, result) -> str:
+    each = "  ".join(
+        f"{agent} {episode.returns[agent]:.2f}"
+        + (f" ({episode.fell[agent]})" if agent in episode.fell else "")
+        for agent in env.possible_agents
+    )
+    failure = f"  {result.failure}" if result.failure else ""
+    return f"{f'{result.falls}/{len(env.possible_agents)}':>5}  {each}{failure}"
+
+
+def _team_row(env, result) -> str:
+    ended = result.failure or env.scene.scenario.ending([bot.read() for bot in env.scene.bots])
+    return f"{result.metrics['velocity_error']:>9.3f}  {ended or 'time limit'}"

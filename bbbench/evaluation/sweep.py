@@ -129,17 +129,12 @@ def applying_tasks(axis: str) -> list[str]:
     if axis == "difficulty":
         return [task.id for task in latest if task.difficulty is not None]
     if axis == "n_bots":  # those that take the whole grid: a team takes 2 to 4 bots
-        return [task.id for task in latest if task.multi_agent and _takes_grid(task)]
+        return [
+            task.id
+            for task in latest
+            if task.multi_agent and (task.scenario_class.most_bots or MAX_BOTS) >= N_BOTS_GRID[-1]
+        ]
     return [task.id for task in latest if refusal(axis, task) is None]
-
-
-def _takes_grid(task: TaskSpec) -> bool:
-    try:
-        for n_bots in N_BOTS_GRID:
-            task.with_n_bots(n_bots)
-    except ValueError:
-        return False
-    return True
 
 
 def sweep_tasks(

@@ -32,6 +32,8 @@ import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.tasks.group import MIN_BOTS
+
 # The spec imports the scenarios, not the other way round: a task is typed `Task` here.
 Task = Any  # a `bbbench.tasks.spec.TaskSpec`
 
@@ -55,6 +57,7 @@ class Scenario:
             `terminate_on_fall`), not just the fallen bot's.
         perturbations: the env keywords of the perturbations
             (`bbbench.tasks.perturbations`) it takes; None for all.
+        most_bots: the most bots it plays; None for as many as a `Group` holds.
     """
 
     name: ClassVar[str]
@@ -64,6 +67,7 @@ class Scenario:
     metrics: ClassVar[tuple[str, ...]] = ("velocity_error",)
     team: ClassVar[bool] = False
     perturbations: ClassVar[tuple[str, ...] | None] = None
+    most_bots: ClassVar[int | None] = None
 
     def __init__(self, task: Task) -> None:
         self.task = task
@@ -82,6 +86,11 @@ class Scenario:
             return f"{task.id}: the {cls.name!r} scenario needs several bots (a Group)"
         if not cls.multi_agent and task.group is not None:
             return f"{task.id}: the {cls.name!r} scenario plays one bot, not a Group"
+        if cls.most_bots is not None and task.group.n_bots > cls.most_bots:
+            return (
+                f"{task.id}: n_bots must be from {MIN_BOTS} to {cls.most_bots} for the "
+                f"{cls.name!r} scenario, got {task.group.n_bots}"
+            )
         return None
 
     @property

@@ -61,6 +61,7 @@ class Column(Scenario):
     multi_agent = True
     team = True
     robots: ClassVar[tuple[str, ...] | None] = ("two-wheel",)  # the hinges hold its torso
+    most_bots = MAX_TEAM
     coupling_type: ClassVar[type]
     coupling_layout: ClassVar[tuple[ObservationField, ...]]
 
@@ -92,11 +93,6 @@ class Column(Scenario):
             return (
                 f"{task.id}: the {cls.name!r} scenario needs a {cls.coupling_type.__name__} "
                 f"coupling (bbbench.tasks.coupling), got {task.coupling!r}"
-            )
-        if task.group.n_bots > MAX_TEAM:
-            return (
-                f"{task.id}: n_bots must be from 2 to {MAX_TEAM} for the {cls.name!r} "
-                f"scenario, got {task.group.n_bots}"
             )
         return None
 
@@ -404,8 +400,7 @@ class Convoy(Column):
                 [client.createMultiBody(0.0, -1, bead, _PARKED) for _ in range(_BEADS_PER_TETHER)]
                 for _ in self._tethers
             ]
-        positions = [client.getBasePositionAndOrientation(b)[0] for b in self._bodies]
-        limit = self.coupling.breaking_stretch
+        positions, limit = self._positions, self.coupling.breaking_stretch
         for j, (beads, (_, stretch, _)) in enumerate(zip(self._beads, self._tethers, strict=True)):
             strain = min(max(stretch / limit, 0.0), 1.0)
             colour = (0.5 + 0.5 * strain, 0.5 * (1.0 - strain), 0.5 * (1.0 - strain), 1.0)
@@ -420,6 +415,7 @@ class Convoy(Column):
         client_id, rest = self._client_id, self.coupling.rest_length
         velocities = [pybullet.getBaseVelocity(body, client_id)[0] for body in self._bodies]
         positions = [pybullet.getBasePositionAndOrientation(b, client_id)[0] for b in self._bodies]
+        self._positions = positions  # where `before_step` and `draw` find the bots
         tethers = []
         for j in range(len(positions) - 1):
             delta = np.subtract(positions[j + 1], positions[j])
@@ -444,19 +440,21 @@ class Convoy(Column):
 
     def before_step(self, scene) -> None:
         """Each stretched tether pulls its two bots together: k x stretch + c x rate, at
-        their centres of mass, from the last reading (`read`, after the last step)."""
+        their centres of mass, from the last reading (`read`, after the last step: nothing
+        has moved since)."""
         tether, client_id = self.coupling, self._client_id
+        bodies, positions = self._bodies, self._positions
         for j, (direction, stretch, rate) in enumerate(self._tethers):
             if stretch <= 0.0:
                 continue
             pull = max(0.0, tether.stiffness * stretch + tether.damping * rate)
             force = (pull * direction).tolist()
             back = (-pull * direction).tolist()
-            for body, push in ((self._bodies[j], force), (self._bodies[j + 1], back)):
-                position = pybullet.getBasePositionAndOrientation(body, client_id)[0]
+            for k, push in ((j, force), (j + 1, back)):
                 pybullet.applyExternalForce(
-                    body, -1, push, position, pybullet.WORLD_FRAME, physicsClientId=client_id
-                )
+                    bodies[k], -1, push, positions[k], pybullet.WORLD_FRAME,
+                    physicsClientId=client_id,
+                )  # fmt: skip
 
     def broken(self) -> bool:
         limit = self.coupling.breaking_stretch
