@@ -11,11 +11,21 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 import bbbench
-from bbbench.cli import dev, evaluate, leaderboard, listing, rollout, sweep, terrain, train
+from bbbench.cli import (
+    dev,
+    evaluate,
+    export,
+    leaderboard,
+    listing,
+    rollout,
+    sweep,
+    terrain,
+    train,
+)
 from bbbench.cli.common import UsageError
 
 USAGE_ERROR = 2  # exit code for user mistakes, as argparse uses
-COMMANDS = (listing, rollout, terrain, evaluate, sweep, train, leaderboard, dev)
+COMMANDS = (listing, rollout, terrain, evaluate, export, sweep, train, leaderboard, dev)
 
 
 class Parser(argparse.ArgumentParser):

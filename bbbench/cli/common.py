@@ -29,6 +29,28 @@ def add_play_options(parser, episodes: str | None = None) -> None:
     parser.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
 
 
+def add_contract_options(parser) -> None:
+    """`--observation` and `--action-space`: the contract of an ONNX file without one."""
+    parser.add_argument(
+        "--observation",
+        type=int,
+        metavar="N",
+        help="an ONNX file without a bbbench contract: the observation width it reads (5, "
+        "16 with the height scan, 17 multi-bot, 19 team tasks ...)",
+    )
+    parser.add_argument(
+        "--action-space",
+        metavar="SPACE",
+        help="an ONNX file without a bbbench contract: its action space as Gymnasium prints "
+        "it ('Discrete(9)', 'Box(-1.0, 1.0, (1,), float32)')",
+    )
+
+
+def contract_options(args) -> dict:
+    """The keywords of `load_policy` for `add_contract_options`' flags."""
+    return {"observation": args.observation, "action_space": args.action_space}
+
+
 def check_play_options(args) -> None:
     """`--episodes`, `--workers` and `--address` as every command that plays takes them."""
     if args.episodes is not None and args.episodes < 1:

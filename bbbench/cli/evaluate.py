@@ -11,9 +11,11 @@ from rich.progress import MofNCompleteColumn, Progress
 import bbbench
 from bbbench.cli.common import (
     UsageError,
+    add_contract_options,
     add_play_options,
     builtin_policies,
     check_play_options,
+    contract_options,
     results_table,
     say_normalization,
 )
@@ -27,7 +29,8 @@ def add_parser(commands) -> None:
         help="score a policy on the suite's fixed evaluation seeds",
         description="Score a policy on the suite's fixed evaluation seeds: every task it fits, "
         "or those given with --task. POLICY is a stable-baselines3 .zip (read without "
-        "unpickling anything) or a built-in: reference (the default, a PPO policy shipped "
+        "unpickling anything), an ONNX model (.onnx, run by bbbench's own interpreter: "
+        "bbbench export writes one) or a built-in: reference (the default, a PPO policy shipped "
         f"with bbbench), {', '.join(p for p in builtin_policies() if p != 'reference')}.",
     )
     evaluate.add_argument("policy", nargs="?", default="reference", metavar="POLICY")
@@ -35,6 +38,7 @@ def add_parser(commands) -> None:
         "--task", action="extend", nargs="+", metavar="ID", help="task ID(s); default: all it fits"
     )
     add_play_options(evaluate, episodes="the first N eval seeds of each task (default: all)")
+    add_contract_options(evaluate)
     evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
     evaluate.add_argument(
         "--vecnormalize",
@@ -92,7 +96,10 @@ def _checked(args: argparse.Namespace):
         if args.backend == "ray":
             check_ray_address(args.address)
         policy = load_policy(
-            args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
+            args.policy,
+            vecnormalize=args.vecnormalize,
+            action_mode=args.action_mode,
+            **contract_options(args),
         )
         task_ids = evaluation.select_tasks(policy, args.task)
     except (PolicyError, ValueError) as error:

@@ -6,7 +6,14 @@ import argparse
 import statistics
 
 import bbbench
-from bbbench.cli.common import UsageError, builtin_policies, check_seed, say_normalization
+from bbbench.cli.common import (
+    UsageError,
+    add_contract_options,
+    builtin_policies,
+    check_seed,
+    contract_options,
+    say_normalization,
+)
 from bbbench.policies import PolicyError, load_policy
 
 
@@ -19,8 +26,8 @@ def add_parser(commands) -> None:
         "--policy",
         default="pd",
         metavar="POLICY",
-        help=f"a built-in ({', '.join(builtin_policies())}) or a stable-baselines3 .zip "
-        f"(default pd); on a multi-bot task every bot plays it",
+        help=f"a built-in ({', '.join(builtin_policies())}), a stable-baselines3 .zip or an "
+        f"ONNX model (default pd); on a multi-bot task every bot plays it",
     )
     rollout.add_argument("--episodes", type=int, default=5, help="episodes to run (default 5)")
     rollout.add_argument("--seed", type=int, default=0, help="seed of the first episode")
@@ -37,6 +44,7 @@ def add_parser(commands) -> None:
         metavar="OUT",
         help="write the first episode (.gif or .mp4); on a multi-bot task, the whole group",
     )
+    add_contract_options(rollout)
     rollout.set_defaults(run=run)
 
 
@@ -54,7 +62,10 @@ def run(args: argparse.Namespace) -> None:
         if args.video is not None:
             check_video_path(args.video)
         policy = load_policy(
-            args.policy, vecnormalize=args.vecnormalize, action_mode=args.action_mode
+            args.policy,
+            vecnormalize=args.vecnormalize,
+            action_mode=args.action_mode,
+            **contract_options(args),
         )
         reason = policy.mismatch(spec.id)
         if reason:

@@ -4,7 +4,7 @@ intervals, and checked by CI (`bbbench leaderboard build | check | add | show`).
 A leaderboard folder (`leaderboards/` in the repository) holds:
 
     submissions/<slug>/submission.json   metadata (docs/submission-schema.json)
-    submissions/<slug>/policy.zip        the policy, unless it names a built-in
+    submissions/<slug>/policy.zip        the policy (or policy.onnx), unless it names a built-in
     results/<slug>.json                  its `bbbench eval --json` document
     results/<slug>.<track>.profile.json  its robustness profile on each track it is on
                                          (`bbbench.evaluation.profile`)

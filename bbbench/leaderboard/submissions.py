@@ -1,4 +1,5 @@
-"""Submissions: one folder per entry, `submissions/<slug>/submission.json` (+ `policy.zip`).
+"""Submissions: one folder per entry, `submissions/<slug>/submission.json` (+ the policy file,
+`policy.zip` or `policy.onnx`).
 
 A submission is data a stranger wrote. It is read as JSON with a size cap and
 checked field by field (`FIELDS`, mirrored by docs/submission-schema.json);
@@ -19,7 +20,9 @@ from typing import Any
 from bbbench.policies import BUILTIN_POLICIES, Policy, PolicyError, fitting_tasks, load_policy
 
 SUBMISSION_FILE = "submission.json"
-POLICY_FILE = "policy.zip"
+POLICY_FILE = "policy.zip"  # a stable-baselines3 zip
+ONNX_FILE = "policy.onnx"  # an ONNX model, its contract in its metadata (bbbench export)
+POLICY_FILES = (POLICY_FILE, ONNX_FILE)
 NORMALIZATION_FILE = "vecnormalize.pkl"  # VecNormalize statistics, for a zip trained inside it
 MAX_POLICY_BYTES = 5 * 1024 * 1024
 MAX_SUBMISSION_BYTES = 64 * 1024
@@ -51,12 +54,12 @@ FIELDS: dict[str, Field] = {
     "algorithm": Field("text", "the learning algorithm or controller, e.g. 'PPO'", max_length=40),
     "action_mode": Field(
         "choice",
-        "the action mode it plays (checked against the zip)",
+        "the action mode it plays (checked against the policy file)",
         choices=("discrete", "continuous"),
     ),
     "builtin": Field(
         "builtin",
-        "a built-in policy's name, for an entry without a policy.zip",
+        "a built-in policy's name, for an entry without a policy file",
         required=False,
     ),
     "training": Field(
@@ -192,7 +195,12 @@ class Submission:
 
     @property
     def policy_file(self) -> Path | None:
-        return None if "builtin" in self.metadata else self.folder / POLICY_FILE
+        if "builtin" in self.metadata:
+            return None
+        return next((p for p in self.policy_paths() if p.exists()), self.folder / POLICY_FILE)
+
+    def policy_paths(self) -> list[Path]:
+        return [self.folder / name for name in POLICY_FILES]
 
     @property
     def normalization_file(self) -> Path | None:
@@ -249,13 +257,13 @@ def read_submission(folder: Path) -> Submission:
     except SubmissionError as error:
         raise SubmissionError(f"{folder}: {error}") from None
     path = folder / SUBMISSION_FILE
-    allowed = {SUBMISSION_FILE, POLICY_FILE, NORMALIZATION_FILE}
+    allowed = {SUBMISSION_FILE, *POLICY_FILES, NORMALIZATION_FILE}
     for item in sorted(folder.iterdir()):
         if item.name not in allowed or item.is_symlink() or not item.is_file():
             raise SubmissionError(
                 f"{item}: not part of a submission; a submission folder holds {SUBMISSION_FILE}, "
-                f"{POLICY_FILE} (unless it names a built-in) and optionally {NORMALIZATION_FILE}, "
-                f"as regular files"
+                f"{POLICY_FILE} or {ONNX_FILE} (unless it names a built-in) and optionally "
+                f"{NORMALIZATION_FILE} (for a zip), as regular files"
             )
     if not path.is_file():
         raise SubmissionError(f"{path}: missing; every submission folder needs one")
@@ -268,21 +276,27 @@ def read_submission(folder: Path) -> Submission:
     except ValueError as error:  # json.JSONDecodeError is a ValueError
         raise SubmissionError(f"{path}: not valid JSON ({error})") from None
     metadata = validate(data, str(path))
-    has_file = (folder / POLICY_FILE).exists()
-    if "builtin" in metadata and has_file:
+    files = [folder / name for name in POLICY_FILES if (folder / name).exists()]
+    if len(files) > 1:
+        raise SubmissionError(f"{folder}: holds both {POLICY_FILE} and {ONNX_FILE}: keep one")
+    if "builtin" in metadata and files:
         raise SubmissionError(
             f"{path}: field 'builtin' names a built-in policy, and the folder also holds "
-            f"{POLICY_FILE}: keep one"
+            f"{files[0].name}: keep one"
         )
-    if "builtin" not in metadata and not has_file:
+    if "builtin" not in metadata and not files:
         raise SubmissionError(
-            f"{folder}: no {POLICY_FILE}; add the policy file, or name a built-in with the "
-            f"field 'builtin'"
+            f"{folder}: no {POLICY_FILE} or {ONNX_FILE}; add the policy file, or name a "
+            f"built-in with the field 'builtin'"
         )
-    if has_file:
-        check_policy_size(folder / POLICY_FILE)
-    if "builtin" in metadata and (folder / NORMALIZATION_FILE).exists():
-        raise SubmissionError(f"{folder / NORMALIZATION_FILE}: a built-in takes no statistics")
+    if files:
+        check_policy_size(files[0])
+    statistics = folder / NORMALIZATION_FILE
+    if statistics.exists() and ("builtin" in metadata or files[0].name == ONNX_FILE):
+        raise SubmissionError(
+            f"{statistics}: only a zip takes statistics (a built-in none; an ONNX graph "
+            f"normalizes inside)"
+        )
     return Submission(slug, folder, metadata)
 
 

@@ -13,6 +13,7 @@ from bbbench.leaderboard.board import Board
 from bbbench.leaderboard.generation import DEFAULT_BOARD, SUBMISSIONS, Built, generate, write
 from bbbench.leaderboard.submissions import (
     NORMALIZATION_FILE,
+    ONNX_FILE,
     POLICY_FILE,
     SUBMISSION_FILE,
     SubmissionError,
@@ -23,6 +24,7 @@ from bbbench.leaderboard.submissions import (
     validate,
 )
 from bbbench.policies import BUILTIN_POLICIES, PolicyError, load_policy
+from bbbench.policies.onnx_policy import OnnxPolicy
 
 
 def add(
@@ -74,7 +76,8 @@ def add(
         text = json.dumps(metadata, indent=2, ensure_ascii=False) + "\n"
         (folder / SUBMISSION_FILE).write_text(text, encoding="utf-8")
         if source is not None:
-            shutil.copyfile(source, folder / POLICY_FILE)
+            name = ONNX_FILE if isinstance(loaded, OnnxPolicy) else POLICY_FILE
+            shutil.copyfile(source, folder / name)
             if vecnormalize is not None:
                 shutil.copyfile(vecnormalize, folder / NORMALIZATION_FILE)
         try:

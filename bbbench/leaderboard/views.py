@@ -279,7 +279,7 @@ def _details(entry: dict[str, Any], width: int) -> str:
             "policy",
             f"built-in '{submission['builtin']}'"
             if "builtin" in submission
-            else f"policy.zip, SHA-256 {policy['sha256']}",
+            else f"policy.{policy.get('format', 'zip')}, SHA-256 {policy['sha256']}",
         ),
         ("height scan", "yes" if entry["height_scan"] else "no"),
         ("training steps", f"{submission['training']['env_steps']:,}"),

@@ -1,10 +1,12 @@
-"""The built-in policies by name, and `load_policy`: a name or a zip to a `Policy`."""
+"""The built-in policies by name, and `load_policy`: a name or a file to a `Policy`."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from bbbench.policies.builtin import (
     LeggedPolicy,
@@ -16,6 +18,7 @@ from bbbench.policies.builtin import (
     ZeroPolicy,
 )
 from bbbench.policies.errors import PolicyError
+from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.policies.policy import Policy, describe_space
 from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
 from bbbench.policies.zip_policy import SB3ZipPolicy
@@ -61,46 +64,125 @@ def register_policy(name: str, factory: Callable[[], Policy]) -> None:
     BUILTIN_POLICIES[name] = factory
 
 
+@dataclasses.dataclass(frozen=True)
+class Loader:
+    """How `load_policy` reads one kind of policy: what it is, how it is recognized (by
+    name, by its file's suffix or first bytes), and how it is loaded."""
+
+    kind: str
+    claims: Callable[[str], bool]
+    load: Callable[..., Policy]
+    options: tuple[str, ...]  # the keywords of `load_policy` that apply to it
+
+
+def _is_onnx(text: str) -> bool:
+    path = Path(text)
+    if path.suffix.lower() == ".onnx":
+        return True
+    return path.suffix.lower() != ".zip" and path.is_file() and _first_bytes(path) != b"PK"
+
+
+def _is_zip(text: str) -> bool:
+    return Path(text).suffix.lower() == ".zip" or Path(text).is_file()
+
+
+def _first_bytes(path: Path) -> bytes:
+    try:
+        with open(path, "rb") as file:
+            return file.read(2)
+    except OSError:
+        return b""
+
+
+def _load_builtin(text: str, action_mode: str | None = None, **_: Any) -> Policy:
+    policy = BUILTIN_POLICIES[text]()
+    if action_mode is not None and action_mode != policy.action_mode:
+        try:
+            policy = BUILTIN_POLICIES[text](action_mode=action_mode)
+        except TypeError:
+            raise PolicyError(
+                f"the built-in policy {text!r} acts in {policy.action_mode} mode only"
+            ) from None
+    return policy
+
+
+def _load_zip(
+    text: str, backend: str = "numpy", vecnormalize=None, action_mode=None, **_: Any
+) -> Policy:
+    path = Path(text)
+    policy = SB3ZipPolicy(path, backend=backend)
+    _check_mode(policy, path, action_mode)
+    _attach_normalization(policy, path, vecnormalize)
+    return policy
+
+
+def _load_onnx(
+    text: str, action_mode=None, observation=None, action_space=None, **_: Any
+) -> Policy:
+    policy = OnnxPolicy(text, observation=observation, action_space=action_space)
+    _check_mode(policy, Path(text), action_mode)
+    return policy
+
+
+def _check_mode(policy: Policy, path: Path, action_mode: str | None) -> None:
+    if action_mode is not None and action_mode != policy.action_mode:
+        raise PolicyError(
+            f"{path}: its action space {describe_space(policy.action_space)} is "
+            f"{policy.action_mode}, not {action_mode}"
+        )
+
+
+# What `load_policy` reads, in the order it asks: a new kind of policy file is one row.
+LOADERS = (
+    Loader(
+        "built-in policy", lambda text: text in BUILTIN_POLICIES, _load_builtin, ("action_mode",)
+    ),
+    Loader("ONNX model", _is_onnx, _load_onnx, ("action_mode", "observation", "action_space")),
+    Loader("stable-baselines3 zip", _is_zip, _load_zip, ("action_mode", "backend", "vecnormalize")),
+)
+_FLAGS = {
+    "vecnormalize": "--vecnormalize",
+    "observation": "--observation",
+    "action_space": "--action-space",
+}
+
+
 def load_policy(
     name_or_path: str | Path,
     backend: str = "numpy",
     vecnormalize: str | Path | None = None,
     action_mode: str | None = None,
+    observation: int | None = None,
+    action_space: str | None = None,
 ) -> Policy:
-    """A built-in policy by name, or a stable-baselines3 `.zip` by path.
+    """A built-in policy by name, a stable-baselines3 `.zip` or an ONNX model by path
+    (`LOADERS`).
 
     `vecnormalize`: the `VecNormalize.save` statistics a zip was trained with. A
     zip trained inside VecNormalize needs them: given here, or found where
     rl-zoo3 saves them beside the zip (`policy.normalization_source` says so);
     else `PolicyError`. `action_mode`: the built-ins pd, zero and random act in
-    either mode (default discrete); a zip's is its own.
+    either mode (default discrete); a file's is its own. `observation` and
+    `action_space`: the contract of an ONNX file whose metadata carries none
+    (`bbbench.policies.contract`).
     """
     text = str(name_or_path)
-    if text in BUILTIN_POLICIES:
-        if vecnormalize is not None:
-            raise PolicyError(f"--vecnormalize is for a policy file, not the built-in {text!r}")
-        policy = BUILTIN_POLICIES[text]()
-        if action_mode is not None and action_mode != policy.action_mode:
-            try:
-                policy = BUILTIN_POLICIES[text](action_mode=action_mode)
-            except TypeError:
-                raise PolicyError(
-                    f"the built-in policy {text!r} acts in {policy.action_mode} mode only"
-                ) from None
-        return policy
-    path = Path(text)
-    if path.suffix.lower() == ".zip" or path.exists():
-        policy = SB3ZipPolicy(path, backend=backend)
-        if action_mode is not None and action_mode != policy.action_mode:
-            raise PolicyError(
-                f"{path}: its action space {describe_space(policy.loaded.action_space)} is "
-                f"{policy.action_mode}, not {action_mode}"
-            )
-        _attach_normalization(policy, path, vecnormalize)
-        return policy
+    given = {
+        "backend": backend,
+        "vecnormalize": vecnormalize,
+        "action_mode": action_mode,
+        "observation": observation,
+        "action_space": action_space,
+    }
+    for loader in LOADERS:
+        if loader.claims(text):
+            for option, flag in _FLAGS.items():
+                if given[option] is not None and option not in loader.options:
+                    raise PolicyError(f"{flag} does not apply to {text!r}, a {loader.kind}")
+            return loader.load(text, **given)
     raise PolicyError(
-        f"unknown policy {text!r}: give a stable-baselines3 .zip file or a built-in policy, "
-        f"one of {', '.join(sorted(BUILTIN_POLICIES))}"
+        f"unknown policy {text!r}: give a stable-baselines3 .zip, an ONNX model (.onnx) or a "
+        f"built-in policy, one of {', '.join(sorted(BUILTIN_POLICIES))}"
     )
 
 

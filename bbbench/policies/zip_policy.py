@@ -8,16 +8,16 @@ from typing import Any
 from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError
+from bbbench.policies.file_policy import FilePolicy
 from bbbench.policies.mlp import MlpActor
-from bbbench.policies.policy import Actor, NormalizedActor, Policy, TorchActor, describe_space
+from bbbench.policies.policy import Actor, NormalizedActor, TorchActor, describe_space
 from bbbench.policies.rebuild import torch_policy
 from bbbench.policies.sb3zip import SB3Zip, read_sb3_zip
 from bbbench.policies.vecnormalize import ObservationNormalization
-from bbbench.robots import ROBOTS
-from bbbench.tasks.suite import agent_spaces, list_tasks, spec
+from bbbench.tasks.suite import agent_spaces
 
 
-class SB3ZipPolicy(Policy):
+class SB3ZipPolicy(FilePolicy):
     """A stable-baselines3 `.zip`, read without unpickling (`bbbench.policies.sb3zip`).
 
     Its actor runs the network in numpy (`backend="numpy"`, the default: faster
@@ -41,49 +41,10 @@ class SB3ZipPolicy(Policy):
         self.action_mode = loaded.action_mode
         self.backend = backend
         self.normalization = normalization
-        # The robot whose single-bot layout it observes (None: none, a multi-bot policy), and
-        # whether the height scan follows: its tasks are played with it.
-        self.robot, self.height_scan = _single_bot_layout(loaded)
+        self.observation_shape = loaded.observation_shape
+        self.action_space = loaded.action_space
+        self._set_layout()
         self._actors: dict[tuple, Actor] = {}
-
-    def _fits(self, task_id: str) -> bool:
-        task = spec(task_id)
-        if self.action_mode not in task.robot_model.action_modes:
-            return False
-        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
-        return observation_space.shape == self.loaded.observation_shape and (
-            describe_space(action_space) == describe_space(self.loaded.action_space)
-        )
-
-    def mismatch(self, task_id: str) -> str | None:
-        if self._fits(task_id):
-            return None
-        task = spec(task_id)
-        robot = task.robot_model
-        if task.multi_agent:
-            wants = describe_space(agent_spaces(task_id, robot.default_action_mode)[0])
-        else:
-            wants = robot.describe_layout() + (
-                f" (or {describe_space(robot.observation_space(True))} with height_scan=True)"
-                if task.group is None
-                else ""
-            )
-        actions = " or ".join(
-            describe_space(robot.action_space(mode)) for mode in robot.action_modes
-        )
-        reason = f"{task_id} plays the {robot.name} robot and wants {wants} -> {actions}"
-        if self.robot is not None and self.robot != robot.name:
-            mine = ROBOTS[self.robot]
-            fits = [t for t in list_tasks(latest=True) if self._fits(t)]
-            reason += (
-                f"; the policy observes the {mine.name} robot's "
-                f"{mine.describe_layout(self.height_scan)}, and fits "
-                f"{', '.join(fits) or 'no task of the suite'}"
-            )
-        return reason
-
-    def spaces_text(self) -> str:
-        return f"Box{self.loaded.observation_shape} -> {describe_space(self.loaded.action_space)}"
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         if not deterministic and self.loaded.use_sde:
@@ -122,16 +83,3 @@ def numpy_actor(model: SB3Zip, observation_space: spaces.Box, action_space: spac
         high=action_space.high.copy() if box else None,
         **layout,
     )
-
-
-def _single_bot_layout(loaded: SB3Zip) -> tuple[str | None, bool]:
-    """(robot name, height scan) of the single-bot layout a zip's policy observes, and acts
-    in; (None, False) for none (a multi-bot policy's)."""
-    for robot in ROBOTS.values():
-        for height_scan in (False, True):
-            if robot.observation_space(height_scan).shape == loaded.observation_shape and any(
-                describe_space(robot.action_space(mode)) == describe_space(loaded.action_space)
-                for mode in robot.action_modes
-            ):
-                return robot.name, height_scan
-    return None, False

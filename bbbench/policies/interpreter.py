@@ -1,0 +1,574 @@
+"""A small interpreter of ONNX policy graphs on portable arithmetic.
+
+It runs the operators a policy network needs and no others (`OPERATORS`):
+
+- layers: `Gemm` (alpha = beta = 1, A not transposed) and `MatMul` by a constant
+  matrix; a `MatMul` whose only use is an `Add` of a constant bias is one layer,
+  as `Gemm` is. Each output is the float32 nearest the exact x . w + b
+  (`bbbench.portable.Layer`), the same bits on every CPU, on any number of
+  leading dimensions (the neighbour slots of a multi-bot observation);
+- activations: `Tanh`, `Relu`, `LeakyRelu`, `Elu`, `Sigmoid` (`Sigmoid` then `Mul`
+  is SiLU), float32, on `bbbench.portable`'s functions;
+- arithmetic, exactly rounded by IEEE 754 on every CPU: `Add`, `Sub`, `Mul`,
+  `Div`, `Neg`, `Max`, `Min`, `Clip`, and `Cast` between float32 and float64
+  (bbbench export normalizes observations in float64 inside the graph, as
+  VecNormalize does);
+- shapes: `Reshape`, `Flatten`, `Slice`, `Concat`, `Squeeze`, `Unsqueeze`,
+  `Gather` (constant indices), `Identity`, `Constant`;
+- pooling over slots: `ReduceMax`, and `ReduceSum` and `ReduceMean` summed in
+  float64 in slot order, then rounded once (numpy's own sums change order with
+  the CPU's vector width).
+
+A graph compiles to a `Program`. Its longest chain of layers and one kind of
+activation, ending in the graph's last layer, becomes an `MlpActor` (the same
+arithmetic, and for a Discrete policy the fast greedy path of a
+stable-baselines3 zip); the nodes before and after it run one by one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from bbbench import portable
+from bbbench.policies.errors import PolicyError
+from bbbench.policies.mlp import MlpActor
+
+F4, F8, I8 = np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int64)
+_ONNX_TYPES = {1: F4, 11: F8}  # Cast's `to`: float32, float64
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Step:
+    """One operation: `inputs` are tensor names (str) or constants (arrays)."""
+
+    op: str
+    inputs: tuple
+    output: str
+    params: dict[str, Any]
+    label: str  # the node, for error messages
+
+
+# -- the operators, as they run --------------------------------------------------
+
+
+def _linear(params, x):
+    layer = params["layer"]
+    flat = x.reshape(-1, x.shape[-1])
+    return layer(flat).reshape(*x.shape[:-1], layer.weight.shape[1])
+
+
+def _variadic(function):
+    def run(params, first, *rest):
+        out = first
+        for other in rest:
+            out = function(out, other)
+        return out
+
+    return run
+
+
+def _elementwise(function):
+    return lambda params, *args: function(*args)
+
+
+def _leaky_relu(params, x):
+    return np.where(x >= 0.0, x, x * params["alpha"])
+
+
+def _elu(params, x):
+    negative = portable.expm1(x)
+    if params["alpha"] != 1.0:
+        negative = negative * params["alpha"]
+    return np.where(x > 0.0, x, negative)
+
+
+def _clip(params, x):
+    return np.clip(x, params["low"], params["high"])
+
+
+def _reshape(params, x):
+    shape = list(params["shape"])
+    for i, size in enumerate(shape):
+        if size == 0 and not params["allowzero"]:
+            shape[i] = x.shape[i]
+    return x.reshape(shape)
+
+
+def _flatten(params, x):
+    axis = params["axis"] % (x.ndim + 1) if params["axis"] < 0 else params["axis"]
+    return x.reshape(int(np.prod(x.shape[:axis], dtype=np.int64)), -1)
+
+
+def _slice(params, x):
+    index = [slice(None)] * x.ndim
+    for start, end, axis, step in params["slices"]:
+        index[axis] = slice(start, end, step)
+    return x[tuple(index)]
+
+
+def _reduce(params, x):
+    axes = params["axes"]
+    if axes is None:
+        if params["noop"]:
+            return x
+        axes = tuple(range(x.ndim))
+    axes = tuple(sorted(a % x.ndim for a in axes))
+    if params["kind"] == "max":
+        return np.max(x, axis=axes, keepdims=bool(params["keepdims"]))
+    # Summed in float64, one slot after another: the same order on every CPU.
+    moved = np.moveaxis(x, axes, tuple(range(len(axes))))
+    parts = moved.reshape(-1, *moved.shape[len(axes) :])
+    total = np.zeros(parts.shape[1:], dtype=np.float64)
+    for part in parts:
+        total += part
+    if params["kind"] == "mean":
+        total /= len(parts)
+    out = total.astype(x.dtype)
+    if params["keepdims"]:
+        out = np.expand_dims(out, axes)
+    return out
+
+
+RUN: dict[str, Callable] = {
+    "Linear": _linear,
+    "Add": _variadic(np.add),
+    "Sub": _elementwise(np.subtract),
+    "Mul": _variadic(np.multiply),
+    "Div": _elementwise(np.divide),
+    "Max": _variadic(np.maximum),
+    "Min": _variadic(np.minimum),
+    "Neg": _elementwise(np.negative),
+    "Relu": lambda params, x: np.maximum(x, 0.0),
+    "LeakyRelu": _leaky_relu,
+    "Elu": _elu,
+    "Tanh": lambda params, x: portable.tanh(x),
+    "Sigmoid": lambda params, x: portable.sigmoid(x),
+    "Clip": _clip,
+    "Cast": lambda params, x: x.astype(params["to"]),
+    "Reshape": _reshape,
+    "Flatten": _flatten,
+    "Slice": _slice,
+    "Concat": lambda params, *xs: np.concatenate(xs, axis=params["axis"]),
+    "Squeeze": lambda params, x: (
+        np.squeeze(x) if params["axes"] is None else np.squeeze(x, axis=params["axes"])
+    ),
+    "Unsqueeze": lambda params, x: np.expand_dims(x, params["axes"]),
+    "Gather": lambda params, x: np.take(x, params["indices"], axis=params["axis"]),
+    "Reduce": _reduce,
+}
+
+# The ONNX operators bbbench runs (the rest is refused by name when the file is read).
+OPERATORS = frozenset(
+    {"Gemm", "MatMul", "Identity", "Constant", "ReduceSum", "ReduceMean", "ReduceMax"}
+    | (set(RUN) - {"Linear", "Reduce"})
+)
+_FLOAT_ONLY = ("Tanh", "Sigmoid", "Elu")  # float32: portable's functions
+# ONNX activations that are an `MlpActor` activation (with their default attributes).
+_MLP_ACTIVATIONS = {"Tanh": "Tanh", "Relu": "ReLU", "Sigmoid": "Sigmoid"}
+
+
+# -- compiling a graph -----------------------------------------------------------
+
+
+class _Compiler:
+    """Turns checked nodes into `Step`s: constants folded and bound, layers formed, types
+    checked (float32 or float64 arithmetic; layers on float32)."""
+
+    def __init__(self, model) -> None:
+        self.model = model
+        self.where = model.name
+        self.constants: dict[str, np.ndarray] = dict(model.constants)
+        self.types: dict[str, np.dtype] = {model.input: F4}
+        self.alias: dict[str, str] = {}
+        self.steps: list[Step] = []
+        self.uses: dict[str, int] = {}
+        for node in model.nodes:
+            for name in node.inputs:
+                self.uses[name] = self.uses.get(name, 0) + 1
+
+    def fail(self, node, message: str) -> PolicyError:
+        return PolicyError(f"{self.where}: {node.op} ({node.outputs[0]}): {message}")
+
+    def name(self, name: str) -> str:
+        return self.alias.get(name, name)
+
+    def constant(self, node, index: int, what: str, optional: bool = False):
+        if index >= len(node.inputs) or not node.inputs[index]:
+            if optional:
+                return None
+            raise self.fail(node, f"needs its {what}")
+        value = self.constants.get(self.name(node.inputs[index]))
+        if value is None:
+            raise self.fail(node, f"its {what} must be a constant of the graph")
+        return value
+
+    def value(self, name: str):
+        """A bound input: the constant, or the tensor's name."""
+        name = self.name(name)
+        if name in self.constants:
+            return self.constants[name]
+        if name not in self.types:
+            raise PolicyError(
+                f"{self.where}: tensor {name!r} is used before any node computes it (the "
+                f"graph must be in topological order)"
+            )
+        return name
+
+    def dtype(self, value) -> np.dtype:
+        return value.dtype if isinstance(value, np.ndarray) else self.types[value]
+
+    def compile(self) -> list[Step]:
+        nodes = list(self.model.nodes)
+        skip: set[int] = set()
+        for i, node in enumerate(nodes):
+            if i in skip:
+                continue
+            fused = self._fused_bias(nodes, i)
+            if fused is not None:
+                skip.add(fused)
+            self._node(node, nodes[fused] if fused is not None else None)
+        output = self.output = self.name(self.model.output)
+        if output not in self.types:
+            raise PolicyError(f"{self.where}: no node computes the output {output!r}")
+        if self.types[output] != F4:
+            raise PolicyError(
+                f"{self.where}: its output is {self.types[output]}; a bbbench policy outputs "
+                f"float32 (cast it)"
+            )
+        return self.steps
+
+    def _fused_bias(self, nodes, i: int) -> int | None:
+        """The index of the `Add` of a constant bias that is a `MatMul`'s only use."""
+        node = nodes[i]
+        if node.op != "MatMul" or self.uses.get(node.outputs[0]) != 1:
+            return None
+        if node.outputs[0] == self.model.output:
+            return None
+        for j in range(i + 1, len(nodes)):
+            add = nodes[j]
+            if node.outputs[0] in add.inputs:
+                if add.op != "Add" or len(add.inputs) != 2:
+                    return None
+                other = add.inputs[1 - add.inputs.index(node.outputs[0])]
+                bias = self.constants.get(self.name(other))
+                weight = self.constants.get(self.name(node.inputs[1]))
+                if bias is None or weight is None or weight.ndim != 2 or bias.dtype.kind != "f":
+                    return None
+                if bias.size != weight.shape[1] or bias.shape[-1:] != (weight.shape[1],):
+                    return None
+                if any(size != 1 for size in bias.shape[:-1]):
+                    return None
+                return j
+        return None
+
+    def _node(self, node, fused_add) -> None:
+        op, attributes = node.op, node.attributes
+        output = node.outputs[0]
+        if op == "Constant":
+            self.constants[output] = self._constant_value(node)
+            return
+        if op == "Identity":
+            source = self.name(node.inputs[0])
+            self.alias[output] = source
+            if source in self.types:
+                self.types[output] = self.types[source]
+            return
+        if op in ("Gemm", "MatMul"):
+            self._layer(node, fused_add)
+            return
+        inputs = [self.value(name) for name in node.inputs if name]
+        params: dict[str, Any] = {}
+        run_op = op
+        if op in ("Add", "Sub", "Mul", "Div", "Max", "Min"):
+            inputs = self._same_type(node, inputs)
+        elif op == "LeakyRelu":
+            params["alpha"] = np.float32(attributes.get("alpha", 0.01))
+        elif op == "Elu":
+            params["alpha"] = np.float32(attributes.get("alpha", 1.0))
+        elif op == "Clip":
+            kind = self.dtype(inputs[0])
+            bounds = [self.constant(node, i, what, True) for i, what in ((1, "min"), (2, "max"))]
+            params["low"], params["high"] = (
+                None if b is None else np.asarray(b, dtype=kind).reshape(()) for b in bounds
+            )
+            inputs = inputs[:1]
+        elif op == "Cast":
+            to = attributes.get("to")
+            if to not in _ONNX_TYPES:
+                raise self.fail(
+                    node, f"casts to ONNX type {to}; bbbench computes in float32 or float64"
+                )
+            params["to"] = _ONNX_TYPES[to]
+        elif op == "Reshape":
+            params["shape"] = tuple(int(v) for v in self.constant(node, 1, "shape").ravel())
+            params["allowzero"] = attributes.get("allowzero", 0)
+            inputs = inputs[:1]
+        elif op == "Flatten":
+            params["axis"] = attributes.get("axis", 1)
+        elif op == "Slice":
+            params["slices"] = self._slices(node)
+            inputs = inputs[:1]
+        elif op == "Concat":
+            if "axis" not in attributes:
+                raise self.fail(node, "needs its axis")
+            params["axis"] = attributes["axis"]
+            inputs = self._same_type(node, inputs)
+        elif op in ("Squeeze", "Unsqueeze"):
+            params["axes"] = self._axes(node, 13)
+            if op == "Unsqueeze" and params["axes"] is None:
+                raise self.fail(node, "needs its axes")
+            inputs = inputs[:1]
+        elif op == "Gather":
+            params["indices"] = self.constant(node, 1, "indices").astype(np.int64)
+            params["axis"] = attributes.get("axis", 0)
+            inputs = inputs[:1]
+        elif op.startswith("Reduce"):
+            run_op = "Reduce"
+            params["kind"] = op.removeprefix("Reduce").lower()
+            params["axes"] = self._axes(node, 13 if op == "ReduceSum" else 18)
+            params["keepdims"] = attributes.get("keepdims", 1)
+            params["noop"] = attributes.get("noop_with_empty_axes", 0)
+            inputs = inputs[:1]
+        kinds = {self.dtype(x) for x in inputs}
+        if any(kind.kind != "f" for kind in kinds):
+            raise self.fail(node, "computes on integers; bbbench runs float arithmetic only")
+        if op in _FLOAT_ONLY and kinds != {F4}:
+            raise self.fail(node, "runs on float32 only (portable arithmetic)")
+        step = Step(run_op, tuple(inputs), output, params, f"{op} ({output})")
+        if all(isinstance(x, np.ndarray) for x in inputs):  # fold it now
+            self.constants[output] = _run_step(step, {}, self.where)
+            return
+        self.types[output] = params["to"] if op == "Cast" else self.dtype(inputs[0])
+        self.steps.append(step)
+
+    def _same_type(self, node, inputs: list) -> list:
+        """Inputs of one float type: a float64 constant meeting float32 arithmetic is cast
+        to float32 (as a zip's float64 weights are)."""
+        computed = {self.types[x] for x in inputs if isinstance(x, str)}
+        if len(computed) > 1:
+            raise self.fail(node, "mixes float32 and float64 tensors")
+        if computed:
+            [kind] = computed
+            inputs = [
+                x.astype(kind) if isinstance(x, np.ndarray) and x.dtype.kind == "f" else x
+                for x in inputs
+            ]
+        return inputs
+
+    def _layer(self, node, fused_add) -> None:
+        attributes = node.attributes
+        if node.op == "Gemm":
+            if attributes.get("alpha", 1.0) != 1.0 or attributes.get("beta", 1.0) != 1.0:
+                raise self.fail(node, "alpha and beta must be 1 (fold them into the weights)")
+            if attributes.get("transA", 0):
+                raise self.fail(node, "a transposed A (transA=1) is not a layer's input")
+        weight = self.constant(node, 1, "weight (B)")
+        if weight.ndim != 2 or weight.dtype.kind != "f":
+            raise self.fail(node, f"its weight must be a float matrix, got shape {weight.shape}")
+        if attributes.get("transB", 0):
+            weight = weight.T
+        if node.op == "Gemm":
+            bias = self.constant(node, 2, "bias (C)", optional=True)
+        else:
+            bias = None
+            if fused_add is not None:
+                other = next(n for n in fused_add.inputs if n != node.outputs[0])
+                bias = self.constants[self.name(other)]
+        out = weight.shape[1]
+        if bias is None:
+            bias = np.zeros(out, dtype=np.float32)
+        try:
+            bias = np.broadcast_to(bias, (out,)) if bias.ndim <= 1 else bias.reshape(out)
+        except ValueError:
+            raise self.fail(node, f"a bias of shape {bias.shape} for {out} outputs") from None
+        source = self.value(node.inputs[0])
+        if isinstance(source, np.ndarray) or self.types[source] != F4:
+            raise self.fail(node, "a layer's input must be the float32 tensor the graph computes")
+        layer = portable.Layer(weight.astype(np.float32), bias.astype(np.float32))
+        output = fused_add.outputs[0] if fused_add is not None else node.outputs[0]
+        params = {
+            "layer": layer,
+            "weights": (
+                np.ascontiguousarray(weight, dtype=np.float32),
+                np.ascontiguousarray(bias, dtype=np.float32),
+            ),
+        }
+        self.steps.append(Step("Linear", (source,), output, params, f"{node.op} ({output})"))
+        self.types[output] = F4
+
+    def _constant_value(self, node) -> np.ndarray:
+        attributes = node.attributes
+        if "value" in attributes:
+            return attributes["value"]
+        for key, dtype in (
+            ("value_float", F4),
+            ("value_floats", F4),
+            ("value_int", I8),
+            ("value_ints", I8),
+        ):
+            if key in attributes:
+                return np.array(attributes[key], dtype=dtype)
+        raise self.fail(node, "a Constant of a kind bbbench does not read")
+
+    def _axes(self, node, since: int):
+        if self.model.opset >= since:
+            axes = self.constant(node, 1, "axes", optional=True)
+            return None if axes is None or axes.size == 0 else tuple(int(a) for a in axes.ravel())
+        axes = node.attributes.get("axes")
+        return None if axes is None else tuple(axes)
+
+    def _slices(self, node) -> tuple:
+        starts, ends = (self.constant(node, i, w).ravel() for i, w in ((1, "starts"), (2, "ends")))
+        axes = self.constant(node, 3, "axes", optional=True)
+        steps = self.constant(node, 4, "steps", optional=True)
+        axes = range(len(starts)) if axes is None else axes.ravel()
+        steps = [1] * len(starts) if steps is None else steps.ravel()
+        if not len(starts) == len(ends) == len(axes) == len(steps) or 0 in list(steps):
+            raise self.fail(node, "starts, ends, axes and steps disagree (or a step is 0)")
+        return tuple(
+            (int(s), int(e), int(a), int(t))
+            for s, e, a, t in zip(starts, ends, axes, steps, strict=True)
+        )
+
+
+def _run_step(step: Step, env: dict, where: str):
+    args = [env[x] if isinstance(x, str) else x for x in step.inputs]
+    try:
+        return RUN[step.op](step.params, *args)
+    except (ValueError, IndexError, TypeError, np.exceptions.AxisError) as error:
+        raise PolicyError(f"{where}: {step.label} fails: {str(error)[:200]}") from None
+
+
+def _run(steps, env: dict, where: str) -> dict:
+    with np.errstate(all="ignore"):  # a division by zero gives inf, as in float32
+        for step in steps:
+            env[step.output] = _run_step(step, env, where)
+    return env
+
+
+# -- the program -----------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Program:
+    """A compiled graph: `prefix` steps, then an `MlpActor` (if the graph has a chain of
+    layers), then `suffix` steps. Holds numpy arrays only: it pickles into workers."""
+
+    where: str
+    input: str
+    output: str
+    prefix: tuple[Step, ...]
+    mlp: MlpActor | None
+    mlp_input: str | None
+    mlp_output: str | None
+    suffix: tuple[Step, ...]
+
+    def __call__(self, observations: np.ndarray) -> np.ndarray:
+        """The graph's output for a batch of observations (float32, (k, n))."""
+        env = _run(self.prefix, {self.input: observations}, self.where)
+        if self.mlp is None:
+            return env[self.output]
+        env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
+        return _run(self.suffix, env, self.where)[self.output]
+
+    def greedy_mlp(self, observations: np.ndarray) -> list:
+        """A Discrete policy whose graph ends in its chain: the chain's own actions (its fast
+        greedy path)."""
+        env = _run(self.prefix, {self.input: observations}, self.where)
+        return self.mlp(env[self.mlp_input])
+
+
+def compile_graph(model, discrete: bool, shapes: dict[str, tuple] | None = None) -> Program:
+    """A checked `OnnxModel` as a `Program`. `shapes`: each tensor's shape on a trial batch
+    (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
+    compiler = _Compiler(model)
+    steps, output = compiler.compile(), compiler.output
+    segment = _mlp_segment(steps, output, shapes)
+    if segment is None:
+        return Program(model.name, model.input, output, tuple(steps), None, None, None, ())
+    chain, activation = segment
+    members = set(chain)
+    head = steps[chain[-1]]
+    downstream = {head.output}
+    suffix, prefix = [], []
+    for i, step in enumerate(steps):
+        if i in members:
+            continue
+        if any(isinstance(x, str) and x in downstream for x in step.inputs):
+            downstream.add(step.output)
+            suffix.append(step)
+        else:
+            prefix.append(step)
+    layers = [steps[i].params["weights"] for i in chain if steps[i].op == "Linear"]
+    mlp = MlpActor(
+        hidden=tuple(layers[:-1]), activation=activation, head=layers[-1], output="argmax"
+    )
+    return Program(
+        model.name,
+        model.input,
+        output,
+        tuple(prefix),
+        mlp,
+        steps[chain[0]].inputs[0],
+        head.output,
+        tuple(suffix),
+    )
+
+
+def trial_shapes(model, observations: np.ndarray) -> dict[str, tuple]:
+    """Every computed tensor's shape on `observations`, running the graph step by step."""
+    compiler = _Compiler(model)
+    env = _run(compiler.compile(), {model.input: observations}, model.name)
+    env[model.output] = env[compiler.output]
+    return {name: np.shape(value) for name, value in env.items()}
+
+
+def _mlp_segment(steps: list[Step], output: str, shapes) -> tuple[list[int], str] | None:
+    """The step indices of the longest chain layer, activation, layer ... ending in the last
+    layer, every link used once and 2-D, with one kind of activation; and its activation."""
+    uses: dict[str, int] = {output: 1}
+    producer: dict[str, int] = {}
+    for i, step in enumerate(steps):
+        producer[step.output] = i
+        for x in step.inputs:
+            if isinstance(x, str):
+                uses[x] = uses.get(x, 0) + 1
+    layers = [i for i, step in enumerate(steps) if step.op == "Linear"]
+    if not layers:
+        return None
+    two_d = lambda name: shapes is None or len(shapes.get(name, ())) == 2  # noqa: E731
+    head = layers[-1]
+    if not (two_d(steps[head].inputs[0]) and two_d(steps[head].output)):
+        return None
+    chain, activation = [head], None
+    while True:
+        source = steps[chain[0]].inputs[0]
+        act_index = producer.get(source)
+        if act_index is None or uses.get(source) != 1:
+            break
+        act = steps[act_index]
+        kind = _MLP_ACTIVATIONS.get(act.op) or _mlp_activation(act)
+        if kind is None or (activation is not None and kind != activation):
+            break
+        inner = act.inputs[0]
+        layer_index = producer.get(inner) if isinstance(inner, str) else None
+        if layer_index is None or uses.get(inner) != 1 or steps[layer_index].op != "Linear":
+            break
+        if not two_d(steps[layer_index].inputs[0]):
+            break
+        activation = kind
+        chain[:0] = [layer_index, act_index]
+    return chain, activation or "Tanh"
+
+
+def _mlp_activation(step: Step) -> str | None:
+    """LeakyRelu at torch's default slope and Elu at alpha 1: `MlpActor`'s."""
+    if step.op == "LeakyRelu" and step.params["alpha"] == np.float32(0.01):
+        return "LeakyReLU"
+    if step.op == "Elu" and step.params["alpha"] == np.float32(1.0):
+        return "ELU"
+    return None

@@ -1,0 +1,150 @@
+"""An ONNX model as a `Policy`: read safely, run by bbbench's interpreter.
+
+The model is read without trusting it (`bbbench.policies.onnx_file`), its
+contract taken from its metadata or the command line
+(`bbbench.policies.contract`), and its graph compiled to a `Program` on
+portable arithmetic (`bbbench.policies.interpreter`), then tried once on a
+trial batch: every shape, type and the output's width are checked before an
+episode is played. onnxruntime never scores: its kernels round by CPU.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from bbbench.policies.contract import Contract, read_contract
+from bbbench.policies.errors import PolicyError
+from bbbench.policies.file_policy import FilePolicy
+from bbbench.policies.interpreter import Program, compile_graph, trial_shapes
+from bbbench.policies.onnx_file import read_onnx
+from bbbench.policies.policy import Actor
+
+_TRIAL_ROWS = 3
+
+
+class OnnxPolicy(FilePolicy):
+    """An ONNX policy file. `observation` and `action_space`: its contract, given on the
+    command line for a file whose metadata carries none."""
+
+    def __init__(
+        self, path: str | Path, observation: int | None = None, action_space: str | None = None
+    ) -> None:
+        model = read_onnx(path)
+        self.contract = contract = read_contract(
+            model.name, model.metadata, observation, action_space
+        )
+        self.name = model.name
+        self.sha256 = model.sha256
+        self.algorithm = contract.algorithm
+        self.training_steps = contract.training_steps
+        self.observation_shape = contract.observation_shape
+        self.action_space = contract.action_space
+        self.action_mode = (
+            "discrete" if isinstance(self.action_space, spaces.Discrete) else "continuous"
+        )
+        self._set_layout()
+        self._actor = _actor(model, contract)
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        if not deterministic:
+            raise PolicyError(
+                f"{self.name}: an ONNX policy acts deterministically only (its graph gives no "
+                f"sampling distribution): drop --stochastic"
+            )
+        return self._actor
+
+    def record(self) -> dict[str, Any]:
+        record = super().record()
+        record["format"] = "onnx"
+        record["contract"] = self.contract.record()
+        return record
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class OnnxActor:
+    """A compiled graph acting: Discrete, the best score (None where a row is NaN); Box, the
+    output clipped to the bounds. `rows`: the graph takes one observation a call."""
+
+    program: Program
+    discrete: bool
+    greedy: bool  # the graph ends in its chain of layers: the chain's own greedy actions
+    rows: bool
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        observations = np.asarray(observations, dtype=np.float32)
+        if self.greedy and not self.rows:
+            return self.program.greedy_mlp(observations)
+        if self.rows:
+            if self.greedy:
+                return [self.program.greedy_mlp(row[None])[0] for row in observations]
+            out = np.concatenate([self.program(row[None]) for row in observations])
+        else:
+            out = self.program(observations)
+        broken = np.isnan(out).any(axis=1)
+        if self.discrete:
+            actions = out.argmax(axis=1).tolist()
+        else:
+            actions = list(np.clip(out, self.low, self.high).astype(np.float32))
+        return [None if nan else action for action, nan in zip(actions, broken, strict=True)]
+
+
+def _actor(model, contract: Contract) -> OnnxActor:
+    """The model's actor, after trial runs that check what the episodes will need."""
+    where, width = model.name, contract.observation
+    if model.input_width is not None and model.input_width != width:
+        raise PolicyError(
+            f"{where}: its input {model.input!r} is {model.input_width} wide, but its contract "
+            f"says the observation is {width} ({contract.source})"
+        )
+    space = contract.action_space
+    discrete = isinstance(space, spaces.Discrete)
+    outputs = space.n if discrete else space.shape[0]
+    if model.output_width is not None and model.output_width != outputs:
+        raise PolicyError(
+            f"{where}: its output {model.output!r} is {model.output_width} wide, but its "
+            f"contract's {space} needs {outputs}"
+        )
+    trial = np.linspace(-1.0, 1.0, _TRIAL_ROWS * width, dtype=np.float32).reshape(
+        _TRIAL_ROWS, width
+    )
+    shapes = _trial(model, trial[:1], outputs)
+    rows = not model.batched
+    if not rows:  # batched: one call must give what row-by-row calls give
+        try:
+            shapes = _trial(model, trial, outputs)
+        except PolicyError:
+            rows = True
+    program = compile_graph(model, discrete, shapes)
+    if not rows:
+        together = program(trial)
+        apart = np.concatenate([program(row[None]) for row in trial])
+        rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
+    greedy = discrete and program.mlp is not None and not program.suffix
+    return OnnxActor(
+        program,
+        discrete,
+        greedy,
+        rows,
+        low=None if discrete else space.low.copy(),
+        high=None if discrete else space.high.copy(),
+    )
+
+
+def _trial(model, observations: np.ndarray, outputs: int) -> dict[str, tuple]:
+    shapes = trial_shapes(model, observations)
+    got = shapes[model.output]
+    want = (len(observations), outputs)
+    if got != want:
+        raise PolicyError(
+            f"{model.name}: on a batch of {want[0]} observation(s) its output has shape "
+            f"{got}, not {want}: the output disagrees with the contract (one score per action "
+            f"for Discrete, the action for Box)"
+        )
+    return shapes
