@@ -21,7 +21,7 @@ from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.profile import Protocol
 from bbbench.leaderboard import Board, SubmissionError
 from bbbench.leaderboard.submissions import FIELDS, read_submission
-from bbbench.policies import load_policy
+from bbbench.policies import export_zip, load_policy
 from bbbench.policies.registry import REFERENCE_POLICY
 from bbbench.tasks.spec import TaskSpec
 from conftest import pickled, rewrite
@@ -641,3 +641,15 @@ def test_the_projects_readme_gets_the_baselines_table_and_check_guards_it(board)
     problems = leaderboard.check(board, BOARD, workers=1).problems
     assert len(problems) == 1
     assert "README.md: differs from the rebuild" in problems[0]
+
+
+def test_an_onnx_export_of_a_zip_enters_with_the_zips_own_episodes(board, tmp_path):
+    exported = export_zip(load_policy(REFERENCE_POLICY), tmp_path / "reference.onnx")
+    metadata = submission(name="PPO (ONNX)", algorithm="PPO", builtin=None)
+    leaderboard.add(board, str(exported), "ppo-onnx", metadata, board=BOARD, workers=1)
+    assert (board / "submissions" / "ppo-onnx" / "policy.onnx").is_file()
+    mine = json.loads((board / "results" / "ppo-onnx.json").read_text())
+    zips = json.loads((board / "results" / "ppo.json").read_text())
+    assert mine["policy"]["format"] == "onnx"
+    assert [t["episodes"] for t in mine["tasks"]] == [t["episodes"] for t in zips["tasks"]]
+    assert leaderboard.check(board, BOARD, workers=1).problems == []

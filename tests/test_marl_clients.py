@@ -112,3 +112,23 @@ def test_rllib_parallel_pettingzoo_env_resets_steps_and_renders(task_id):
         assert set(rewards) == set(observations)
         assert all(0.0 <= reward <= 0.1 for reward in rewards.values())
     assert steps > 1
+
+
+def test_rllibs_onnx_export_is_what_bbbench_export_and_eval_take(tmp_path):
+    """scripts/rllib_onnx_fixture.py, which wrote tests/data/rllib_flatbalance.onnx, runs
+    here, and its fresh file goes through `bbbench export` to a scored policy."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from bbbench.cli import main
+
+    _rllib()
+    script = Path(__file__).resolve().parents[1] / "scripts" / "rllib_onnx_fixture.py"
+    raw = tmp_path / "model.onnx"
+    subprocess.run([sys.executable, str(script), "--out", str(raw)], check=True, timeout=600)
+    out = tmp_path / "policy.onnx"
+    contract = ["--observation", "5", "--action-space", "Discrete(9)"]
+    assert main(["export", str(raw), "--out", str(out), "--output", "output", *contract]) == 0
+    task = ["--task", "bbbench/FlatBalance-v1", "--episodes", "1", "--workers", "1"]
+    assert main(["eval", str(out), *task]) == 0

@@ -7,7 +7,10 @@ from pathlib import Path
 
 from bbbench.cli.common import UsageError, add_contract_options
 from bbbench.files import check_output_path
-from bbbench.policies import PolicyError, load_policy
+from bbbench.policies import PolicyError, export, load_policy
+from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies.registry import BUILTIN_POLICIES, REFERENCE_POLICY, TERRAIN_POLICIES
+from bbbench.tasks.suite import spec
 
 
 def add_parser(commands) -> None:
@@ -40,13 +43,6 @@ def add_parser(commands) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
-    from bbbench.policies import export  # lazy: onnx, for this command only
-    from bbbench.policies.contract import Contract, parse_action_space, read_contract
-    from bbbench.policies.onnx_file import read_onnx
-    from bbbench.policies.onnx_policy import OnnxPolicy
-    from bbbench.policies.registry import BUILTIN_POLICIES, REFERENCE_POLICY, TERRAIN_POLICIES
-    from bbbench.tasks.suite import spec
-
     try:
         if Path(args.out).suffix.lower() != ".onnx":
             raise ValueError(f"--out {args.out}: an ONNX file is written as .onnx")
@@ -66,20 +62,16 @@ def run(args: argparse.Namespace) -> None:
         if Path(args.policy).suffix.lower() == ".onnx":
             if args.vecnormalize is not None:
                 raise ValueError("--vecnormalize is for a zip; an ONNX graph normalizes inside")
-            model = read_onnx(args.policy) if Path(args.policy).is_file() else None
-            if model is None:
-                raise ValueError(f"{args.policy}: no such file")
-            given = read_contract(model.name, model.metadata, args.observation, args.action_space)
-            contract = Contract(
-                observation=given.observation,
-                action_space=parse_action_space(str(given.action_space), "--action-space"),
-                algorithm=args.algorithm or given.algorithm,
-                training_steps=args.training_steps
-                if args.training_steps is not None
-                else given.training_steps,
-                task=args.task or given.task,
+            path = export.export_foreign(
+                args.policy,
+                args.out,
+                observation=args.observation,
+                action_space=args.action_space,
+                algorithm=args.algorithm,
+                training_steps=args.training_steps,
+                task=args.task,
+                output=args.output,
             )
-            path = export.export_foreign(args.policy, args.out, contract, output=args.output)
         else:
             if args.observation is not None or args.action_space is not None:
                 raise ValueError("--observation and --action-space are for an ONNX file")

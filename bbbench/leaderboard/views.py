@@ -156,7 +156,7 @@ def markdown(document: dict[str, Any]) -> str:
             + ("" if task["ranked"] else "; not ranked (an older version)")
             for task in track["tasks"]
         ]
-    lines += ["", "## Submitting", "", SUBMITTING]
+    lines += ["", "## How to submit", "", SUBMITTING]
     return "\n".join(lines) + "\n"
 
 
@@ -187,19 +187,63 @@ def with_baselines(readme: str, document: dict[str, Any]) -> str | None:
 
 
 SUBMITTING = """\
-Fork the repository, then
+A submission is a folder, `submissions/<slug>/`: `submission.json` (who, what, the
+training budget: docs/submission-schema.json) and the policy file, a
+stable-baselines3 `policy.zip` or an ONNX `policy.onnx`. bbbench reads either
+without running anything in it: nothing in a zip is unpickled, and an ONNX graph
+is run by bbbench's own interpreter of a few operators (no external files, no
+custom operators, capped sizes), on arithmetic that gives the same bits on every
+CPU.
+
+**From stable-baselines3** (PPO, A2C, DQN, SAC, TD3, and sb3-contrib's QR-DQN,
+TQC, TRPO, ARS), the zip as `model.save()` wrote it, with `--vecnormalize
+vecnormalize.pkl` if it trained inside VecNormalize; or as ONNX, `bbbench export
+policy.zip --out policy.onnx` (it plays the zip's episodes byte for byte).
+
+**From any torch policy** (CleanRL, skrl, rsl_rl: the module that maps an
+observation to action scores or to the action), with the normalizer it trained
+behind:
+
+```python
+from bbbench.policies import export_onnx
+
+export_onnx(
+    agent.actor,
+    "bbbench/FlatBalance-v1",
+    "policy.onnx",
+    mean=obs_rms.mean,
+    std=np.sqrt(obs_rms.var + 1e-8),
+    clip=10.0,
+    algorithm="PPO (CleanRL)",
+    training_steps=1_000_000,
+)
+```
+
+**From RLlib, TorchRL or Isaac Lab exports** (`Policy.export_model(dir, onnx=17)`,
+`torch.onnx.export`, `export_policy_as_onnx`): the graph's input must be the raw
+bbbench observation, its output the scores or the action. Give the file its
+contract, and keep the one output that acts:
 
 ```bash
-bbbench leaderboard add policy.zip --slug my-ppo --name "My PPO" --algorithm PPO \\
+bbbench export model.onnx --out policy.onnx --output output \\
+    --observation 5 --action-space "Discrete(9)" --algorithm PPO --training-steps 1000000
+```
+
+Then, in a fork of the repository:
+
+```bash
+bbbench eval policy.onnx                 # what it scores, on the tasks it fits
+bbbench leaderboard add policy.onnx --slug my-ppo --name "My PPO" --algorithm PPO \\
     --author "A. Person" --env-steps 1000000 --wall-time "40 min" \\
     --hardware "2 CPU cores" --seeds 0 --command "python train.py --seed 0" --licence MIT
 ```
 
-which checks the zip with the same safe reader as `bbbench eval` (nothing in it is
-unpickled or run), writes `submissions/my-ppo/`, scores it on every evaluation
-seed and rebuilds these pages. Commit the folder and the regenerated files, and
-open a pull request: CI re-scores every entry from scratch and fails if any
-number differs."""
+`leaderboard add` checks the file with the same safe reader as `bbbench eval`,
+writes `submissions/my-ppo/`, scores it on every evaluation seed and rebuilds
+these pages. Commit the folder and the regenerated files, and open a pull
+request: the leaderboard workflow (.github/workflows/leaderboard.yml) re-scores
+new and changed entries in full and fails if any number differs, and uploads
+the rebuilt board; once merged, the page is published."""
 
 
 _CSS = """

@@ -1,10 +1,15 @@
-"""Policies `bbbench eval` scores: the built-in baselines and submitted stable-baselines3 zips.
+"""Policies `bbbench eval` scores: the built-in baselines, stable-baselines3 zips and ONNX
+models.
 
 from bbbench.policies import load_policy
-policy = load_policy("pd")              # or "random", "reference", or "policy.zip"
+policy = load_policy("pd")              # or "random", "reference", "policy.zip", "policy.onnx"
+
+from bbbench.policies import export_onnx
+export_onnx(agent.actor, "bbbench/FlatBalance-v1", "policy.onnx")  # any torch actor
 """
 
 from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.export import export_onnx, export_zip
 from bbbench.policies.pd import PDController
 from bbbench.policies.registry import (
     BUILTIN_POLICIES,
@@ -20,6 +25,8 @@ __all__ = [
     "Policy",
     "PolicyError",
     "RefusedForSafety",
+    "export_onnx",
+    "export_zip",
     "fitting_tasks",
     "load_policy",
     "register_policy",

@@ -16,6 +16,7 @@ Every file is read back through bbbench's own safe reader before it is written
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -24,11 +25,13 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.files import write_atomic
-from bbbench.policies.contract import Contract, describe_action_space
+from bbbench.policies.archive import read_file
+from bbbench.policies.contract import Contract, describe_action_space, read_contract
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.onnx_file import MAX_FILE_BYTES
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.policies.policy import NormalizedActor, Policy
+from bbbench.policies.registry import fitting_tasks
 from bbbench.tasks.suite import agent_spaces, spec
 
 OPSET = 17
@@ -46,8 +49,6 @@ def export_zip(
     """Write `policy` (an `SB3ZipPolicy`, loaded with its statistics by `load_policy`) as
     ONNX at `out`: its network as Gemm layers, its normalization in float64 as
     VecNormalize computes it. `task_id`: a task it fits (default: the first)."""
-    from bbbench.policies.registry import fitting_tasks  # the suite's tasks it plays
-
     task_id = task_id or next(iter(fitting_tasks(policy)), None)
     if task_id is None:
         raise PolicyError(f"{policy.name}: fits no task of the suite; nothing to export for")
@@ -86,7 +87,7 @@ def export_onnx(
     clip: float | None = None,
     algorithm: str = "ONNX policy",
     training_steps: int | None = None,
-    opset: int = OPSET,
+    opset: int | None = None,
     dynamo: bool = False,
 ) -> Path:
     """Export a torch actor that maps raw (or normalized) observations of `task_id`'s bots
@@ -95,7 +96,8 @@ def export_onnx(
     `mean`, `std` and `clip`: a normalizer the actor was trained behind, `clip((obs -
     mean) / std, -clip, clip)` (CleanRL's and gymnasium's NormalizeObservation keep
     `mean` and `var`: std = sqrt(var + epsilon)); it is put inside the graph, computed in
-    float64. `dynamo`: torch's newer exporter (`torch.onnx.export(dynamo=True)`).
+    float64. `dynamo`: torch's newer exporter (`torch.onnx.export(dynamo=True)`). `opset`:
+    default 17 (18 with dynamo, its lowest).
     """
     import torch  # lazy: torch, for exporting only
 
@@ -117,6 +119,7 @@ def export_onnx(
         if dynamo:
             batch = torch.export.Dim("batch", min=1, max=4096)
             keywords["dynamic_shapes"] = {"obs": {0: batch}}
+            keywords["verbose"] = False
         else:
             keywords["dynamic_axes"] = {INPUT: {0: "batch"}, OUTPUT: {0: "batch"}}
         with torch.no_grad():
@@ -124,7 +127,7 @@ def export_onnx(
                 wrapped,
                 (example,),
                 str(raw),
-                opset_version=opset,
+                opset_version=opset or (18 if dynamo else OPSET),
                 dynamo=dynamo,
                 external_data=False,
                 **keywords,
@@ -136,23 +139,36 @@ def export_onnx(
 def export_foreign(
     source: str | Path,
     out: str | Path,
-    contract: Contract,
+    *,
+    observation: int | None = None,
+    action_space: str | None = None,
+    algorithm: str | None = None,
+    training_steps: int | None = None,
+    task: str | None = None,
     output: str | None = None,
 ) -> Path:
-    """Give an ONNX file written by another library the contract, keeping the one output
-    that acts (`output`: its name; default: the first) and what computes it, and
-    dropping inputs nothing uses (RLlib's `state_ins`, its `state_outs`)."""
+    """Give an ONNX file written by another library the contract (from its metadata, or
+    `observation` and `action_space`), keeping the one output that acts (`output`: its
+    name; default: the first) and what computes it, and dropping inputs nothing uses
+    (RLlib's `state_ins`, and its `state_outs`)."""
     import onnx  # lazy: onnx, for ONNX files only
 
     source = Path(source)
-    read_onnx_bytes = source.read_bytes()
-    if len(read_onnx_bytes) > MAX_FILE_BYTES:
-        raise PolicyError(f"{source}: larger than the {MAX_FILE_BYTES} bytes bbbench scores")
+    content = read_file(source, MAX_FILE_BYTES, "an ONNX model (.onnx)")
     model = onnx.ModelProto()
     try:
-        model.ParseFromString(read_onnx_bytes)
+        model.ParseFromString(content)
     except Exception:
         raise PolicyError(f"{source}: not an ONNX model") from None
+    props = {p.key: p.value for p in model.metadata_props}
+    given = read_contract(source.name, props, observation, action_space)
+    contract = dataclasses.replace(
+        given,
+        algorithm=algorithm or given.algorithm,
+        training_steps=given.training_steps if training_steps is None else training_steps,
+        task=task or given.task,
+        source="metadata",
+    )
     graph = model.graph
     names = [o.name for o in graph.output]
     keep = output or (names[0] if names else None)
@@ -163,9 +179,8 @@ def export_foreign(
         if any(name in needed for name in node.output):
             nodes.append(node)
             needed.update(name for name in node.input if name)
-    kept_nodes = list(reversed(nodes))
     del graph.node[:]
-    graph.node.extend(kept_nodes)
+    graph.node.extend(reversed(nodes))
     for field, keep_it in (
         (graph.output, lambda value: value.name == keep),
         (graph.input, lambda value: value.name in needed),
@@ -202,19 +217,24 @@ def _read_back(content: bytes) -> OnnxPolicy:
 
 def _check_parity(content: bytes, policy: Policy, task_id: str, actor) -> None:
     """The exported graph acts as the zip does, bit for bit, on observations spread over the
-    task's bounds (and beyond the normalization's clip)."""
+    task's bounds (and beyond the normalization's clip): the same actions, and for a
+    Discrete policy the same scores."""
     exported = _read_back(content).actor(task_id)
     observation_space, _ = agent_spaces(task_id, policy.action_mode, policy.height_scan)
     rng = np.random.default_rng(0)
     low = np.maximum(observation_space.low, -50.0)
     high = np.minimum(observation_space.high, 50.0)
     observations = rng.uniform(low, high, (_CHECK_ROWS, len(low))).astype(np.float32)
-    mine, theirs = exported(observations), actor(observations)
-    for a, b in zip(mine, theirs, strict=True):
+    pairs = list(zip(exported(observations), actor(observations), strict=True))
+    if isinstance(policy.action_space, spaces.Discrete):
+        mlp = actor.actor if isinstance(actor, NormalizedActor) else actor
+        seen = actor.normalization(observations) if mlp is not actor else observations
+        pairs.append((exported.program(observations), mlp.outputs(seen)))
+    for a, b in pairs:
         if np.asarray(a).tobytes() != np.asarray(b).tobytes():
             raise PolicyError(
-                f"{policy.name}: the exported graph acts otherwise than the zip ({a} against "
-                f"{b}); please report it"
+                f"{policy.name}: the exported graph computes otherwise than the zip; please "
+                f"report it"
             )
 
 

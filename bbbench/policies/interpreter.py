@@ -14,7 +14,8 @@ It runs the operators a policy network needs and no others (`OPERATORS`):
   (bbbench export normalizes observations in float64 inside the graph, as
   VecNormalize does);
 - shapes: `Reshape`, `Flatten`, `Slice`, `Concat`, `Squeeze`, `Unsqueeze`,
-  `Gather` (constant indices), `Identity`, `Constant`;
+  `Gather` (constant indices), `Identity`, `Constant`, and `Shape` (the int64
+  dimensions exporters gather to flatten a batch, as RLlib's does);
 - pooling over slots: `ReduceMax`, and `ReduceSum` and `ReduceMean` summed in
   float64 in slot order, then rounded once (numpy's own sums change order with
   the CPU's vector width).
@@ -90,8 +91,8 @@ def _clip(params, x):
     return np.clip(x, params["low"], params["high"])
 
 
-def _reshape(params, x):
-    shape = list(params["shape"])
+def _reshape(params, x, computed=None):
+    shape = list(params["shape"] if computed is None else computed.tolist())
     for i, size in enumerate(shape):
         if size == 0 and not params["allowzero"]:
             shape[i] = x.shape[i]
@@ -158,6 +159,7 @@ RUN: dict[str, Callable] = {
     ),
     "Unsqueeze": lambda params, x: np.expand_dims(x, params["axes"]),
     "Gather": lambda params, x: np.take(x, params["indices"], axis=params["axis"]),
+    "Shape": lambda params, x: np.array(x.shape[params["start"] : params["end"]], dtype=I8),
     "Reduce": _reduce,
 }
 
@@ -167,6 +169,9 @@ OPERATORS = frozenset(
     | (set(RUN) - {"Linear", "Reduce"})
 )
 _FLOAT_ONLY = ("Tanh", "Sigmoid", "Elu")  # float32: portable's functions
+# Operators that move values without computing on them: they take the integer tensors of
+# shape arithmetic (a Shape, the dimensions gathered from it) as well as float ones.
+_INDEXING = ("Reshape", "Flatten", "Slice", "Concat", "Squeeze", "Unsqueeze", "Gather", "Shape")
 # ONNX activations that are an `MlpActor` activation (with their default attributes).
 _MLP_ACTIVATIONS = {"Tanh": "Tanh", "Relu": "ReLU", "Sigmoid": "Sigmoid"}
 
@@ -304,9 +309,16 @@ class _Compiler:
                 )
             params["to"] = _ONNX_TYPES[to]
         elif op == "Reshape":
-            params["shape"] = tuple(int(v) for v in self.constant(node, 1, "shape").ravel())
             params["allowzero"] = attributes.get("allowzero", 0)
-            inputs = inputs[:1]
+            shape = inputs[1] if len(inputs) > 1 else None
+            if isinstance(shape, np.ndarray):
+                params["shape"] = tuple(int(v) for v in shape.ravel())
+                inputs = inputs[:1]
+            elif shape is None or self.types[shape] != I8:
+                raise self.fail(node, "needs its shape, int64")
+        elif op == "Shape":
+            params["start"] = attributes.get("start", 0)
+            params["end"] = attributes.get("end")
         elif op == "Flatten":
             params["axis"] = attributes.get("axis", 1)
         elif op == "Slice":
@@ -334,7 +346,7 @@ class _Compiler:
             params["noop"] = attributes.get("noop_with_empty_axes", 0)
             inputs = inputs[:1]
         kinds = {self.dtype(x) for x in inputs}
-        if any(kind.kind != "f" for kind in kinds):
+        if op not in _INDEXING and any(kind.kind != "f" for kind in kinds):
             raise self.fail(node, "computes on integers; bbbench runs float arithmetic only")
         if op in _FLOAT_ONLY and kinds != {F4}:
             raise self.fail(node, "runs on float32 only (portable arithmetic)")
@@ -342,7 +354,10 @@ class _Compiler:
         if all(isinstance(x, np.ndarray) for x in inputs):  # fold it now
             self.constants[output] = _run_step(step, {}, self.where)
             return
-        self.types[output] = params["to"] if op == "Cast" else self.dtype(inputs[0])
+        if op == "Cast":
+            self.types[output] = params["to"]
+        else:
+            self.types[output] = I8 if op == "Shape" else self.dtype(inputs[0])
         self.steps.append(step)
 
     def _same_type(self, node, inputs: list) -> list:
@@ -444,6 +459,8 @@ def _run_step(step: Step, env: dict, where: str):
 
 
 def _run(steps, env: dict, where: str) -> dict:
+    if not steps:
+        return env
     with np.errstate(all="ignore"):  # a division by zero gives inf, as in float32
         for step in steps:
             env[step.output] = _run_step(step, env, where)

@@ -34,6 +34,7 @@ import numpy as np
 
 from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.interpreter import OPERATORS
 from bbbench.policies.weights import MAX_PARAMETERS
 
 MAX_FILE_BYTES = 64 * 2**20  # 10M float32 parameters are 40 MB
@@ -191,8 +192,6 @@ def _opset(path: Path, model) -> int:
 
 
 def _check_node(path: Path, node) -> None:
-    from bbbench.policies.interpreter import OPERATORS  # the operator set
-
     if node.domain not in ("", "ai.onnx"):
         raise RefusedForSafety(
             f"{path}: operator {node.domain}.{node.op_type} is outside the default domain; "

@@ -105,7 +105,7 @@ def _actor(model, contract: Contract) -> OnnxActor:
         )
     space = contract.action_space
     discrete = isinstance(space, spaces.Discrete)
-    outputs = space.n if discrete else space.shape[0]
+    outputs = int(space.n if discrete else space.shape[0])
     if model.output_width is not None and model.output_width != outputs:
         raise PolicyError(
             f"{where}: its output {model.output!r} is {model.output_width} wide, but its "
