@@ -88,6 +88,8 @@ def _elu(params, x):
 
 
 def _clip(params, x):
+    if params["low"] is None and params["high"] is None:
+        return x
     return np.clip(x, params["low"], params["high"])
 
 
@@ -134,8 +136,16 @@ def _reduce(params, x):
     return out
 
 
+def _normalize(params, x):
+    """Cast to float64, Sub, Div, Clip, Cast to float32, in one: the same operations on
+    the same values (numpy widens float32 to float64 exactly)."""
+    scaled = (x - params["mean"]) / params["std"]
+    return _clip(params, scaled).astype(F4)
+
+
 RUN: dict[str, Callable] = {
     "Linear": _linear,
+    "Normalize": _normalize,
     "Add": _variadic(np.add),
     "Sub": _elementwise(np.subtract),
     "Mul": _variadic(np.multiply),
@@ -166,7 +176,7 @@ RUN: dict[str, Callable] = {
 # The ONNX operators bbbench runs (the rest is refused by name when the file is read).
 OPERATORS = frozenset(
     {"Gemm", "MatMul", "Identity", "Constant", "ReduceSum", "ReduceMean", "ReduceMax"}
-    | (set(RUN) - {"Linear", "Reduce"})
+    | (set(RUN) - {"Linear", "Reduce", "Normalize"})
 )
 _FLOAT_ONLY = ("Tanh", "Sigmoid", "Elu")  # float32: portable's functions
 # Operators that move values without computing on them: they take the integer tensors of
@@ -486,24 +496,33 @@ class Program:
 
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         """The graph's output for a batch of observations (float32, (k, n))."""
-        env = _run(self.prefix, {self.input: observations}, self.where)
         if self.mlp is None:
-            return env[self.output]
+            return _run(self.prefix, {self.input: observations}, self.where)[self.output]
+        if not self.suffix and self.output == self.mlp_output:
+            return self.mlp.outputs(self._mlp_input(observations))
+        env = _run(self.prefix, {self.input: observations}, self.where)
         env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
         return _run(self.suffix, env, self.where)[self.output]
 
     def greedy_mlp(self, observations: np.ndarray) -> list:
         """A Discrete policy whose graph ends in its chain: the chain's own actions (its fast
         greedy path)."""
-        env = _run(self.prefix, {self.input: observations}, self.where)
-        return self.mlp(env[self.mlp_input])
+        return self.mlp(self._mlp_input(observations))
+
+    def _mlp_input(self, observations: np.ndarray) -> np.ndarray:
+        prefix = self.prefix
+        if not prefix:
+            return observations
+        if len(prefix) == 1 and prefix[0].op == "Normalize":  # as NormalizedActor does
+            return _normalize(prefix[0].params, observations)
+        return _run(prefix, {self.input: observations}, self.where)[self.mlp_input]
 
 
 def compile_graph(model, discrete: bool, shapes: dict[str, tuple] | None = None) -> Program:
     """A checked `OnnxModel` as a `Program`. `shapes`: each tensor's shape on a trial batch
     (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
     compiler = _Compiler(model)
-    steps, output = compiler.compile(), compiler.output
+    steps, output = _fuse_normalization(compiler.compile(), model.input), compiler.output
     segment = _mlp_segment(steps, output, shapes)
     if segment is None:
         return Program(model.name, model.input, output, tuple(steps), None, None, None, ())
@@ -542,6 +561,32 @@ def trial_shapes(model, observations: np.ndarray) -> dict[str, tuple]:
     env = _run(compiler.compile(), {model.input: observations}, model.name)
     env[model.output] = env[compiler.output]
     return {name: np.shape(value) for name, value in env.items()}
+
+
+def _fuse_normalization(steps: list[Step], source: str) -> list[Step]:
+    """The first five steps as one when they are VecNormalize's arithmetic on the input
+    (as `bbbench export` and `export_onnx` write it): Cast to float64, Sub and Div by
+    constants, Clip, Cast to float32, each result used once."""
+    ops = [(step.op, step.params.get("to")) for step in steps[:5]]
+    if ops != [("Cast", F8), ("Sub", None), ("Div", None), ("Clip", None), ("Cast", F4)]:
+        return steps
+    cast, sub, div, clip, back = steps[:5]
+    chain = [source, cast.output, sub.output, div.output, clip.output]
+    if [step.inputs[0] for step in steps[:5]] != chain or not all(
+        isinstance(step.inputs[1], np.ndarray) for step in (sub, div)
+    ):
+        return steps
+    used = [x for step in steps[5:] for x in step.inputs if isinstance(x, str)]
+    if any(name in used for name in chain[1:]):
+        return steps
+    params = {
+        "mean": sub.inputs[1],
+        "std": div.inputs[1],
+        "low": clip.params["low"],
+        "high": clip.params["high"],
+    }
+    fused = Step("Normalize", (source,), back.output, params, "VecNormalize's arithmetic")
+    return [fused, *steps[5:]]
 
 
 def _mlp_segment(steps: list[Step], output: str, shapes) -> tuple[list[int], str] | None:

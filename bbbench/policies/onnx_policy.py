@@ -126,7 +126,7 @@ def _actor(model, contract: Contract) -> OnnxActor:
         together = program(trial)
         apart = np.concatenate([program(row[None]) for row in trial])
         rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
-    greedy = discrete and program.mlp is not None and not program.suffix
+    greedy = discrete and program.mlp is not None and program.output == program.mlp_output
     return OnnxActor(
         program,
         discrete,
