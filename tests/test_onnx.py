@@ -327,3 +327,13 @@ def test_every_operator_of_the_set_has_its_function():
         "ReduceMax",
     }
     assert MlpActor  # the compiled chain's class
+
+
+def test_a_graph_exported_for_one_observation_runs_row_by_row_alike(tmp_path):
+    """Isaac Lab's exporter writes its input as (1, n): bbbench calls it once per bot."""
+    batched = OnnxPolicy(bare_mlp(tmp_path / "any.onnx"), 5, "Discrete(9)").actor(FLAT)
+    single = OnnxPolicy(bare_mlp(tmp_path / "one.onnx", batch=1), 5, "Discrete(9)").actor(FLAT)
+    assert single.rows
+    assert not batched.rows
+    observations = np.random.default_rng(4).normal(0, 2, (64, 5)).astype(np.float32)
+    assert single(observations) == batched(observations)
