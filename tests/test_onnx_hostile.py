@@ -4,6 +4,7 @@ any episode is played, with nothing written."""
 from __future__ import annotations
 
 import io
+import itertools
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -201,6 +202,17 @@ def training_info() -> bytes:
     return model.SerializeToString()
 
 
+def doubling(source: str, count: int = 60) -> bytes:
+    """A dead branch of Concats, each doubling the last: 2**60 values if run."""
+    nodes = [helper.make_node("Gemm", ["obs", "w", "b"], ["scores"])]
+    if source == "k0":
+        nodes.append(helper.make_node("Constant", [], ["k0"], value_floats=[1.0]))
+    names = [source] + [f"d{i}" for i in range(count)]
+    for a, b in itertools.pairwise(names):
+        nodes.append(helper.make_node("Concat", [a, a], [b], axis=-1))
+    return model_bytes(layer_graph(nodes=nodes))
+
+
 def valid() -> bytes:
     return model_bytes()
 
@@ -249,6 +261,8 @@ CORPUS: list[tuple[str, Callable[[], bytes], str]] = [
     ("nan-weights", lambda: weights_of(np.nan), "NaN or infinite"),
     ("inf-weights", lambda: weights_of(np.inf), "NaN or infinite"),
     ("10000-nodes", lambda: identity_chain(10_000), "10001 nodes"),
+    ("concat-doubling", lambda: doubling("obs"), "more than the 1,000,000 a row"),
+    ("constant-doubling", lambda: doubling("k0"), "more than the 1,000,000 a row"),
     ("integer-arithmetic", integer_arithmetic, "integers"),
     ("out-of-order", out_of_order, "topological order"),
     ("string-tensor", string_tensor, "is string"),

@@ -35,10 +35,13 @@ from typing import Any
 import numpy as np
 
 from bbbench import portable
-from bbbench.policies.errors import PolicyError
+from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import MlpActor
 
 F4, F8, I8 = np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int64)
+# The most values any tensor may hold per observation (or in all, for a constant): a
+# policy for these tasks needs thousands.
+MAX_ROW_VALUES = 1_000_000
 _ONNX_TYPES = {1: F4, 11: F8}  # Cast's `to`: float32, float64
 
 
@@ -362,7 +365,8 @@ class _Compiler:
             raise self.fail(node, "runs on float32 only (portable arithmetic)")
         step = Step(run_op, tuple(inputs), output, params, f"{op} ({output})")
         if all(isinstance(x, np.ndarray) for x in inputs):  # fold it now
-            self.constants[output] = _run_step(step, {}, self.where)
+            value = self.constants[output] = _run_step(step, {}, self.where)
+            _check_size(self.where, step.label, value.size, 1)
             return
         if op == "Cast":
             self.types[output] = params["to"]
@@ -457,6 +461,14 @@ class _Compiler:
         return tuple(
             (int(s), int(e), int(a), int(t))
             for s, e, a, t in zip(starts, ends, axes, steps, strict=True)
+        )
+
+
+def _check_size(where: str, label: str, size: int, rows: int) -> None:
+    if size > MAX_ROW_VALUES * rows:
+        raise RefusedForSafety(
+            f"{where}: {label} makes a tensor of {size:,} values ({rows} observation(s)), "
+            f"more than the {MAX_ROW_VALUES:,} a row bbbench computes"
         )
 
 
@@ -556,9 +568,15 @@ def compile_graph(model, discrete: bool, shapes: dict[str, tuple] | None = None)
 
 
 def trial_shapes(model, observations: np.ndarray) -> dict[str, tuple]:
-    """Every computed tensor's shape on `observations`, running the graph step by step."""
+    """Every computed tensor's shape on `observations`, running the graph step by step;
+    `RefusedForSafety` as soon as one holds more than `MAX_ROW_VALUES` values a row (a
+    chain of Concats doubling a tensor grows it past any memory in 40 nodes)."""
     compiler = _Compiler(model)
-    env = _run(compiler.compile(), {model.input: observations}, model.name)
+    env = {model.input: observations}
+    with np.errstate(all="ignore"):
+        for step in compiler.compile():
+            value = env[step.output] = _run_step(step, env, model.name)
+            _check_size(model.name, step.label, np.size(value), len(observations))
     env[model.output] = env[compiler.output]
     return {name: np.shape(value) for name, value in env.items()}
 

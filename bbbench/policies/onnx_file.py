@@ -118,10 +118,11 @@ def read_onnx(path: str | Path) -> OnnxModel:
             f"{path}: {len(graph.node)} nodes, more than the {MAX_NODES} bbbench runs"
         )
     tensors = [(t.name or "(unnamed)", t) for t in graph.initializer]
+    declared = 0
     for node in graph.node:
         _check_node(path, node)
         tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
-    declared = 0
+        declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
     for name, tensor in tensors:  # every size and location before any value is decoded
         declared += _check_tensor(path, name, tensor)
         if declared > MAX_PARAMETERS:
