@@ -63,6 +63,8 @@ def runs() -> list[dict]:
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in LEGGED),
         *({"tasks": [task], "algo": "sac", "seed": 0} for task in LEGGED),
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in TEAMS),
+        # A second family on the single-bot track: SAC, seed 0, continuous actions.
+        *({"tasks": [task], "algo": "sac", "seed": 0} for task in (*LATEST_SINGLE, *ADDED_SINGLE)),
     ]
     for run in plan:
         name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
@@ -134,6 +136,7 @@ def table(root: Path, board: Path) -> str:
     plan = runs()
     rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist"]
     rows += [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
+    rows += [f"{task} sac" for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
     for row in rows:
         task_id, _, algo = row.partition(" ")
         done = [
