@@ -1,0 +1,135 @@
+"""bbbench's multi-bot and team tasks as a BenchMARL task family.
+
+Every task is its PettingZoo parallel env (`bbbench.make_parallel`) in TorchRL's
+`PettingZooWrapper`, whose group map puts every bot in one group, `bot`. One
+BenchMARL task per latest multi-bot task ID (`BbbenchTask`); its configuration
+(`conf/task/bbbench/<name>.yaml`) holds the env's own keywords: `n_bots`, and
+`difficulty` on terrain. The action mode follows BenchMARL's
+`prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))` per bot.
+
+A bot that falls leaves the episode (the others play on, on the crossing
+tasks); the wrapper reports which bots are still playing as `("bot", "mask")`.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from benchmarl.environments import task_config_registry
+from benchmarl.environments.common import Task, TaskClass
+from benchmarl.utils import _read_yaml_config
+from torchrl.data import Composite
+from torchrl.envs import EnvBase
+from torchrl.envs.libs.pettingzoo import PettingZooWrapper
+
+import bbbench
+
+CONF = Path(__file__).with_name("conf") / "task"
+ENV_NAME = "bbbench"
+
+
+def task_id(name: str) -> str:
+    """The bbbench task ID of a BenchMARL task name: MULTIBALANCE_V1 -> bbbench/MultiBalance-v1."""
+    wanted = name.lower().replace("_v", "-v")
+    for candidate in bbbench.list_tasks():
+        if candidate.removeprefix("bbbench/").lower() == wanted:
+            return candidate
+    raise ValueError(f"no bbbench task for BenchMARL's {name!r}")
+
+
+class BbbenchTaskClass(TaskClass):
+    """A bbbench multi-bot task, as BenchMARL builds and reads it."""
+
+    @property
+    def task_id(self) -> str:
+        return task_id(self.name)
+
+    def get_env_fun(
+        self, num_envs: int, continuous_actions: bool, seed: int | None, device: Any
+    ) -> Callable[[], EnvBase]:
+        config = copy.deepcopy(self.config)
+        mode = "continuous" if continuous_actions else "discrete"
+        task = self.task_id
+
+        def make() -> EnvBase:
+            env = bbbench.make_parallel(task, action_mode=mode, **config)
+            return PettingZooWrapper(
+                env,
+                use_mask=True,
+                done_on_any=False,
+                categorical_actions=True,
+                seed=seed,
+                device=device,
+            )
+
+        return make
+
+    def supports_continuous_actions(self) -> bool:
+        return True
+
+    def supports_discrete_actions(self) -> bool:
+        return True
+
+    def max_steps(self, env: EnvBase) -> int:
+        return bbbench.spec(self.task_id).max_episode_steps
+
+    def has_render(self, env: EnvBase) -> bool:
+        return True
+
+    def group_map(self, env: EnvBase) -> dict[str, list[str]]:
+        return env.group_map
+
+    def _keys(self, env: EnvBase, keep: str) -> Composite | None:
+        spec = env.observation_spec.clone()
+        for group in self.group_map(env):
+            for key in list(spec[group].keys()):
+                if key != keep:
+                    del spec[group][key]
+            if spec[group].is_empty():
+                del spec[group]
+        return None if spec.is_empty() else spec
+
+    def observation_spec(self, env: EnvBase) -> Composite:
+        return self._keys(env, "observation")
+
+    def info_spec(self, env: EnvBase) -> Composite | None:
+        return self._keys(env, "info")
+
+    def state_spec(self, env: EnvBase) -> Composite | None:
+        return None
+
+    def action_mask_spec(self, env: EnvBase) -> Composite | None:
+        return None
+
+    def action_spec(self, env: EnvBase) -> Composite:
+        return env.full_action_spec
+
+    @staticmethod
+    def env_name() -> str:
+        return ENV_NAME
+
+
+class BbbenchTask(Task):
+    """bbbench's latest multi-bot and team tasks, for BenchMARL."""
+
+    MULTIBALANCE_V1 = None
+    MULTIBUMPS_V1 = None
+    BEAMCARRY_V0 = None
+    BEAMCARRYBUMPS_V0 = None
+    CONVOY_V0 = None
+
+    @staticmethod
+    def associated_class():
+        return BbbenchTaskClass
+
+    def get_from_yaml(self, path: str | None = None) -> TaskClass:
+        """The task with its configuration from bbbench's own YAML (or `path`)."""
+        file = Path(path) if path else CONF / ENV_NAME / f"{self.name.lower()}.yaml"
+        return self.get_task(config=_read_yaml_config(str(file)))
+
+
+for _task in BbbenchTask:
+    task_config_registry[f"{ENV_NAME}/{_task.name.lower()}"] = _task

@@ -1,0 +1,63 @@
+"""bbbench's multi-bot and team tasks as a BenchMARL task family: BenchMARL's own
+Experiment trains on them with no glue."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from benchmarl.algorithms import IppoConfig
+from benchmarl.environments import task_config_registry
+from benchmarl.experiment import Experiment, ExperimentConfig
+from benchmarl.models import MlpConfig
+
+import bbbench
+from bbbench.marl import BbbenchTask
+
+
+def test_the_family_is_every_latest_multi_bot_task():
+    latest = [t for t in bbbench.list_tasks(latest=True) if bbbench.spec(t).multi_agent]
+    assert sorted(task.get_from_yaml().task_id for task in BbbenchTask) == sorted(latest)
+    for task in BbbenchTask:
+        assert task_config_registry[f"bbbench/{task.name.lower()}"] is task
+
+
+@pytest.mark.parametrize("continuous", [False, True])
+def test_a_task_builds_the_wrapped_env_with_its_bots_in_one_group(continuous):
+    task = BbbenchTask.BEAMCARRY_V0.get_from_yaml()
+    env = task.get_env_fun(1, continuous, seed=0, device="cpu")()
+    assert task.group_map(env) == {"bot": ["bot_0", "bot_1", "bot_2"]}
+    assert task.observation_spec(env)["bot", "observation"].shape == (3, 19)
+    assert set(task.info_spec(env)["bot", "info"].keys()) >= {"reward_upright", "velocity_error"}
+    action = task.action_spec(env)["bot", "action"]
+    assert action.shape == ((3, 1) if continuous else (3,))
+    assert task.max_steps(env) == 1500
+    rollout = env.rollout(5)
+    assert rollout["next", "bot", "mask"].all()  # nobody has fallen yet
+
+
+def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
+    config = ExperimentConfig.get_from_yaml()
+    config.sampling_device = config.train_device = "cpu"
+    config.max_n_frames = 400
+    config.on_policy_collected_frames_per_batch = 200
+    config.on_policy_n_envs_per_worker = 1
+    config.on_policy_n_minibatch_iters = 1
+    config.on_policy_minibatch_size = 100
+    config.evaluation = False
+    config.loggers = []
+    config.create_json = False
+    config.render = False
+    config.checkpoint_interval = 0
+    config.save_folder = str(tmp_path)
+    torch.manual_seed(0)
+    experiment = Experiment(
+        task=BbbenchTask.BEAMCARRY_V0.get_from_yaml(),
+        algorithm_config=IppoConfig.get_from_yaml(),
+        model_config=MlpConfig.get_from_yaml(),
+        critic_model_config=MlpConfig.get_from_yaml(),
+        seed=0,
+        config=config,
+    )
+    experiment.run()
+    assert experiment.total_frames == 400
+    assert experiment.n_iters_performed == 2
