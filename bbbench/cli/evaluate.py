@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
 from rich.console import Console
@@ -40,6 +41,12 @@ def add_parser(commands) -> None:
     add_play_options(evaluate, episodes="the first N eval seeds of each task (default: all)")
     add_contract_options(evaluate)
     evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
+    evaluate.add_argument(
+        "--marl-eval",
+        metavar="OUT",
+        help="write the episodes in marl-eval's raw-data JSON (InstaDeep's id-marl-eval, "
+        "BenchMARL's statistics), to put bbbench beside other MARL tasks",
+    )
     evaluate.add_argument(
         "--vecnormalize",
         metavar="PKL",
@@ -88,9 +95,12 @@ def _checked(args: argparse.Namespace):
             file=sys.stderr,
         )
     try:  # everything the run will need, before any episode is played
-        check_distinct_outputs({"--json": args.json, "--video": args.video})
-        if args.json is not None:
-            check_output_path(args.json, "--json")
+        check_distinct_outputs(
+            {"--json": args.json, "--video": args.video, "--marl-eval": args.marl_eval}
+        )
+        for flag, path in (("--json", args.json), ("--marl-eval", args.marl_eval)):
+            if path is not None:
+                check_output_path(path, flag)
         if args.video is not None:
             check_video_path(args.video)
         if args.backend == "ray":
@@ -157,6 +167,14 @@ def _reported(args: argparse.Namespace, policy, task_ids: list[str], result) -> 
         write_atomic(args.json, evaluation.dumps(document).encode())
         args.written.append(args.json)
         print(f"wrote {args.json}")
+    if args.marl_eval is not None:
+        from bbbench.evaluation.marl_eval import marl_eval_document  # lazy: bbbench.evaluation
+
+        steps = getattr(policy, "training_steps", None)
+        data = marl_eval_document(document, steps)
+        write_atomic(args.marl_eval, (json.dumps(data, indent=1) + "\n").encode())
+        args.written.append(args.marl_eval)
+        print(f"wrote {args.marl_eval} (marl-eval's raw data)")
     if args.video is not None:
         task_id = task_ids[0]
         seed = bbbench.spec(task_id).eval_seeds[0]
