@@ -61,3 +61,46 @@ def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
     experiment.run()
     assert experiment.total_frames == 400
     assert experiment.n_iters_performed == 2
+
+
+def test_the_neighbour_encoder_trains_in_benchmarl_and_exports_as_it_acts(tmp_path):
+    import numpy as np
+
+    from bbbench.marl.models import NeighbourEncoderConfig
+    from bbbench.policies import export_onnx, load_policy
+
+    config = ExperimentConfig.get_from_yaml()
+    config.sampling_device = config.train_device = "cpu"
+    config.prefer_continuous_actions = False  # Discrete(9): one score per action
+    config.max_n_frames = 200
+    config.on_policy_collected_frames_per_batch = 200
+    config.on_policy_n_envs_per_worker = 1
+    config.on_policy_n_minibatch_iters = 1
+    config.on_policy_minibatch_size = 100
+    config.evaluation = False
+    config.loggers = []
+    config.create_json = False
+    config.render = False
+    config.checkpoint_interval = 0
+    config.save_folder = str(tmp_path)
+    torch.manual_seed(0)
+    experiment = Experiment(
+        task=BbbenchTask.BEAMCARRY_V0.get_from_yaml(),
+        algorithm_config=IppoConfig.get_from_yaml(),
+        model_config=NeighbourEncoderConfig.for_task("bbbench/BeamCarry-v0"),
+        critic_model_config=MlpConfig.get_from_yaml(),
+        seed=0,
+        config=config,
+    )
+    experiment.run()
+    actor = experiment.group_policies["bot"]
+    network = next(m for m in actor.modules() if hasattr(m, "net")).net
+    path = export_onnx(network, "bbbench/BeamCarry-v0", tmp_path / "ippo.onnx", algorithm="IPPO")
+    policy = load_policy(path)
+    observations = torch.randn(64, 19)
+    observations[:, 9] = 1.0
+    observations[:, 14] = (torch.arange(64) % 2).float()
+    with torch.no_grad():
+        expected = network(observations).numpy()
+    scores = policy.actor("bbbench/BeamCarry-v0").program(observations.numpy())
+    assert np.abs(scores - expected).max() < 1e-5
