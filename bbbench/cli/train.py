@@ -35,6 +35,18 @@ def add_parser(commands) -> None:
     )
     trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
     trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
+    trainer.add_argument(
+        "--seeds",
+        metavar="S,S,...",
+        help="train one policy per seed (e.g. 0,1,2), each into <out stem>-s<seed>/ beside --out",
+    )
+    trainer.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="with --seeds: one after another here (local), or one Ray task each (ray)",
+    )
+    trainer.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
     trainer.add_argument("--n-envs", type=int, help="parallel envs (default: the recipe's)")
     trainer.add_argument("--out", default="policy.zip", help="the policy zip (default policy.zip)")
     trainer.add_argument(
@@ -51,6 +63,10 @@ def add_parser(commands) -> None:
 def run(args: argparse.Namespace) -> int:
     from bbbench import training  # lazy: bbbench.training
 
+    if args.seeds is not None:
+        return _run_seeds(args)
+    if args.backend != "local" or args.address is not None:
+        raise UsageError("--backend and --address fan out --seeds: give --seeds 0,1,2")
     try:
         tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
         if args.n_envs is not None and args.n_envs < 1:
@@ -117,4 +133,58 @@ def run(args: argparse.Namespace) -> int:
         f"{best['mean']:.1f} on training seeds) and {trained.log_dir}/curve.json, curve.png, "
         f"train.json, results.json; {trained.seconds:.0f} s"
     )
+    return 0
+
+
+def _run_seeds(args: argparse.Namespace) -> int:
+    """`--seeds`: one training per seed, here or on Ray; a line as each finishes."""
+    from bbbench import training  # lazy: bbbench.training
+    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation
+    from bbbench.training import fanout  # lazy: bbbench.training
+
+    try:
+        seeds = fanout.parse_seeds(args.seeds)
+        if args.seed != 0:
+            raise ValueError("--seed and --seeds: give one of them")
+        if args.address and args.backend != "ray":
+            raise ValueError("--address names a Ray cluster: use it with --backend ray")
+        if args.log is not None:
+            raise ValueError("--log: with --seeds each seed's logs go beside its zip")
+        tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
+        if args.n_envs is not None and args.n_envs < 1:
+            raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
+        check_output_path(args.out, "--out")  # its folder holds the seeds' folders
+        for seed in seeds:
+            out = fanout.seed_out(args.out, seed)
+            if out.parent.exists() and not out.parent.is_dir():
+                raise ValueError(f"--out {args.out}: seed {seed}'s folder {out.parent} is a file")
+            training.statistics_path(out, training.recipe(args.algo, key))
+        if args.backend == "ray":
+            check_ray_address(args.address)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+
+    def done(run) -> None:
+        args.written.append(f"{run.out.parent}/")
+        print(f"seed {run.seed}: wrote {run.out.parent}/ ({run.seconds:.0f} s)", flush=True)
+
+    try:
+        runs = fanout.train_seeds(
+            tasks,
+            args.algo,
+            args.out,
+            seeds,
+            backend=args.backend,
+            address=args.address,
+            on_done=done,
+            action_mode=args.action_mode,
+            steps=args.steps,
+            n_envs=args.n_envs,
+            final_episodes=args.eval_episodes,
+        )
+    except ConnectionError as error:
+        raise UsageError(f"--address {args.address}: {error}") from None
+    for run in runs:
+        score = run.results["overall"]["normalized_iqm"]
+        print(f"seed {run.seed}: {run.out}, normalized IQM {score:.3f}")
     return 0

@@ -1,0 +1,153 @@
+"""Many trainings at once: one per seed, here one after another or as Ray tasks.
+
+`bbbench train TASK --algo A --seeds 0,1,2 --out runs/policy.zip` trains seed s
+into `runs/policy-s<s>/` (the zip, its statistics where rl-zoo3 puts them, and
+curve.json, curve.png, train.json, results.json), each as reproducible as a
+single `--seed s` run: the same bytes.
+
+With `--backend ray [--address HOST:PORT]` every seed is a Ray task (one CPU
+each) on a local Ray or a cluster. The task trains in a folder of its own on
+whichever machine runs it and returns its files' bytes; this machine writes them
+(atomically), so a cluster needs no shared filesystem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from bbbench.files import write_all_atomic
+from bbbench.training.trainer import train
+
+
+@dataclasses.dataclass(frozen=True)
+class SeedRun:
+    """One seed's training, done: where its files are, and what it measured."""
+
+    seed: int
+    out: Path
+    files: tuple[Path, ...]
+    curve: list[dict[str, float]]
+    results: dict[str, Any]
+    seconds: float
+
+
+def parse_seeds(text: str) -> list[int]:
+    """`0,1,2` as [0, 1, 2]; `ValueError` for anything but distinct whole numbers >= 0."""
+    seeds = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part.isdecimal():
+            raise ValueError(
+                f"--seeds {text!r}: {part!r} is not a seed; give whole numbers >= 0 "
+                f"separated by commas, e.g. --seeds 0,1,2"
+            )
+        seeds.append(int(part))
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"--seeds {text!r}: a seed is given twice")
+    return seeds
+
+
+def seed_out(out: str | Path, seed: int) -> Path:
+    """Where seed `seed` of `--out` goes: `runs/policy.zip` -> `runs/policy-s0/policy.zip`."""
+    out = Path(out)
+    return out.parent / f"{out.stem}-s{seed}" / out.name
+
+
+def train_seeds(
+    task_ids: Sequence[str],
+    algorithm: str,
+    out: str | Path,
+    seeds: Sequence[int],
+    backend: str = "local",
+    address: str | None = None,
+    on_done: Callable[[SeedRun], None] | None = None,
+    **keywords: Any,
+) -> list[SeedRun]:
+    """Train one policy per seed (`bbbench.training.train`'s keywords: action_mode, steps,
+    n_envs, final_episodes), locally one after another or as Ray tasks; each seed's files
+    in `seed_out(out, seed)`'s folder. `on_done(run)` as each finishes."""
+    jobs = [(list(task_ids), algorithm, Path(out).name, seed, keywords) for seed in seeds]
+    done: list[SeedRun] = []
+    if backend == "local":
+        for job in jobs:
+            done.append(_write(out, job[3], _train_in_folder(*job)))
+            if on_done is not None:
+                on_done(done[-1])
+        return done
+    import ray  # lazy: ray, optional (the ray extra)
+
+    started = not ray.is_initialized()
+    if started:
+        try:
+            ray.init(
+                address=address,
+                include_dashboard=False,
+                log_to_driver=False,
+                configure_logging=False,
+                **({} if address else {"num_cpus": min(len(jobs), _cores())}),
+            )
+        except (ConnectionError, ValueError, RuntimeError) as error:
+            raise ConnectionError(f"cannot start or join Ray: {str(error)[:300]}") from None
+    try:
+        remote = ray.remote(num_cpus=1)(_train_in_folder)
+        futures = {remote.remote(*job): job[3] for job in jobs}
+        while futures:
+            [future], _ = ray.wait(list(futures), num_returns=1)
+            seed = futures.pop(future)
+            done.append(_write(out, seed, ray.get(future)))
+            if on_done is not None:
+                on_done(done[-1])
+    finally:
+        if started:
+            ray.shutdown()
+    return sorted(done, key=lambda run: list(seeds).index(run.seed))
+
+
+def _cores() -> int:
+    import os
+
+    return max(len(os.sched_getaffinity(0)), 1)
+
+
+def _train_in_folder(task_ids, algorithm, name, seed, keywords) -> dict[str, Any]:
+    """One seed trained in a folder of its own; its files' bytes, and what it measured."""
+    with tempfile.TemporaryDirectory(prefix="bbbench-train-") as folder:
+        root = Path(folder)
+        trained = train(task_ids, algorithm, out=root / name, seed=seed, log_dir=root, **keywords)
+        files = {
+            str(path.relative_to(root)): path.read_bytes()
+            for path in sorted(root.rglob("*"))
+            if path.is_file()
+        }
+    return {
+        "root": str(root),
+        "files": files,
+        "curve": trained.curve,
+        "results": trained.results,
+        "seconds": trained.seconds,
+    }
+
+
+def _write(out: str | Path, seed: int, trained: dict[str, Any]) -> SeedRun:
+    target = seed_out(out, seed)
+    # train.json names the statistics' path: where they are now, not the training folder.
+    root, here = trained["root"].encode(), str(target.parent).encode()
+    files = {
+        target.parent / name: data.replace(root, here) if name == "train.json" else data
+        for name, data in trained["files"].items()
+    }
+    for path in files:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    write_all_atomic(files)
+    return SeedRun(
+        seed=seed,
+        out=target,
+        files=tuple(sorted(files)),
+        curve=trained["curve"],
+        results=trained["results"],
+        seconds=trained["seconds"],
+    )

@@ -1,0 +1,72 @@
+"""`bbbench train --seeds`: one training per seed, here or as Ray tasks, each the same
+bytes as a single `--seed` run."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from bbbench.cli import main
+
+FLAT = "bbbench/FlatBalance-v1"
+TINY = ["--algo", "ppo", "--steps", "1024", "--eval-episodes", "2"]
+
+
+def one_line_exit_2(capsys, *argv: str) -> str:
+    code = main(list(argv))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    return err
+
+
+@pytest.mark.parametrize(
+    ("seeds", "expected"),
+    [
+        ("0,one", "'one' is not a seed"),
+        ("0,-1", "'-1' is not a seed"),
+        ("1.5", "'1.5' is not a seed"),
+        ("", "'' is not a seed"),
+        ("0,0", "a seed is given twice"),
+    ],
+)
+def test_seeds_that_are_not_whole_numbers_exit_2(tmp_path, capsys, seeds, expected):
+    out = str(tmp_path / "policy.zip")
+    err = one_line_exit_2(capsys, "train", FLAT, *TINY, "--seeds", seeds, "--out", out)
+    assert expected in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_seed_and_seeds_together_and_a_backend_without_seeds_exit_2(tmp_path, capsys):
+    out = str(tmp_path / "policy.zip")
+    err = one_line_exit_2(
+        capsys, "train", FLAT, *TINY, "--seed", "3", "--seeds", "0,1", "--out", out
+    )
+    assert "give one of them" in err
+    err = one_line_exit_2(capsys, "train", FLAT, *TINY, "--backend", "ray", "--out", out)
+    assert "--seeds" in err
+
+
+def test_an_unreachable_ray_address_exits_2_within_ten_seconds(tmp_path, capsys):
+    out = str(tmp_path / "policy.zip")
+    began = time.monotonic()
+    argv = ["--seeds", "0", "--backend", "ray", "--address", "127.0.0.1:9", "--out", out]
+    err = one_line_exit_2(capsys, "train", FLAT, *TINY, *argv)
+    assert time.monotonic() - began < 10
+    assert "no Ray cluster answers there" in err
+
+
+def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    assert main(["train", FLAT, *TINY, "--seed", "1", "--out", str(here / "policy.zip")]) == 0
+    argv = ["--seeds", "1,2", "--backend", "ray", "--out", str(there / "policy.zip")]
+    assert main(["train", FLAT, *TINY, *argv]) == 0
+    printed = capsys.readouterr().out
+    assert "seed 1: wrote" in printed
+    assert "seed 2: wrote" in printed
+    for name in ("policy.zip", "results.json"):  # curve.json and train.json hold wall times
+        assert (there / "policy-s1" / name).read_bytes() == (here / name).read_bytes(), name
+    assert (there / "policy-s2" / "policy.zip").read_bytes() != (here / "policy.zip").read_bytes()
