@@ -14,6 +14,7 @@ whichever machine runs it and returns its files' bytes; this machine writes them
 from __future__ import annotations
 
 import dataclasses
+import os
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -108,8 +109,6 @@ def train_seeds(
 
 
 def _cores() -> int:
-    import os
-
     return max(len(os.sched_getaffinity(0)), 1)
 
 
