@@ -104,3 +104,56 @@ def test_the_neighbour_encoder_trains_in_benchmarl_and_exports_as_it_acts(tmp_pa
         expected = network(observations).numpy()
     scores = policy.actor("bbbench/BeamCarry-v0").program(observations.numpy())
     assert np.abs(scores - expected).max() < 1e-5
+
+
+def policy_gradient(experiment, batch) -> torch.Tensor:
+    """The actor's gradient of the PPO objective on a processed batch, flattened."""
+    loss = experiment.losses["bot"]
+    actor = [p for p in loss.actor_network_params.values(True, True)]
+    value = loss(batch.reshape(-1))["loss_objective"]
+    grads = torch.autograd.grad(value, actor, allow_unused=True)
+    return torch.cat([g.flatten() for g in grads if g is not None])
+
+
+@pytest.mark.parametrize("masked", [True, False])
+def test_a_fallen_bots_rows_carry_no_policy_gradient(tmp_path, masked):
+    """Rows of bots that have fallen (the mask False) are changed at will: with the
+    masked IPPO the actor's gradient does not move; with BenchMARL's own, it does."""
+    from bbbench.marl.algorithms import MaskedIppoConfig
+
+    config = ExperimentConfig.get_from_yaml()
+    config.sampling_device = config.train_device = "cpu"
+    config.prefer_continuous_actions = False
+    config.max_n_frames = 300
+    config.on_policy_collected_frames_per_batch = 300
+    config.on_policy_n_envs_per_worker = 1
+    config.evaluation = False
+    config.loggers = []
+    config.create_json = False
+    config.render = False
+    config.checkpoint_interval = 0
+    config.save_folder = str(tmp_path)
+    torch.manual_seed(0)
+    algorithm = MaskedIppoConfig.get_from_yaml() if masked else IppoConfig.get_from_yaml()
+    experiment = Experiment(
+        task=BbbenchTask.MULTIBALANCE_V1.get_from_yaml(),
+        algorithm_config=algorithm,
+        model_config=MlpConfig.get_from_yaml(),
+        critic_model_config=MlpConfig.get_from_yaml(),
+        seed=0,
+        config=config,
+    )
+    batch = next(iter(experiment.collector)).detach()
+    batch = batch.exclude(*experiment._get_excluded_keys("bot"))
+    batch = experiment.algorithm.process_batch("bot", batch)
+    fallen = ~batch.get(("bot", "mask"))  # (steps, bots): no longer playing
+    assert fallen.any()  # random play: bots fall within 300 steps
+    gradient = policy_gradient(experiment, batch)
+    changed = batch.clone()
+    noise = torch.randn_like(changed.get(("bot", "observation")))
+    observation = changed.get(("bot", "observation"))
+    changed.set(("bot", "observation"), torch.where(fallen[..., None], noise, observation))
+    action = changed.get(("bot", "action"))
+    changed.set(("bot", "action"), torch.where(fallen, (action + 3) % 9, action))
+    same = torch.equal(policy_gradient(experiment, changed), gradient)
+    assert same == masked
