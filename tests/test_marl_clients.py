@@ -132,3 +132,27 @@ def test_rllibs_onnx_export_is_what_bbbench_export_and_eval_take(tmp_path):
     assert main(["export", str(raw), "--out", str(out), "--output", "output", *contract]) == 0
     task = ["--task", "bbbench/FlatBalance-v1", "--episodes", "1", "--workers", "1"]
     assert main(["eval", str(out), *task]) == 0
+
+
+def test_rllib_trains_one_policy_shared_by_every_bot(tmp_path):
+    """examples/rllib_shared_ppo.py: RLlib's PPO, one `shared` policy over the bots of
+    MultiBalance-v1, one iteration on a local Ray."""
+    import importlib.util
+    from pathlib import Path
+
+    _rllib()
+    import ray
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "rllib_shared_ppo.py"
+    loaded = importlib.util.spec_from_file_location("rllib_shared_ppo", path)
+    example = importlib.util.module_from_spec(loaded)
+    loaded.loader.exec_module(example)
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        algo = example.build(MULTI, bots=3, env_runners=0, batch=300).build_algo()
+        result = algo.train()
+        assert result["num_env_steps_sampled_lifetime"] >= 300
+        assert set(result["learners"]) >= {"shared"}
+        algo.stop()
+    finally:
+        ray.shutdown()
