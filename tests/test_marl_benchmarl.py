@@ -157,3 +157,34 @@ def test_a_fallen_bots_rows_carry_no_policy_gradient(tmp_path, masked):
     changed.set(("bot", "action"), torch.where(fallen, (action + 3) % 9, action))
     same = torch.equal(policy_gradient(experiment, changed), gradient)
     assert same == masked
+
+
+def test_benchmarls_hydra_cli_runs_a_bbbench_task(tmp_path):
+    import subprocess
+    import sys
+
+    overrides = [
+        "algorithm=mappo",
+        "task=bbbench/convoy_v0",
+        "task.n_bots=2",
+        "experiment.max_n_frames=200",
+        "experiment.on_policy_collected_frames_per_batch=200",
+        "experiment.on_policy_n_envs_per_worker=1",
+        "experiment.evaluation=false",
+        "experiment.loggers=[]",
+        "experiment.sampling_device=cpu",
+        "experiment.train_device=cpu",
+        "experiment.create_json=false",
+        "experiment.checkpoint_interval=0",
+        "experiment.render=false",
+        f"hydra.run.dir={tmp_path}",
+    ]
+    result = subprocess.run(
+        [sys.executable, "-m", "bbbench.marl.run", *overrides],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "Task: bbbench/convoy_v0" in result.stdout
+    assert "n_bots: 2" in result.stdout
