@@ -107,6 +107,15 @@ def pickled(marker: Path) -> dict:
     }
 
 
+def one_line_exit_2(capsys, *argv: str) -> str:
+    """`bbbench ARGV`'s error: exit code 2 and one line (what it printed to stderr)."""
+    code = main(list(argv))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    return err
+
+
 def eval_exit(capsys, *argv: str) -> tuple[int, str]:
     code = main(["eval", *argv, "--episodes", "1", "--workers", "1"])
     return code, capsys.readouterr().err

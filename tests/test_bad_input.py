@@ -15,16 +15,9 @@ from bbbench.cli import main
 from bbbench.evaluation import sweep as sweep_module
 from bbbench.leaderboard import submit
 from bbbench.leaderboard.submissions import SubmissionError
+from conftest import one_line_exit_2
 
 MULTI = "bbbench/MultiBalance-v1"
-
-
-def one_line_exit_2(capsys, *argv: str) -> str:
-    code = main(list(argv))
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1, err
-    return err
 
 
 def never(*args, **kwargs):

@@ -14,6 +14,25 @@ import bbbench
 from bbbench.marl import BbbenchTask
 
 
+def tiny_config(tmp_path, frames: int, batch: int, discrete: bool = False) -> ExperimentConfig:
+    """BenchMARL's experiment config for a few iterations on the CPU, writing nothing."""
+    config = ExperimentConfig.get_from_yaml()
+    config.sampling_device = config.train_device = "cpu"
+    config.prefer_continuous_actions = not discrete
+    config.max_n_frames = frames
+    config.on_policy_collected_frames_per_batch = batch
+    config.on_policy_n_envs_per_worker = 1
+    config.on_policy_n_minibatch_iters = 1
+    config.on_policy_minibatch_size = min(batch, 100)
+    config.evaluation = False
+    config.loggers = []
+    config.create_json = False
+    config.render = False
+    config.checkpoint_interval = 0
+    config.save_folder = str(tmp_path)
+    return config
+
+
 def test_the_family_is_every_latest_multi_bot_task():
     latest = [t for t in bbbench.list_tasks(latest=True) if bbbench.spec(t).multi_agent]
     assert sorted(task.get_from_yaml().task_id for task in BbbenchTask) == sorted(latest)
@@ -36,19 +55,7 @@ def test_a_task_builds_the_wrapped_env_with_its_bots_in_one_group(continuous):
 
 
 def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
-    config = ExperimentConfig.get_from_yaml()
-    config.sampling_device = config.train_device = "cpu"
-    config.max_n_frames = 400
-    config.on_policy_collected_frames_per_batch = 200
-    config.on_policy_n_envs_per_worker = 1
-    config.on_policy_n_minibatch_iters = 1
-    config.on_policy_minibatch_size = 100
-    config.evaluation = False
-    config.loggers = []
-    config.create_json = False
-    config.render = False
-    config.checkpoint_interval = 0
-    config.save_folder = str(tmp_path)
+    config = tiny_config(tmp_path, frames=400, batch=200)
     torch.manual_seed(0)
     experiment = Experiment(
         task=BbbenchTask.BEAMCARRY_V0.get_from_yaml(),
@@ -69,20 +76,7 @@ def test_the_neighbour_encoder_trains_in_benchmarl_and_exports_as_it_acts(tmp_pa
     from bbbench.marl.models import NeighbourEncoderConfig
     from bbbench.policies import export_onnx, load_policy
 
-    config = ExperimentConfig.get_from_yaml()
-    config.sampling_device = config.train_device = "cpu"
-    config.prefer_continuous_actions = False  # Discrete(9): one score per action
-    config.max_n_frames = 200
-    config.on_policy_collected_frames_per_batch = 200
-    config.on_policy_n_envs_per_worker = 1
-    config.on_policy_n_minibatch_iters = 1
-    config.on_policy_minibatch_size = 100
-    config.evaluation = False
-    config.loggers = []
-    config.create_json = False
-    config.render = False
-    config.checkpoint_interval = 0
-    config.save_folder = str(tmp_path)
+    config = tiny_config(tmp_path, frames=200, batch=200, discrete=True)
     torch.manual_seed(0)
     experiment = Experiment(
         task=BbbenchTask.BEAMCARRY_V0.get_from_yaml(),
@@ -121,18 +115,7 @@ def test_a_fallen_bots_rows_carry_no_policy_gradient(tmp_path, masked):
     masked IPPO the actor's gradient does not move; with BenchMARL's own, it does."""
     from bbbench.marl.algorithms import MaskedIppoConfig
 
-    config = ExperimentConfig.get_from_yaml()
-    config.sampling_device = config.train_device = "cpu"
-    config.prefer_continuous_actions = False
-    config.max_n_frames = 300
-    config.on_policy_collected_frames_per_batch = 300
-    config.on_policy_n_envs_per_worker = 1
-    config.evaluation = False
-    config.loggers = []
-    config.create_json = False
-    config.render = False
-    config.checkpoint_interval = 0
-    config.save_folder = str(tmp_path)
+    config = tiny_config(tmp_path, frames=300, batch=300, discrete=True)
     torch.manual_seed(0)
     algorithm = MaskedIppoConfig.get_from_yaml() if masked else IppoConfig.get_from_yaml()
     experiment = Experiment(

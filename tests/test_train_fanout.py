@@ -8,17 +8,10 @@ import time
 import pytest
 
 from bbbench.cli import main
+from conftest import one_line_exit_2
 
 FLAT = "bbbench/FlatBalance-v1"
 TINY = ["--algo", "ppo", "--steps", "1024", "--eval-episodes", "2"]
-
-
-def one_line_exit_2(capsys, *argv: str) -> str:
-    code = main(list(argv))
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1, err
-    return err
 
 
 @pytest.mark.parametrize(

@@ -233,6 +233,27 @@ def check_ray_address(address: str | None) -> None:
         ) from None
 
 
+def join_ray(address: str | None, cpus: int) -> bool:
+    """Start a local Ray of `cpus` CPUs, or join the cluster at `address`, unless Ray is
+    up already; whether this call started it (and should shut it down).
+    `ConnectionError` if Ray cannot start or be joined."""
+    import ray  # lazy: ray, optional (the ray extra)
+
+    if ray.is_initialized():
+        return False
+    try:
+        ray.init(
+            address=address,
+            include_dashboard=False,
+            log_to_driver=False,
+            configure_logging=False,
+            **({} if address else {"num_cpus": cpus}),
+        )
+    except (ConnectionError, ValueError, RuntimeError) as error:
+        raise ConnectionError(f"cannot start or join Ray: {str(error)[:300]}") from None
+    return True
+
+
 class _RayWorker:
     """A Ray actor: one `LockstepPlayer`, kept between episodes like a local worker."""
 
@@ -256,18 +277,7 @@ def run_ray(
     import ray  # lazy: ray, optional (the ray extra)
     from ray.exceptions import RayActorError  # lazy: ray
 
-    started = not ray.is_initialized()
-    if started:
-        try:
-            ray.init(
-                address=address,
-                include_dashboard=False,
-                log_to_driver=False,
-                configure_logging=False,
-                **({} if address else {"num_cpus": workers}),
-            )
-        except (ConnectionError, ValueError, RuntimeError) as error:
-            raise ConnectionError(f"cannot start or join Ray: {str(error)[:300]}") from None
+    started = join_ray(address, workers)
     worker_class = ray.remote(num_cpus=1, max_restarts=ATTEMPTS - 1, max_task_retries=1)(_RayWorker)
     results: list[Results] = [None] * len(jobs)
     pending = deque((index, *job) for index, job in enumerate(jobs))

@@ -14,12 +14,12 @@ whichever machine runs it and returns its files' bytes; this machine writes them
 from __future__ import annotations
 
 import dataclasses
-import os
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from bbbench.evaluation.backends import default_workers, join_ray
 from bbbench.files import write_all_atomic
 from bbbench.training.trainer import train
 
@@ -81,18 +81,7 @@ def train_seeds(
         return done
     import ray  # lazy: ray, optional (the ray extra)
 
-    started = not ray.is_initialized()
-    if started:
-        try:
-            ray.init(
-                address=address,
-                include_dashboard=False,
-                log_to_driver=False,
-                configure_logging=False,
-                **({} if address else {"num_cpus": min(len(jobs), _cores())}),
-            )
-        except (ConnectionError, ValueError, RuntimeError) as error:
-            raise ConnectionError(f"cannot start or join Ray: {str(error)[:300]}") from None
+    started = join_ray(address, min(len(jobs), default_workers()))
     try:
         remote = ray.remote(num_cpus=1)(_train_in_folder)
         futures = {remote.remote(*job): job[3] for job in jobs}
@@ -106,10 +95,6 @@ def train_seeds(
         if started:
             ray.shutdown()
     return sorted(done, key=lambda run: list(seeds).index(run.seed))
-
-
-def _cores() -> int:
-    return max(len(os.sched_getaffinity(0)), 1)
 
 
 def _train_in_folder(task_ids, algorithm, name, seed, keywords) -> dict[str, Any]:
