@@ -3,6 +3,8 @@ bytes as a single `--seed` run."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 
 import pytest
@@ -51,10 +53,12 @@ def test_an_unreachable_ray_address_exits_2_within_ten_seconds(tmp_path, capsys)
 
 
 def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
+    """Against `bbbench train --seed 1` in a process of its own, as a user runs it."""
     here, there = tmp_path / "here", tmp_path / "there"
     here.mkdir()
     there.mkdir()
-    assert main(["train", FLAT, *TINY, "--seed", "1", "--out", str(here / "policy.zip")]) == 0
+    local = ["train", FLAT, *TINY, "--seed", "1", "--out", str(here / "policy.zip")]
+    subprocess.run([sys.executable, "-m", "bbbench", *local], check=True, capture_output=True)
     argv = ["--seeds", "1,2", "--backend", "ray", "--out", str(there / "policy.zip")]
     assert main(["train", FLAT, *TINY, *argv]) == 0
     printed = capsys.readouterr().out
@@ -63,3 +67,15 @@ def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
     for name in ("policy.zip", "results.json"):  # curve.json and train.json hold wall times
         assert (there / "policy-s1" / name).read_bytes() == (here / name).read_bytes(), name
     assert (there / "policy-s2" / "policy.zip").read_bytes() != (here / "policy.zip").read_bytes()
+
+
+def test_seeds_trained_here_are_each_the_bytes_of_its_own_run(tmp_path, capsys):
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    local = ["train", FLAT, *TINY, "--seed", "2", "--out", str(here / "policy.zip")]
+    subprocess.run([sys.executable, "-m", "bbbench", *local], check=True, capture_output=True)
+    argv = ["--seeds", "1,2", "--out", str(there / "policy.zip")]
+    assert main(["train", FLAT, *TINY, *argv]) == 0
+    for name in ("policy.zip", "results.json"):
+        assert (there / "policy-s2" / name).read_bytes() == (here / name).read_bytes(), name

@@ -3,7 +3,8 @@
 `bbbench train TASK --algo A --seeds 0,1,2 --out runs/policy.zip` trains seed s
 into `runs/policy-s<s>/` (the zip, its statistics where rl-zoo3 puts them, and
 curve.json, curve.png, train.json, results.json), each as reproducible as a
-single `--seed s` run: the same bytes.
+single `--seed s` run: the same bytes. Every seed trains in a fresh process (a
+spawned one here, a fresh Ray worker there), as a `--seed` run does.
 
 With `--backend ray [--address HOST:PORT]` every seed is a Ray task (one CPU
 each) on a local Ray or a cluster. The task trains in a folder of its own on
@@ -14,8 +15,10 @@ whichever machine runs it and returns its files' bytes; this machine writes them
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing
 import tempfile
 from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -74,16 +77,21 @@ def train_seeds(
     jobs = [(list(task_ids), algorithm, Path(out).name, seed, keywords) for seed in seeds]
     done: list[SeedRun] = []
     if backend == "local":
-        for job in jobs:
-            done.append(_write(out, job[3], _train_in_folder(*job)))
-            if on_done is not None:
-                on_done(done[-1])
+        # Each seed in a fresh process, as a `--seed` run is: what one training leaves in
+        # a process (the envs' shared spaces, among others) can change the next.
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(1, mp_context=context, max_tasks_per_child=1) as pool:
+            for job in jobs:
+                done.append(_write(out, job[3], pool.submit(_train_in_folder, *job).result()))
+                if on_done is not None:
+                    on_done(done[-1])
         return done
     import ray  # lazy: ray, optional (the ray extra)
 
     started = join_ray(address, min(len(jobs), default_workers()))
     try:
-        remote = ray.remote(num_cpus=1)(_train_in_folder)
+        # A fresh worker process for every seed (max_calls=1), as for the local backend.
+        remote = ray.remote(num_cpus=1, max_calls=1)(_train_in_folder)
         futures = {remote.remote(*job): job[3] for job in jobs}
         while futures:
             [future], _ = ray.wait(list(futures), num_returns=1)
