@@ -171,3 +171,21 @@ def test_benchmarls_hydra_cli_runs_a_bbbench_task(tmp_path):
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Task: bbbench/convoy_v0" in result.stdout
     assert "n_bots: 2" in result.stdout
+
+
+def test_the_playing_rows_advantages_are_normalized_and_the_fallen_rows_are_zero():
+    from tensordict import TensorDict
+
+    from bbbench.marl.algorithms import mask_advantage
+
+    torch.manual_seed(0)
+    advantage = torch.randn(50, 4, 1) * 0.01 + 0.3  # small, biased: the critic lagging
+    playing = torch.rand(50, 4) > 0.3
+    batch = TensorDict({("bot", "advantage"): advantage, ("bot", "mask"): playing}, [50])
+    out = mask_advantage("bot", batch.clone(), normalize=True).get(("bot", "advantage"))
+    assert (out[~playing] == 0).all()
+    active = out[playing]
+    assert abs(float(active.mean())) < 1e-5
+    assert abs(float(active.std()) - 1) < 1e-4
+    plain = mask_advantage("bot", batch.clone(), normalize=False).get(("bot", "advantage"))
+    assert torch.equal(plain, advantage * playing.unsqueeze(-1))

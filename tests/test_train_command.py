@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from stable_baselines3 import PPO
 
 import bbbench
@@ -18,7 +17,6 @@ from bbbench import training
 from bbbench.cli import main
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies import load_policy
-from bbbench.training import recipes as recipes_module
 from bbbench.training.recipes import (
     TRAINABLE,
     parse_normalize,
@@ -237,9 +235,9 @@ def test_a_recipe_that_would_wrap_the_env_is_refused(tmp_path, monkeypatch):
         "bbbench/FlatBalance-v1:\n  n_timesteps: 1000\n"
         "  env_wrapper:\n    - some.module.AliveBonus:\n        bonus: 0.1\n"
     )
-    monkeypatch.setattr(recipes_module, "recipes", lambda algorithm: yaml.safe_load(text))
+    (tmp_path / "ppo.yml").write_text(text)
     with pytest.raises(ValueError, match="env_wrapper is refused: a recipe learns from the task"):
-        recipe("ppo", "bbbench/FlatBalance-v1")
+        recipe("ppo", "bbbench/FlatBalance-v1", tmp_path / "ppo.yml")
 
 
 def test_the_final_table_plays_the_task_s_own_reward(tmp_path):

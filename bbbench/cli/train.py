@@ -16,16 +16,24 @@ from bbbench.files import check_output_path
 def add_parser(commands) -> None:
     trainer = commands.add_parser(
         "train",
-        help="train a policy on a task with its shipped recipe (stable-baselines3)",
+        help="train a policy on a task with its shipped recipe (stable-baselines3; IPPO and "
+        "MAPPO with BenchMARL)",
         description="Train a policy with the recipe shipped for the task (rl-zoo3 "
-        "hyperparameter files in bbbench/training/recipes/). Several single-bot tasks "
-        "train one generalist on all of them.",
+        "hyperparameter files in bbbench/training/recipes/; for IPPO and MAPPO on a "
+        "multi-bot task, BenchMARL's YAML there, and an ONNX policy). Several single-bot "
+        "tasks train one generalist on all of them.",
     )
     trainer.add_argument("task", nargs="+", metavar="TASK", help="task ID(s)")
     trainer.add_argument(
         "--algo",
         required=True,
-        help="an algorithm with a recipe in bbbench/training/recipes/ (ppo.yml: --algo ppo)",
+        help="an algorithm with a recipe in bbbench/training/recipes/ (ppo.yml: --algo ppo; "
+        "ippo and mappo train multi-bot tasks with BenchMARL: pip install 'bbbench[marl]')",
+    )
+    trainer.add_argument(
+        "--recipe",
+        metavar="FILE",
+        help="a recipe file in the format of the algorithm's shipped one, instead of it",
     )
     trainer.add_argument(
         "--action-mode",
@@ -33,7 +41,12 @@ def add_parser(commands) -> None:
         help="default: the first the algorithm learns that the task's robot takes (PPO: "
         "discrete on the two-wheel bot, continuous on the wheel-legged robot)",
     )
-    trainer.add_argument("--steps", type=int, help="environment steps (default: the recipe's)")
+    trainer.add_argument(
+        "--steps",
+        type=int,
+        help="environment steps (default: the recipe's; for IPPO and MAPPO, world steps: "
+        "BenchMARL's frames, in each of which every bot acts)",
+    )
     trainer.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
     trainer.add_argument(
         "--seeds",
@@ -48,7 +61,9 @@ def add_parser(commands) -> None:
     )
     trainer.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
     trainer.add_argument("--n-envs", type=int, help="parallel envs (default: the recipe's)")
-    trainer.add_argument("--out", default="policy.zip", help="the policy zip (default policy.zip)")
+    trainer.add_argument(
+        "--out", help="the policy file (default policy.zip; policy.onnx for IPPO and MAPPO)"
+    )
     trainer.add_argument(
         "--log", help="folder for curve.json, curve.png, train.json (default: the zip's)"
     )
@@ -63,17 +78,27 @@ def add_parser(commands) -> None:
 def run(args: argparse.Namespace) -> int:
     from bbbench import training  # lazy: bbbench.training
 
+    marl = args.algo in training.MARL_TRAINABLE
+    if args.out is None:
+        args.out = "policy.onnx" if marl else "policy.zip"
+    elif marl and not args.out.endswith(".onnx"):
+        raise UsageError(
+            f"--out {args.out}: {args.algo.upper()} writes an ONNX policy: give a name "
+            f"ending in .onnx"
+        )
     if args.seeds is not None:
         return _run_seeds(args)
     if args.backend != "local" or args.address is not None:
         raise UsageError("--backend and --address fan out --seeds: give --seeds 0,1,2")
     try:
-        tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
+        tasks, key, _ = training.check_request(
+            args.task, args.algo, args.action_mode, args.steps, args.recipe
+        )
         if args.n_envs is not None and args.n_envs < 1:
             raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_seed(args.seed)
         check_output_path(args.out, "--out")
-        training.statistics_path(args.out, training.recipe(args.algo, key))
+        training.statistics_path(args.out, training.recipe(args.algo, key, args.recipe))
         if args.log is not None:
             log = Path(args.log)
             if log.exists() and not log.is_dir():
@@ -118,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
             log_dir=args.log,
             final_episodes=args.eval_episodes,
             on_progress=on_progress,
+            recipe_file=args.recipe,
         )
     args.written.append(args.out)
     if trained.statistics is not None:
@@ -150,15 +176,18 @@ def _run_seeds(args: argparse.Namespace) -> int:
             raise ValueError("--address names a Ray cluster: use it with --backend ray")
         if args.log is not None:
             raise ValueError("--log: with --seeds each seed's logs go beside its zip")
-        tasks, key, _ = training.check_request(args.task, args.algo, args.action_mode, args.steps)
+        tasks, key, _ = training.check_request(
+            args.task, args.algo, args.action_mode, args.steps, args.recipe
+        )
         if args.n_envs is not None and args.n_envs < 1:
             raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_output_path(args.out, "--out")  # its folder holds the seeds' folders
+        plan = training.recipe(args.algo, key, args.recipe)
         for seed in seeds:
             out = fanout.seed_out(args.out, seed)
             if out.parent.exists() and not out.parent.is_dir():
                 raise ValueError(f"--out {args.out}: seed {seed}'s folder {out.parent} is a file")
-            training.statistics_path(out, training.recipe(args.algo, key))
+            training.statistics_path(out, plan)
         if args.backend == "ray":
             check_ray_address(args.address)
     except ValueError as error:
@@ -181,6 +210,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
             steps=args.steps,
             n_envs=args.n_envs,
             final_episodes=args.eval_episodes,
+            recipe_file=args.recipe,
         )
     except ConnectionError as error:
         raise UsageError(f"--address {args.address}: {error}") from None

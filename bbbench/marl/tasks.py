@@ -18,11 +18,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import torch
 from benchmarl.environments import task_config_registry
 from benchmarl.environments.common import Task, TaskClass
 from benchmarl.utils import _read_yaml_config
 from torchrl.data import Composite
-from torchrl.envs import EnvBase
+from torchrl.envs import EnvBase, ObservationNorm, Transform
 from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
 import bbbench
@@ -41,7 +42,14 @@ def task_id(name: str) -> str:
 
 
 class BbbenchTaskClass(TaskClass):
-    """A bbbench multi-bot task, as BenchMARL builds and reads it."""
+    """A bbbench multi-bot task, as BenchMARL builds and reads it.
+
+    `observation_normalization`, if set to (mean, std) per observation value, puts a fixed
+    `ObservationNorm` in front of the models ((observation - mean) / std), in training and
+    evaluation alike: what `bbbench train` sets from random play (`bbbench.marl.training`).
+    """
+
+    observation_normalization: tuple[Any, Any] | None = None
 
     @property
     def task_id(self) -> str:
@@ -72,6 +80,15 @@ class BbbenchTaskClass(TaskClass):
 
     def supports_discrete_actions(self) -> bool:
         return True
+
+    def get_env_transforms(self, env: EnvBase) -> list[Transform]:
+        if self.observation_normalization is None:
+            return []
+        mean, std = (
+            torch.as_tensor(value, dtype=torch.float32) for value in self.observation_normalization
+        )
+        keys = [(group, "observation") for group in self.group_map(env)]
+        return [ObservationNorm(loc=mean, scale=std, in_keys=keys, standard_normal=True)]
 
     def max_steps(self, env: EnvBase) -> int:
         return bbbench.spec(self.task_id).max_episode_steps

@@ -7,7 +7,7 @@ The training loop is `bbbench.training.trainer`; its evaluation during training,
 `bbbench.training.callbacks`; the rl-zoo3 recipe files, `bbbench.training.recipes`.
 """
 
-from bbbench.training.recipes import MIX, TRAINABLE, Recipe, recipe
+from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
     Trained,
@@ -21,6 +21,7 @@ from bbbench.training.trainer import (
 
 __all__ = [
     "EVALUATION_EPISODES",
+    "MARL_TRAINABLE",
     "MIX",
     "TRAINABLE",
     "Recipe",

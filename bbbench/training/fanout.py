@@ -74,6 +74,8 @@ def train_seeds(
     """Train one policy per seed (`bbbench.training.train`'s keywords: action_mode, steps,
     n_envs, final_episodes), locally one after another or as Ray tasks; each seed's files
     in `seed_out(out, seed)`'s folder. `on_done(run)` as each finishes."""
+    if keywords.get("recipe_file") is not None:  # sent as text: a Ray worker may be elsewhere
+        keywords["recipe_file"] = ("text", Path(keywords["recipe_file"]).read_text())
     jobs = [(list(task_ids), algorithm, Path(out).name, seed, keywords) for seed in seeds]
     done: list[SeedRun] = []
     if backend == "local":
@@ -107,8 +109,15 @@ def train_seeds(
 
 def _train_in_folder(task_ids, algorithm, name, seed, keywords) -> dict[str, Any]:
     """One seed trained in a folder of its own; its files' bytes, and what it measured."""
-    with tempfile.TemporaryDirectory(prefix="bbbench-train-") as folder:
+    with (
+        tempfile.TemporaryDirectory(prefix="bbbench-train-") as folder,
+        tempfile.TemporaryDirectory(prefix="bbbench-recipe-") as recipes,
+    ):
         root = Path(folder)
+        if keywords.get("recipe_file") is not None:  # the recipe file's text, written here
+            recipe = Path(recipes) / "recipe.yml"
+            recipe.write_text(keywords["recipe_file"][1])
+            keywords = {**keywords, "recipe_file": recipe}
         trained = train(task_ids, algorithm, out=root / name, seed=seed, log_dir=root, **keywords)
         files = {
             str(path.relative_to(root)): path.read_bytes()

@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import yaml
@@ -33,6 +34,9 @@ def recipe_file(algorithm: str):
 
 # The algorithms `bbbench train` trains: those of the table with a shipped recipe file.
 TRAINABLE = tuple(a.key for a in ALGORITHMS.values() if recipe_file(a.key).is_file())
+# The algorithms trained with BenchMARL (the marl extra) on multi-bot tasks: their recipes,
+# also in bbbench/training/recipes/, are BenchMARL's YAML (bbbench.marl.recipes).
+MARL_TRAINABLE = ("ippo", "mappo")
 MIX = "single-bot mix"  # the recipe key of a generalist trained on several tasks
 _ZOO_KEYS = (
     "n_envs",
@@ -78,15 +82,32 @@ class Recipe:
         }
 
 
-def recipes(algorithm: str) -> dict[str, dict[str, Any]]:
+def recipes(algorithm: str, file: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """The recipe table of `algorithm`: its shipped file, or `file` (the same format)."""
     if algorithm not in TRAINABLE:
-        raise ValueError(unknown("algorithm", algorithm, TRAINABLE))
-    return yaml.safe_load(recipe_file(algorithm).read_text())
+        raise ValueError(unknown("algorithm", algorithm, TRAINABLE + MARL_TRAINABLE))
+    return read_recipe_file(algorithm, file)
 
 
-def recipe(algorithm: str, key: str) -> Recipe:
-    """`algorithm`'s recipe for `key`; `ValueError` naming the ones there are."""
-    table = recipes(algorithm)
+def read_recipe_file(algorithm: str, file: str | Path | None = None) -> dict[str, Any]:
+    """A recipe file's table (task ID -> recipe): `file`, or `algorithm`'s shipped one."""
+    source = Path(file) if file is not None else recipe_file(algorithm)
+    try:
+        table = yaml.safe_load(source.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"recipe file {source}: {error}") from None
+    if not isinstance(table, dict):
+        raise ValueError(f"recipe file {source}: expected task IDs, each with its recipe")
+    return table
+
+
+def recipe(algorithm: str, key: str, file: str | Path | None = None):
+    """`algorithm`'s recipe for `key` (from `file`, else the shipped one): a `Recipe`, or a
+    `bbbench.marl.recipes.MarlRecipe` for a BenchMARL algorithm; `ValueError` naming the
+    ones there are."""
+    if algorithm in MARL_TRAINABLE:
+        return marl_recipe(algorithm, key, file)
+    table = recipes(algorithm, file)
     if key not in table:
         newer = _newer_version(key)
         if newer is not None:
@@ -117,6 +138,18 @@ def recipe(algorithm: str, key: str) -> Recipe:
         noise_std=float(entry["noise_std"]) if noise_type else None,
         normalize=parse_normalize(entry.get("normalize", False), f"{algorithm}.yml, {key}"),
     )
+
+
+def marl_recipe(algorithm: str, key: str, file: str | Path | None = None):
+    """A BenchMARL recipe (`bbbench.marl.recipes`); `ValueError` if BenchMARL is missing."""
+    try:
+        from bbbench.marl.recipes import marl_recipe as read  # lazy: benchmarl, optional
+    except ImportError as error:
+        raise ValueError(
+            f"{algorithm.upper()} trains with BenchMARL, which is not installed ({error}): "
+            f"pip install 'bbbench[marl]'"
+        ) from None
+    return read(algorithm, key, file)
 
 
 def parse_normalize(value: Any, where: str) -> dict[str, Any] | None:

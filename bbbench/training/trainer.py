@@ -38,8 +38,8 @@ from bbbench.files import check_output_path, write_all_atomic, write_atomic
 from bbbench.policies import load_policy
 from bbbench.policies.algorithms import by_key, unknown
 from bbbench.policies.vecnormalize import STATISTICS_FILE
-from bbbench.tasks.suite import spec
-from bbbench.training.recipes import MIX, TRAINABLE, Recipe, recipe
+from bbbench.tasks.suite import list_tasks, spec
+from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import evaluation_seeds
 
 _ADDRESS = re.compile(r" at 0x[0-9a-f]+")
@@ -59,15 +59,23 @@ class Trained:
 
 
 def check_request(
-    task_ids: Sequence[str], algorithm: str, action_mode: str | None, steps: int | None
+    task_ids: Sequence[str],
+    algorithm: str,
+    action_mode: str | None,
+    steps: int | None,
+    recipe_file: str | Path | None = None,
 ) -> tuple[list[str], str, str]:
     """The tasks (IDs normalized), recipe key and action mode of a training request;
     `ValueError` saying what is wrong and what to do."""
-    if algorithm not in TRAINABLE:
-        raise ValueError(unknown("algorithm", algorithm, TRAINABLE))
+    if algorithm not in TRAINABLE + MARL_TRAINABLE:
+        raise ValueError(unknown("algorithm", algorithm, TRAINABLE + MARL_TRAINABLE))
     if not task_ids:
         raise ValueError("give a task ID (bbbench list shows them)")
     tasks = list(dict.fromkeys(spec(task_id).id for task_id in task_ids))
+    if steps is not None and steps < 1:
+        raise ValueError(f"--steps must be at least 1, got {steps}")
+    if algorithm in MARL_TRAINABLE:
+        return _check_marl_request(tasks, algorithm, action_mode, recipe_file)
     if len(tasks) > 1 and any(spec(t).multi_agent for t in tasks):
         raise ValueError(
             "several tasks train one generalist on single-bot tasks; a multi-bot task "
@@ -102,11 +110,26 @@ def check_request(
             f"use --action-mode {modes[0]}, or an algorithm for {mode} actions "
             f"({', '.join(others)})"
         )
-    if steps is not None and steps < 1:
-        raise ValueError(f"--steps must be at least 1, got {steps}")
     key = MIX if len(tasks) > 1 else tasks[0]
-    recipe(algorithm, key)  # a task without a recipe (an older version) is refused here
+    recipe(algorithm, key, recipe_file)  # a task without a recipe (an older version) is refused
     return tasks, key, mode
+
+
+def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[list[str], str, str]:
+    name = algorithm.upper()
+    if len(tasks) > 1:
+        raise ValueError(f"{name} trains on one multi-bot task at a time, got {', '.join(tasks)}")
+    (task,) = tasks
+    if not spec(task).multi_agent:
+        multi = [t for t in list_tasks(latest=True) if spec(t).multi_agent]
+        raise ValueError(
+            f"{task} is a single-bot task: {name} trains the bots of a multi-bot task "
+            f"({', '.join(multi)}); train {task} with --algo ppo or sac"
+        )
+    if action_mode not in (None, "discrete"):
+        raise ValueError(f"{name} trains discrete actions (Discrete(9)): drop --action-mode")
+    recipe(algorithm, task, recipe_file)
+    return tasks, task, "discrete"
 
 
 def train(
@@ -121,9 +144,12 @@ def train(
     eval_freq: int | None = None,
     final_episodes: int | None = None,
     on_progress: Callable[[int, int, dict | None], None] | None = None,
+    recipe_file: str | Path | None = None,
 ) -> Trained:
     """Train `algorithm` on `task_ids` (several: one generalist on all of them) with its
-    recipe; write the best policy to `out` and the logs beside it.
+    recipe (from `recipe_file`, else the shipped one); write the best policy to `out`
+    and the logs beside it. IPPO and MAPPO train with BenchMARL (`bbbench.marl.training`)
+    and write an ONNX policy.
 
     `steps` and `n_envs` default to the recipe's; `eval_freq` to a tenth of the
     budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
@@ -131,16 +157,32 @@ def train(
     """
     import torch  # lazy: torch, stable_baselines3, for training only
 
-    from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable_baselines3
-
-    tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps)
-    plan = recipe(algorithm, key)
-    budget = steps or plan.n_timesteps
-    n_envs = n_envs or plan.n_envs
-    if n_envs < 1:
+    tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps, recipe_file)
+    if n_envs is not None and n_envs < 1:
         raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
     if seed < 0:
         raise ValueError(f"--seed must be >= 0, got {seed}")
+    if algorithm in MARL_TRAINABLE:
+        from bbbench.marl.training import train_marl  # lazy: benchmarl, optional
+
+        return train_marl(
+            key,
+            algorithm,
+            out,
+            steps=steps,
+            seed=seed,
+            n_envs=n_envs,
+            log_dir=log_dir,
+            eval_freq=eval_freq,
+            final_episodes=final_episodes,
+            on_progress=on_progress,
+            recipe_file=recipe_file,
+        )
+    from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable_baselines3
+
+    plan = recipe(algorithm, key, recipe_file)
+    budget = steps or plan.n_timesteps
+    n_envs = n_envs or plan.n_envs
     out = check_output_path(out, "--out")
     statistics = statistics_path(out, plan)
     log_dir = Path(log_dir) if log_dir is not None else out.parent

@@ -1,0 +1,260 @@
+"""BenchMARL recipes: `bbbench/training/recipes/{ippo,mappo}.yml`, one entry per task ID,
+beside the stable-baselines3 recipes.
+
+An entry's sections override BenchMARL's own YAML of each config group: `task` (the
+task's YAML in `bbbench/marl/conf/task/bbbench/`), `algorithm` (BenchMARL's
+`conf/algorithm/<algo>.yaml`, here its masked version: `bbbench.marl.algorithms`),
+`model` and `critic_model` (`name: mlp`, BenchMARL's `conf/model/layers/mlp.yaml`, or
+`name: neighbour_encoder`, `bbbench.marl.models`) and `experiment` (BenchMARL's
+`conf/experiment/base_experiment.yaml`). Every key is checked against the fields of
+BenchMARL's config classes; what `bbbench train` owns (devices, action type, evaluation,
+loggers, checkpoints) is refused, as is an entropy bonus (it would reach the policy
+through a fallen bot's rows).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import torch.nn
+from benchmarl.experiment import ExperimentConfig
+from benchmarl.models import MlpConfig
+from benchmarl.utils import _read_yaml_config
+
+import bbbench
+from bbbench.marl.algorithms import MaskedIppoConfig, MaskedMappoConfig
+from bbbench.marl.models import NeighbourEncoderConfig
+from bbbench.marl.tasks import BbbenchTask
+from bbbench.policies.algorithms import unknown
+from bbbench.training.recipes import read_recipe_file
+
+ALGORITHMS = {"ippo": MaskedIppoConfig, "mappo": MaskedMappoConfig}
+MODELS = ("mlp", "neighbour_encoder")
+SECTIONS = ("task", "algorithm", "model", "critic_model", "experiment")
+# What bbbench train sets itself (the key, and why).
+OWNED = {
+    "sampling_device": "training runs on the CPU",
+    "train_device": "training runs on the CPU",
+    "buffer_device": "training runs on the CPU",
+    "prefer_continuous_actions": "bbbench trains discrete actions (Discrete(9))",
+    "share_policy_params": "one policy is shared by every bot (the board scores one)",
+    "evaluation": "bbbench evaluates on training seeds itself",
+    "evaluation_interval": "bbbench evaluates on training seeds itself",
+    "evaluation_episodes": "bbbench evaluates on training seeds itself",
+    "evaluation_deterministic_actions": "bbbench evaluates on training seeds itself",
+    "evaluation_static": "bbbench evaluates on training seeds itself",
+    "render": "bbbench train renders nothing",
+    "loggers": "bbbench train writes its own curve",
+    "project_name": "bbbench train writes its own curve",
+    "wandb_extra_kwargs": "bbbench train writes its own curve",
+    "create_json": "bbbench train writes its own curve",
+    "save_folder": "bbbench train writes where --out says",
+    "restore_file": "a training starts from its seed",
+    "restore_map_location": "a training starts from its seed",
+    "checkpoint_interval": "bbbench train keeps the best policy itself",
+    "checkpoint_at_end": "bbbench train keeps the best policy itself",
+    "keep_checkpoints_num": "bbbench train keeps the best policy itself",
+    "exclude_buffer_from_checkpoint": "bbbench train keeps the best policy itself",
+    "max_n_iters": "the budget is max_n_frames (or --steps)",
+}
+_ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "Sigmoid")  # the ONNX reader runs these
+
+
+@dataclasses.dataclass(frozen=True)
+class MarlRecipe:
+    """How BenchMARL trains `algorithm` on the multi-bot task `key`: each section as the
+    recipe overrides BenchMARL's own YAML of its group."""
+
+    algorithm: str
+    key: str
+    task: dict[str, Any]
+    algorithm_overrides: dict[str, Any]
+    model: dict[str, Any]
+    critic_model: dict[str, Any]
+    experiment: dict[str, Any]
+    normalize = None  # no VecNormalize: BenchMARL's models see the raw observations
+
+    @property
+    def n_timesteps(self) -> int:
+        """The default budget, in world steps (BenchMARL's frames)."""
+        return int(
+            self.experiment.get("max_n_frames", ExperimentConfig.get_from_yaml().max_n_frames)
+        )
+
+    @property
+    def n_envs(self) -> int:
+        """Worlds collected side by side."""
+        return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
+
+    def record(self) -> dict[str, Any]:
+        """As `train.json` records it: the recipe's sections as written."""
+        return {
+            "algorithm": self.algorithm,
+            "recipe": self.key,
+            "trainer": "BenchMARL",
+            "task": self.task,
+            "algorithm_config": self.algorithm_overrides,
+            "model": self.model,
+            "critic_model": self.critic_model,
+            "experiment": self.experiment,
+        }
+
+    def task_config(self):
+        """The BenchMARL task with its YAML and the recipe's keywords."""
+        task = BbbenchTask[_member(self.key)].get_from_yaml()
+        task.config.update(self.task)
+        return task
+
+    def algorithm_config(self):
+        config = ALGORITHMS[self.algorithm].get_from_yaml()
+        return dataclasses.replace(config, **self.algorithm_overrides)
+
+    def model_config(self, critic: bool = False):
+        section = self.critic_model if critic else self.model
+        fields = {k: v for k, v in section.items() if k != "name"}
+        if section["name"] == "neighbour_encoder":
+            if "hidden" in fields:
+                fields["hidden"] = tuple(fields["hidden"])
+            return NeighbourEncoderConfig.for_task(self.key, **fields)
+        for key in ("activation_class", "layer_class", "norm_class"):
+            if fields.get(key) is not None:
+                fields[key] = getattr(torch.nn, fields[key].removeprefix("torch.nn."))
+        return dataclasses.replace(MlpConfig.get_from_yaml(), **fields)
+
+    def experiment_config(self, frames: int, n_envs: int, folder: Path) -> ExperimentConfig:
+        config = ExperimentConfig.get_from_yaml()
+        for key, value in self.experiment.items():
+            setattr(config, key, value)
+        config.sampling_device = config.train_device = config.buffer_device = "cpu"
+        config.prefer_continuous_actions = False
+        config.share_policy_params = True
+        config.max_n_frames = frames
+        config.max_n_iters = None
+        config.on_policy_n_envs_per_worker = n_envs
+        config.evaluation = config.render = config.create_json = False
+        config.loggers = []
+        config.checkpoint_interval = 0
+        config.checkpoint_at_end = False
+        config.save_folder = str(folder)
+        return config
+
+
+def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> MarlRecipe:
+    """`algorithm`'s recipe for the multi-bot task `key`; `ValueError` saying what is wrong."""
+    table = read_recipe_file(algorithm, file)
+    where = f"{Path(file).name if file else f'{algorithm}.yml'}, {key}"
+    if key not in table:
+        raise ValueError(
+            f"no {algorithm} recipe for {key}; {Path(file).name if file else f'{algorithm}.yml'} "
+            f"has recipes for {', '.join(map(str, table))}"
+        )
+    entry = table[key]
+    if not isinstance(entry, dict):
+        raise ValueError(f"{where}: expected sections {', '.join(SECTIONS)}")
+    extra = sorted(set(entry) - set(SECTIONS))
+    if extra:
+        raise ValueError(
+            f"{where}: unknown section {extra[0]!r}; a recipe has {', '.join(SECTIONS)}"
+        )
+    sections = {name: dict(entry.get(name) or {}) for name in SECTIONS}
+    named = sections["algorithm"].pop("name", algorithm)
+    if named not in ALGORITHMS:
+        raise ValueError(
+            f"{where}: unknown algorithm {named!r}; bbbench trains {', '.join(ALGORITHMS)} "
+            f"with BenchMARL (their fallen bots masked)"
+        )
+    if named != algorithm:
+        raise ValueError(f"{where}: the recipe is {named}'s, asked for --algo {algorithm}")
+    _check_fields(f"{where}, algorithm", sections["algorithm"], ALGORITHMS[algorithm])
+    if sections["algorithm"].get("entropy_coef", 0.0) != 0.0:
+        raise ValueError(
+            f"{where}: entropy_coef must be 0: the entropy bonus would train the policy on "
+            f"the rows of fallen bots, which the masked algorithms leave out"
+        )
+    _check_task(where, key, sections["task"])
+    for name in ("model", "critic_model"):
+        _check_model(f"{where}, {name}", sections[name])
+    if algorithm == "mappo" and sections["critic_model"]["name"] != "mlp":
+        raise ValueError(
+            f"{where}, critic_model: MAPPO's critic is centralised (it reads every bot's "
+            f"observation): use name: mlp"
+        )
+    for field in sections["experiment"]:
+        if field in OWNED:
+            raise ValueError(f"{where}, experiment: {field} is bbbench train's: {OWNED[field]}")
+    _check_fields(f"{where}, experiment", sections["experiment"], ExperimentConfig)
+    return MarlRecipe(
+        algorithm=algorithm,
+        key=key,
+        task=sections["task"],
+        algorithm_overrides=sections["algorithm"],
+        model=sections["model"],
+        critic_model=sections["critic_model"],
+        experiment=sections["experiment"],
+    )
+
+
+def _member(task_id: str) -> str:
+    """bbbench/MultiBalance-v1 -> MULTIBALANCE_V1."""
+    return task_id.removeprefix("bbbench/").upper().replace("-", "_")
+
+
+def _check_fields(where: str, given: dict[str, Any], config_class) -> None:
+    known = [field.name for field in dataclasses.fields(config_class)]
+    for field in given:
+        if field not in known:
+            raise ValueError(f"{where}: {unknown('key', field, tuple(known))}")
+
+
+def _check_task(where: str, task_id: str, keywords: dict[str, Any]) -> None:
+    if not bbbench.spec(task_id).multi_agent or _member(task_id) not in BbbenchTask.__members__:
+        raise ValueError(f"{where}: not one of the latest multi-bot tasks")
+    defaults = _read_yaml_config(
+        str(
+            Path(__file__).with_name("conf")
+            / "task"
+            / "bbbench"
+            / f"{_member(task_id).lower()}.yaml"
+        )
+    )
+    for field in keywords:
+        if field not in defaults:
+            raise ValueError(
+                f"{where}, task: unknown keyword {field!r}; the task takes {', '.join(defaults)}"
+            )
+
+
+def _check_model(where: str, section: dict[str, Any]) -> None:
+    name = section.get("name")
+    if name is None:
+        raise ValueError(f"{where}: give its name: {' or '.join(MODELS)}")
+    if name not in MODELS:
+        raise ValueError(
+            f"{where}: unknown model {name!r}; bbbench's recipes take {' or '.join(MODELS)} "
+            f"(a model the board can score: it exports to ONNX)"
+        )
+    fields = {k: v for k, v in section.items() if k != "name"}
+    if name == "neighbour_encoder":
+        allowed = ("embed", "hidden", "pool")
+        for field in fields:
+            if field not in allowed:
+                raise ValueError(
+                    f"{where}: the neighbour encoder takes {', '.join(allowed)}, not {field!r}"
+                )
+        if fields.get("pool", "mean") not in ("mean", "max"):
+            raise ValueError(f"{where}: pool {fields['pool']!r}: mean or max")
+        return
+    _check_fields(where, fields, MlpConfig)
+    for key in ("layer_class", "norm_class"):
+        if fields.get(key) not in (None, "torch.nn.Linear" if key == "layer_class" else None):
+            raise ValueError(
+                f"{where}: {key} {fields[key]!r}: the board's ONNX reader runs Linear layers only"
+            )
+    activation = fields.get("activation_class")
+    if activation is not None and str(activation).removeprefix("torch.nn.") not in _ACTIVATIONS:
+        raise ValueError(
+            f"{where}: activation_class {activation!r}: one of "
+            f"{', '.join('torch.nn.' + a for a in _ACTIVATIONS)}"
+        )

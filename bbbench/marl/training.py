@@ -1,0 +1,266 @@
+"""`bbbench train TASK --algo mappo` (or ippo): BenchMARL's `Experiment` with a recipe of
+`bbbench/training/recipes/`, on one multi-bot or team task.
+
+The policy shared by every bot is exported to ONNX (`bbbench.policies.export_onnx`, with
+its contract) at every evaluation point, and that file plays the task's training seeds
+(`bbbench.training.evaluation_seeds`, never an eval seed) as `bbbench eval` would play
+it: the curve is the board's own arithmetic, and the best point's file is the one
+written to `--out`. Written beside it, as for stable-baselines3: `curve.json`,
+`curve.png`, `train.json`, `results.json`.
+
+Seeded (BenchMARL's `seed_everything`, each world's `reset(seed=...)`) and on one CPU
+thread, so the same call on one machine writes the same bytes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import logging
+import os
+import platform
+import tempfile
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from benchmarl.experiment import Experiment
+from benchmarl.experiment.callback import Callback
+
+import bbbench
+from bbbench.evaluation import evaluate, stats
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.files import check_output_path, write_atomic
+from bbbench.marl.models import NeighbourEncoderModel
+from bbbench.marl.recipes import MarlRecipe, marl_recipe
+from bbbench.policies import export_onnx, load_policy
+from bbbench.training.seeds import evaluation_seeds
+
+ACTION_MODE = "discrete"
+
+
+# World steps of random play the observation statistics are measured on.
+STATISTICS_STEPS = 2000
+
+
+def observation_statistics(
+    task_id: str, config: dict[str, Any], seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation of each observation value over `STATISTICS_STEPS` world
+    steps of uniformly random play (seeded), pooled over the bots still playing: the fixed
+    normalizer the models see observations through (a value that varies by less than
+    0.01 there is left unscaled). Without it the neighbours' offsets (metres) and
+    velocities would swamp a bot's own pitch (radians)."""
+    env = bbbench.make_parallel(task_id, action_mode=ACTION_MODE, **config)
+    rng = np.random.default_rng([seed, 7])
+    seen = []
+    observations, _ = env.reset(seed=seed)
+    for _ in range(STATISTICS_STEPS):
+        seen += [observations[bot] for bot in env.agents]
+        actions = {bot: int(rng.integers(env.action_space(bot).n)) for bot in env.agents}
+        observations, _, _, _, _ = env.step(actions)
+        if not env.agents:
+            observations, _ = env.reset(seed=int(rng.integers(2**31)))
+    env.close()
+    values = np.asarray(seen, np.float64)
+    std = values.std(axis=0)
+    return values.mean(axis=0).astype(np.float32), np.where(std < 0.01, 1.0, std).astype(np.float32)
+
+
+def actor_network(experiment: Experiment) -> torch.nn.Module:
+    """The torch network of the policy shared by every bot: observation -> action scores."""
+    policy = experiment.group_policies["bot"]
+    for module in policy.modules():
+        if isinstance(module, NeighbourEncoderModel):
+            return module.net
+        if hasattr(module, "mlp") and hasattr(module.mlp, "get_stateful_net"):
+            return module.mlp.get_stateful_net()
+    raise TypeError(f"no exportable network in {type(policy).__name__}")
+
+
+class TrainingEvaluation(Callback):
+    """After each training iteration: progress; every `every` frames, the policy exported
+    and played on the training seeds, a point of the curve, the best file kept."""
+
+    def __init__(
+        self, task_id, every, scratch, began, on_progress, budget, bots, algorithm, normalization
+    ):
+        super().__init__()
+        self.task_id, self.every, self.scratch = task_id, every, scratch
+        self.mean, self.std = normalization
+        self.began, self.on_progress, self.budget = began, on_progress, budget
+        self.bots, self.algorithm = bots, algorithm
+        self.next_at = every
+        self.curve: list[dict[str, float]] = []
+        self.best_mean = -np.inf
+        self.best: bytes | None = None
+        self.player = LockstepPlayer(actors={}, action_mode=ACTION_MODE, sampled=False)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """BenchMARL pickles its callbacks beside a run (to restore it): without the
+        progress hook (a closure, often)."""
+        return {**self.__dict__, "on_progress": None}
+
+    def on_train_end(self, training_td, group: str) -> None:
+        frames = self.experiment.total_frames
+        if frames >= self.next_at:
+            self.next_at += self.every
+            self.evaluate_now()
+        elif self.on_progress is not None:
+            self.on_progress(frames, self.budget, None)
+
+    def evaluate_now(self) -> None:
+        frames = self.experiment.total_frames
+        if self.curve and self.curve[-1]["steps"] == frames:
+            return
+        candidate = Path(self.scratch) / "candidate.onnx"
+        network = actor_network(self.experiment)
+        export_onnx(
+            network,
+            self.task_id,
+            candidate,
+            action_mode=ACTION_MODE,
+            mean=self.mean,
+            std=self.std,
+            algorithm=self.algorithm.upper(),
+            training_steps=frames * self.bots,
+        )
+        self.player.actors[self.task_id] = load_policy(candidate).actor(self.task_id)
+        played = self.player.play(self.task_id, evaluation_seeds(self.task_id))
+        returns = np.array([episode.episode_return for episode in played])
+        point = {
+            "steps": int(frames),
+            "bot_steps": int(frames * self.bots),
+            "wall_time_s": round(time.perf_counter() - self.began, 2),
+            "mean": float(returns.mean()),
+            "iqm": stats.iqm(returns),
+            "mean_length": float(np.mean([episode.length for episode in played])),
+        }
+        self.curve.append(point)
+        if point["mean"] > self.best_mean:
+            self.best_mean, self.best = point["mean"], candidate.read_bytes()
+        if self.on_progress is not None:
+            self.on_progress(frames, self.budget, point)
+
+    def close(self) -> None:
+        self.player.close()
+
+
+def train_marl(
+    task_id: str,
+    algorithm: str,
+    out: str | Path,
+    steps: int | None = None,
+    seed: int = 0,
+    n_envs: int | None = None,
+    log_dir: str | Path | None = None,
+    eval_freq: int | None = None,
+    final_episodes: int | None = None,
+    on_progress: Callable[[int, int, dict | None], None] | None = None,
+    recipe_file: str | Path | None = None,
+):
+    """Train `algorithm` (ippo, mappo) on the multi-bot task `task_id` with BenchMARL and
+    its recipe; write the best policy, as ONNX, to `out` and the logs beside it.
+
+    `steps` (world steps, BenchMARL's frames) and `n_envs` (worlds collected side by
+    side) default to the recipe's; `eval_freq` to a tenth of the budget, at the end of
+    the training iteration that reaches it."""
+    from bbbench.training.trainer import Trained, _write_logs  # lazy: a cycle
+
+    plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
+    budget = steps or plan.n_timesteps
+    n_envs = n_envs or plan.n_envs
+    out = check_output_path(out, "--out")
+    log_dir = Path(log_dir) if log_dir is not None else out.parent
+    log_dir.mkdir(parents=True, exist_ok=True)
+    check_output_path(log_dir / "curve.json", "--log")
+    eval_freq = eval_freq or max(budget // 10, 1)
+    bots = bbbench.spec(task_id).group.n_bots
+
+    torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
+    began = time.perf_counter()
+    task = plan.task_config()
+    task.observation_normalization = observation_statistics(task_id, task.config, seed)
+    with _quiet(), tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
+        callback = TrainingEvaluation(
+            task_id,
+            eval_freq,
+            scratch,
+            began,
+            on_progress,
+            budget,
+            bots,
+            algorithm,
+            task.observation_normalization,
+        )
+        experiment = Experiment(
+            task=task,
+            algorithm_config=plan.algorithm_config(),
+            model_config=plan.model_config(),
+            critic_model_config=plan.model_config(critic=True),
+            seed=seed,
+            config=plan.experiment_config(budget, n_envs, Path(scratch)),
+            callbacks=[callback],
+        )
+        experiment.run()
+        callback.evaluate_now()  # the end of the budget is a point of the curve
+        experiment.close()
+        callback.close()
+    seconds = time.perf_counter() - began
+    write_atomic(out, callback.best)
+
+    results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
+    frames = experiment.total_frames
+    record = {
+        "tasks": [task_id],
+        "action_mode": ACTION_MODE,
+        "seed": seed,
+        "steps": frames,
+        "bot_steps": frames * bots,
+        "n_envs": n_envs,
+        "eval_freq": eval_freq,
+        "evaluation_seeds": {task_id: evaluation_seeds(task_id)},
+        "best": max(callback.curve, key=lambda point: point["mean"]),
+        "wall_time_s": round(seconds, 1),
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
+        "recipe": plan.record(),
+        "versions": _versions(),
+    }
+    _write_logs(log_dir, callback.curve, [task_id], algorithm, record, results)
+    return Trained(out, log_dir, None, callback.curve, results, seconds, plan)
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """BenchMARL's own progress bar off (bbbench train draws one), TorchRL's notes and
+    its warnings about versions it was not tested with left out."""
+    from benchmarl.experiment import experiment as module
+    from tqdm import tqdm
+
+    bar, logger = module.tqdm, logging.getLogger("torchrl")
+    level = logger.level
+    module.tqdm = functools.partial(tqdm, disable=True)
+    logger.setLevel(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "PettingZoo in TorchRL is tested", UserWarning)
+            warnings.filterwarnings("ignore", "SyncDataCollector has been deprecated")
+            yield
+    finally:
+        module.tqdm = bar
+        logger.setLevel(level)
+
+
+def _versions() -> dict[str, Any]:
+    import benchmarl
+    import torchrl
+
+    return {
+        "benchmarl": benchmarl.__version__,
+        "torchrl": torchrl.__version__,
+        "torch": torch.__version__,
+    }

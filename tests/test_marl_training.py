@@ -1,0 +1,191 @@
+"""`bbbench train TASK --algo ippo|mappo`: BenchMARL recipes, trained for real (a few
+hundred world steps), the best policy exported to ONNX with its contract, the same bytes
+from the same seed in another process, and bad recipes refused in one line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bbbench.cli import main
+from bbbench.policies import load_policy
+from bbbench.training import MARL_TRAINABLE, recipe
+from bbbench.training.recipes import recipe_file, recipes
+from tests.conftest import one_line_exit_2
+
+TASK = "bbbench/BeamCarry-v0"
+# A recipe for tests: BenchMARL iterations of 200 world steps, one pass of two minibatches.
+SMALL = """\
+bbbench/BeamCarry-v0:
+  algorithm: {lmbda: 0.95}
+  model: {name: neighbour_encoder, embed: 8, hidden: [16]}
+  critic_model: {name: mlp, num_cells: [16]}
+  experiment:
+    lr: 0.001
+    on_policy_collected_frames_per_batch: 200
+    on_policy_n_envs_per_worker: 1
+    on_policy_n_minibatch_iters: 1
+    on_policy_minibatch_size: 100
+"""
+TRAIN = ["--steps", "400", "--eval-episodes", "2"]
+
+
+def small_recipe(tmp_path: Path, text: str = SMALL) -> str:
+    path = tmp_path / "recipe.yml"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("algorithm", MARL_TRAINABLE)
+def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
+    import yaml
+
+    table = yaml.safe_load(recipe_file(algorithm).read_text())
+    assert sorted(table) == sorted(
+        f"bbbench/{task}"
+        for task in (
+            "MultiBalance-v1",
+            "MultiBumps-v1",
+            "BeamCarry-v0",
+            "BeamCarryBumps-v0",
+            "Convoy-v0",
+        )
+    )
+    for task_id in table:
+        plan = recipe(algorithm, task_id)
+        assert plan.algorithm_config().entropy_coef == 0.0
+        assert plan.model_config() is not None
+        assert plan.model_config(critic=True) is not None
+        assert plan.task_config().task_id == task_id
+
+
+def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
+    with pytest.raises(ValueError, match="unknown algorithm 'mappo'"):
+        recipes("mappo")
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["bbbench/FlatBalance-v1", "--algo", "mappo"], "is a single-bot task: MAPPO trains"),
+        (["bbbench/BeamCarry-v0", "--algo", "qmix"], "unknown algorithm 'qmix'"),
+        (["bbbench/BeamCarry-v0", "--algo", "ippo", "--out", "p.zip"], "ending in .onnx"),
+        (["bbbench/BeamCarry-v0", "--algo", "ippo", "--action-mode", "continuous"], "discrete"),
+        (["bbbench/MultiBalance-v0", "--algo", "ippo"], "bbbench/MultiBalance-v1"),
+        (["bbbench/BeamCarry-v0", "bbbench/Convoy-v0", "--algo", "ippo"], "one multi-bot task"),
+        (["bbbench/BeamCarry-v0", "--algo", "ippo", "--steps", "0"], "--steps"),
+    ],
+)
+def test_a_marl_request_that_cannot_train_exits_2(tmp_path, capsys, monkeypatch, argv, expected):
+    monkeypatch.chdir(tmp_path)
+    assert expected in one_line_exit_2(capsys, "train", *argv)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (("name: neighbour_encoder", "name: gnn"), "unknown model 'gnn'"),
+        (("algorithm: {lmbda: 0.95}", "algorithm: {name: qmix}"), "unknown algorithm 'qmix'"),
+        (("algorithm: {lmbda: 0.95}", "algorithm: {name: mappo}"), "the recipe is mappo's"),
+        (("algorithm: {lmbda: 0.95}", "algorithm: {lambda: 0.95}"), "Did you mean 'lmbda'?"),
+        (("algorithm: {lmbda: 0.95}", "algorithm: {entropy_coef: 0.01}"), "entropy_coef must be 0"),
+        (("lr: 0.001", "loggers: [wandb]"), "loggers is bbbench train's"),
+        (("lr: 0.001", "learning_rate: 0.001"), "unknown key 'learning_rate'"),
+        (("critic_model: {name: mlp, num_cells: [16]}", "critic_model: {}"), "give its name"),
+        (("hidden: [16]", "hidden: [16], depth: 3"), "takes embed, hidden, pool"),
+        (("experiment:", "teams: 2\n  experiment:"), "unknown section 'teams'"),
+        (("embed: 8,", "embed: 8, pool: sum,"), "pool 'sum'"),
+        (("{name: mlp, num_cells: [16]}", "{name: mlp, layer_class: torch.nn.Conv1d}"), "Linear"),
+    ],
+)
+def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expected):
+    text = SMALL.replace(*change)
+    assert text != SMALL
+    out = tmp_path / "policy.onnx"
+    argv = ["train", TASK, "--algo", "ippo", "--recipe", small_recipe(tmp_path, text)]
+    assert expected in one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert not out.exists()
+
+
+def test_mappo_refuses_a_critic_that_is_not_centralised(tmp_path, capsys):
+    text = SMALL.replace(
+        "critic_model: {name: mlp, num_cells: [16]}", "critic_model: {name: neighbour_encoder}"
+    )
+    argv = ["train", TASK, "--algo", "mappo", "--recipe", small_recipe(tmp_path, text)]
+    assert "centralised" in one_line_exit_2(capsys, *argv, "--out", str(tmp_path / "p.onnx"))
+
+
+def test_without_benchmarl_a_marl_algorithm_says_what_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "bbbench.marl.recipes", None)  # import fails
+    with pytest.raises(ValueError, match=r"pip install 'bbbench\[marl\]'"):
+        recipe("mappo", TASK)
+
+
+def bbbench_cli(*argv: str) -> None:
+    """`bbbench ARGV` in a process of its own."""
+    subprocess.run([sys.executable, "-m", "bbbench", *argv], check=True, capture_output=True)
+
+
+def untimed(curve: Path) -> list[dict]:
+    points = json.loads(curve.read_text())["points"]
+    return [{k: v for k, v in point.items() if k != "wall_time_s"} for point in points]
+
+
+def test_ippo_trains_exports_its_best_point_and_each_seed_is_its_own_runs_bytes(tmp_path):
+    """A seed trained alone and the same seed among --seeds (each in a fresh process)
+    write the same bytes; another seed writes other bytes. The file written is the ONNX
+    policy of the best point of the curve, with its contract, and scores as the
+    results document says."""
+    plan = small_recipe(tmp_path)
+    alone = tmp_path / "alone" / "policy.onnx"
+    alone.parent.mkdir()
+    bbbench_cli("train", TASK, "--algo", "ippo", "--recipe", plan, "--out", str(alone), *TRAIN)
+    runs = tmp_path / "runs" / "policy.onnx"
+    runs.parent.mkdir()
+    argv = ["train", TASK, "--algo", "ippo", "--recipe", plan, "--seeds", "0,1", "--out", str(runs)]
+    assert main([*argv, *TRAIN]) == 0
+
+    seed0, seed1 = (runs.parent / f"policy-s{seed}" for seed in (0, 1))
+    for name in ("policy.onnx", "results.json"):
+        assert (seed0 / name).read_bytes() == (alone.parent / name).read_bytes(), name
+    assert untimed(seed0 / "curve.json") == untimed(alone.parent / "curve.json")
+    assert (seed1 / "policy.onnx").read_bytes() != alone.read_bytes()
+
+    policy = load_policy(alone)
+    assert policy.algorithm == "IPPO"
+    record = json.loads((alone.parent / "train.json").read_text())
+    curve = json.loads((alone.parent / "curve.json").read_text())["points"]
+    assert [point["steps"] for point in curve] == [200, 400]
+    assert record["best"] == max(curve, key=lambda point: point["mean"])
+    assert record["bot_steps"] == 400 * 3
+    assert record["recipe"]["trainer"] == "BenchMARL"
+    assert policy.contract.task == TASK
+    assert policy.contract.training_steps == record["best"]["bot_steps"]
+
+    # The file scores as train's results document says.
+    scored = tmp_path / "scored.json"
+    assert (
+        main(
+            [
+                "eval",
+                str(alone),
+                "--task",
+                TASK,
+                "--episodes",
+                "2",
+                "--workers",
+                "1",
+                "--json",
+                str(scored),
+            ]
+        )
+        == 0
+    )
+    (scored_task,) = json.loads(scored.read_text())["tasks"]
+    (trained_task,) = json.loads((alone.parent / "results.json").read_text())["tasks"]
+    assert scored_task == trained_task
