@@ -47,6 +47,9 @@ LEGGED = (
 # The team tasks: PPO shared by every bot of the column, three seeds each.
 TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
 SEEDS = (0, 1, 2)
+# The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
+# encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
+MARL = ("mappo", "ippo")
 
 
 def runs() -> list[dict]:
@@ -65,6 +68,12 @@ def runs() -> list[dict]:
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in TEAMS),
         # A second family on the single-bot track: SAC, seed 0, continuous actions.
         *({"tasks": [task], "algo": "sac", "seed": 0} for task in (*LATEST_SINGLE, *ADDED_SINGLE)),
+        *(
+            {"tasks": [task], "algo": algo, "seed": seed}
+            for seed in SEEDS
+            for algo in MARL
+            for task in (*LATEST_MULTI, *TEAMS)
+        ),
     ]
     for run in plan:
         name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
@@ -76,10 +85,15 @@ def _short(task_id: str) -> str:
     return task_id.removeprefix("bbbench/").lower()
 
 
+def policy_name(run: dict) -> str:
+    """The policy file a run writes: a zip (stable-baselines3), ONNX (BenchMARL)."""
+    return "policy.onnx" if run["algo"] in MARL else "policy.zip"
+
+
 def command(run: dict, folder: Path) -> list[str]:
     return [
         "bbbench", "train", *run["tasks"], "--algo", run["algo"], "--seed", str(run["seed"]),
-        "--out", str(folder / "policy.zip"),
+        "--out", str(folder / policy_name(run)),
     ]  # fmt: skip
 
 
@@ -89,28 +103,30 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
     record = json.loads((folder / "train.json").read_text())
     points = len(json.loads((folder / "curve.json").read_text())["points"])
     names = "a mix of the single-bot tasks" if run.get("generalist") else run["tasks"][0]
+    policy = folder / policy_name(run)
     add = [
-        "bbbench", "leaderboard", "add", str(folder / "policy.zip"),
+        "bbbench", "leaderboard", "add", str(policy),
         "--root", str(board), "--slug", run["slug"],
         "--name", f"{run['algo'].upper()} {_display(run)} (seed {run['seed']})",
         "--algorithm", run["algo"].upper(), "--author", "bbbench maintainers",
-        "--env-steps", str(record["steps"]),
+        # Bot-steps: a multi-bot world step is n_bots samples (SB3 counts them so).
+        "--env-steps", str(record.get("bot_steps", record["steps"])),
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
         + (f"{side_by_side} trainings side by side" if side_by_side != 1 else "one training"),
         "--seeds", str(run["seed"]),
-        "--command", " ".join([*argv[:-2], "--out", "policy.zip"]),
+        "--command", " ".join([*argv[:-2], "--out", policy.name]),
         "--licence", "MIT",
         "--notes", f"Trained on {names} with the shipped {run['algo']} recipe "
         f"(bbbench/training/recipes/{run['algo']}.yml): the best of {points} evaluations "
         f"on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
     # A recipe with `normalize` writes statistics where rl-zoo3 does; eval finds them so.
-    statistics = find_rl_zoo_statistics(folder / "policy.zip")
+    statistics = find_rl_zoo_statistics(policy) if policy.suffix == ".zip" else None
     if statistics is not None:
         add += ["--vecnormalize", str(statistics)]
     subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
-    (folder / "policy.zip").unlink()  # the board keeps it, in submissions/<slug>/
+    policy.unlink()  # the board keeps it, in submissions/<slug>/
     if statistics is not None:
         statistics.unlink()
         statistics.parent.rmdir()
@@ -137,6 +153,7 @@ def table(root: Path, board: Path) -> str:
     rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist"]
     rows += [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
     rows += [f"{task} sac" for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
+    rows += [f"{task} {algo}" for algo in MARL for task in (*LATEST_MULTI, *TEAMS)]
     for row in rows:
         task_id, _, algo = row.partition(" ")
         done = [
@@ -156,7 +173,7 @@ def table(root: Path, board: Path) -> str:
             classical = "legged" if task_id in LEGGED else "team" if task_id in TEAMS else "pd"
             name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
             pd = f"{score(classical, task_id):.3f}"
-        steps = records[0]["steps"]
+        steps = records[0].get("bot_steps", records[0]["steps"])
         budget = f"{steps / 1e6:g}M" if steps >= 1e6 else f"{steps / 1e3:g}k"
         lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")
     return "\n".join(lines)
@@ -207,7 +224,7 @@ def main() -> None:
     if args.add_trained:
         for run in missing:
             folder = args.root / run["slug"]
-            if (folder / "policy.zip").exists():
+            if (folder / policy_name(run)).exists():
                 record = json.loads((folder / "train.json").read_text())
                 side_by_side = record.get("side_by_side", 1)
                 print(_add(run, folder, args.board, record["wall_time_s"] / 60, side_by_side))

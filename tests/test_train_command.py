@@ -246,3 +246,20 @@ def test_the_final_table_plays_the_task_s_own_reward(tmp_path):
     )
     # At most 0.1 a step, never below 0 while up.
     assert 0.0 <= trained.results["tasks"][0]["aggregate"]["mean"] <= 150.0
+
+
+def test_a_trainings_bytes_do_not_depend_on_what_its_process_sampled_before(tmp_path):
+    """Envs once shared one observation-space object per process, and a zip pickles the
+    space with its random generator: sampling any env's space changed the next zip."""
+
+    def trained(name: str) -> bytes:
+        out = tmp_path / name
+        training.train([FLAT], "ppo", out=out, steps=300, seed=1, eval_freq=300, final_episodes=1)
+        return out.read_bytes()
+
+    first = trained("first.zip")
+    space = bbbench.make(FLAT).observation_space
+    space.seed(5)
+    space.sample()
+    assert bbbench.make(FLAT).observation_space is not space
+    assert trained("second.zip") == first

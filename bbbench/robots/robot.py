@@ -12,6 +12,7 @@ robot's observation; its own fields follow them, then the optional height scan.
 
 from __future__ import annotations
 
+import copy
 import functools
 from collections.abc import Callable
 from pathlib import Path
@@ -95,8 +96,11 @@ class Robot:
         return fields + HEIGHT_SCAN_LAYOUT if height_scan else fields
 
     def observation_space(self, height_scan: bool = False) -> spaces.Box:
-        """The Box every single-bot task of the robot observes in (built once)."""
-        return _space(self, height_scan)
+        """The Box every single-bot task of the robot observes in: a copy of one built
+        once, a new object each call. A space carries its own random generator, and a
+        policy zip pickles it: an env sharing it with every other env of the process
+        wrote zips whose bytes depended on what the process had sampled before."""
+        return copy.deepcopy(_space(self, height_scan))
 
     def observe(
         self,

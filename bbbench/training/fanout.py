@@ -33,7 +33,6 @@ class SeedRun:
 
     seed: int
     out: Path
-    files: tuple[Path, ...]
     curve: list[dict[str, float]]
     results: dict[str, Any]
     seconds: float
@@ -147,7 +146,6 @@ def _write(out: str | Path, seed: int, trained: dict[str, Any]) -> SeedRun:
     return SeedRun(
         seed=seed,
         out=target,
-        files=tuple(sorted(files)),
         curve=trained["curve"],
         results=trained["results"],
         seconds=trained["seconds"],
