@@ -189,3 +189,19 @@ def test_ippo_trains_exports_its_best_point_and_each_seed_is_its_own_runs_bytes(
     (scored_task,) = json.loads(scored.read_text())["tasks"]
     (trained_task,) = json.loads((alone.parent / "results.json").read_text())["tasks"]
     assert scored_task == trained_task
+
+
+def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed():
+    """The classical controller's play (a fifth of its actions random): the pitch spreads
+    over hundredths of a radian there, not over the tenths of bots falling at random."""
+    from bbbench.marl.training import classical_controller, observation_statistics
+
+    assert classical_controller("bbbench/MultiBalance-v1") == "pd"
+    assert classical_controller(TASK) == "team"
+    mean, std = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
+    again = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
+    assert mean.tobytes() == again[0].tobytes()
+    assert std.tobytes() == again[1].tobytes()
+    assert mean.shape == std.shape == (17,)
+    assert std[0] < 0.1  # pitch, rad
+    assert (std > 0).all()

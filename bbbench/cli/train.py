@@ -129,6 +129,13 @@ def run(args: argparse.Namespace) -> int:
         fields = {"rate": f"{rate:,.0f} steps/s"}
         if point is not None:
             fields["score"] = f"eval mean {point['mean']:.1f}"
+            if not console.is_terminal:  # a log file: one line per point of the curve
+                console.print(
+                    f"{steps:,} steps, {point['wall_time_s']:.0f} s: mean return "
+                    f"{point['mean']:.2f} on training seeds (episode length "
+                    f"{point['mean_length']:.0f})",
+                    highlight=False,
+                )
         progress.update(bar, completed=min(steps, total), total=total, **fields)
 
     with progress:

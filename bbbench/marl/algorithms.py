@@ -12,10 +12,8 @@ in which a bot falls is a real transition, and keeps its advantage.
 
 With `normalize_advantage` (the default), the playing rows' advantages are scaled to
 mean 0 and standard deviation 1 over the batch before the others are set to 0, as
-MAPPO's reference code does over its active agents (BenchMARL's losses normalize
-none). Without it, the task's small per-step reward (at most 0.1) leaves the
-advantages dominated by the critic's lag, and PPO did not learn to balance
-(MultiBalance-v1: episodes of ~50 steps after 400k bot-steps).
+MAPPO's reference code does over its active agents and stable-baselines3's PPO does
+(BenchMARL's losses normalize none; the task pays at most 0.1 a step).
 
     from bbbench.marl.algorithms import MaskedMappoConfig
     MaskedMappoConfig.get_from_yaml()  # MAPPO's own defaults

@@ -43,25 +43,44 @@ from bbbench.training.seeds import evaluation_seeds
 ACTION_MODE = "discrete"
 
 
-# World steps of random play the observation statistics are measured on.
+# World steps of the classical controller's play the observation statistics are measured
+# on, and the share of its actions replaced by random ones (to visit recoveries too).
 STATISTICS_STEPS = 2000
+STATISTICS_EPSILON = 0.2
+
+
+def classical_controller(task_id: str) -> str:
+    """The built-in controller the board ranks a multi-bot task against: the team
+    controller on the team tasks, PD on the others."""
+    return "team" if bbbench.spec(task_id).scenario_class.team else "pd"
 
 
 def observation_statistics(
     task_id: str, config: dict[str, Any], seed: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and standard deviation of each observation value over `STATISTICS_STEPS` world
-    steps of uniformly random play (seeded), pooled over the bots still playing: the fixed
-    normalizer the models see observations through (a value that varies by less than
-    0.01 there is left unscaled). Without it the neighbours' offsets (metres) and
-    velocities would swamp a bot's own pitch (radians)."""
+    """Mean and standard deviation of each observation value over `STATISTICS_STEPS`
+    world steps of the task's classical controller (`STATISTICS_EPSILON` of its actions
+    random; seeded), pooled over the bots still playing: the fixed normalizer the models
+    see observations through (a value that varies by less than 0.01 there is left
+    unscaled). These are the states a standing bot visits. Under random play the bots
+    are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
+    0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
+    random play, or raw observations, IPPO and MAPPO fell more as they trained
+    (docs/baselines.md, "BenchMARL: IPPO and MAPPO")."""
     env = bbbench.make_parallel(task_id, action_mode=ACTION_MODE, **config)
+    controller = load_policy(classical_controller(task_id)).actor(task_id)
     rng = np.random.default_rng([seed, 7])
-    seen = []
+    seen: list[np.ndarray] = []
     observations, _ = env.reset(seed=seed)
     for _ in range(STATISTICS_STEPS):
-        seen += [observations[bot] for bot in env.agents]
-        actions = {bot: int(rng.integers(env.action_space(bot).n)) for bot in env.agents}
+        bots = list(env.agents)
+        rows = np.stack([observations[bot] for bot in bots])
+        seen += list(rows)
+        chosen = controller(rows, None)
+        actions = {
+            bot: int(rng.integers(9)) if rng.random() < STATISTICS_EPSILON else int(chosen[i])
+            for i, bot in enumerate(bots)
+        }
         observations, _, _, _, _ = env.step(actions)
         if not env.agents:
             observations, _ = env.reset(seed=int(rng.integers(2**31)))
