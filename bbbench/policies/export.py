@@ -28,7 +28,7 @@ from bbbench.files import write_atomic
 from bbbench.policies.archive import read_file
 from bbbench.policies.contract import Contract, describe_action_space, read_contract
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.onnx_file import MAX_FILE_BYTES
+from bbbench.policies.onnx_file import MAX_FILE_BYTES, parse_onnx, parse_proto
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.policies.policy import NormalizedActor, Policy
 from bbbench.policies.registry import fitting_tasks
@@ -133,7 +133,7 @@ def export_onnx(
                 **keywords,
             )
         content = raw.read_bytes()
-    return _with_contract(content, contract, out)
+    return _with_contract(parse_proto(content, "torch's export"), contract, out)
 
 
 def export_foreign(
@@ -151,15 +151,8 @@ def export_foreign(
     `observation` and `action_space`), keeping the one output that acts (`output`: its
     name; default: the first) and what computes it, and dropping inputs nothing uses
     (RLlib's `state_ins`, and its `state_outs`)."""
-    import onnx  # lazy: onnx, for ONNX files only
-
     source = Path(source)
-    content = read_file(source, MAX_FILE_BYTES, "an ONNX model (.onnx)")
-    model = onnx.ModelProto()
-    try:
-        model.ParseFromString(content)
-    except Exception:
-        raise PolicyError(f"{source}: not an ONNX model") from None
+    model = parse_proto(read_file(source, MAX_FILE_BYTES, "an ONNX model (.onnx)"), str(source))
     props = {p.key: p.value for p in model.metadata_props}
     given = read_contract(source.name, props, observation, action_space)
     contract = dataclasses.replace(
@@ -189,16 +182,14 @@ def export_foreign(
         kept = [value for value in field if keep_it(value)]
         del field[:]
         field.extend(kept)
-    return _with_contract(model.SerializeToString(), contract, out)
+    return _with_contract(model, contract, out)
 
 
-def _with_contract(content: bytes, contract: Contract, out: str | Path) -> Path:
-    """`content` with the contract in its metadata_props, checked by bbbench's reader, then
-    written atomically."""
+def _with_contract(model, contract: Contract, out: str | Path) -> Path:
+    """The `ModelProto` with the contract in its metadata_props, checked by bbbench's
+    reader, then written atomically."""
     import onnx  # lazy: onnx, for ONNX files only
 
-    model = onnx.ModelProto()
-    model.ParseFromString(content)
     kept = [p for p in model.metadata_props if not p.key.startswith("bbbench.")]
     del model.metadata_props[:]
     model.metadata_props.extend(kept)
@@ -209,10 +200,8 @@ def _with_contract(content: bytes, contract: Contract, out: str | Path) -> Path:
 
 
 def _read_back(content: bytes) -> OnnxPolicy:
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "exported.onnx"
-        path.write_bytes(content)
-        return OnnxPolicy(path)
+    """The exported bytes as bbbench's reader takes a file: every check, then the actor."""
+    return OnnxPolicy(parse_onnx(content, "the exported graph", "exported.onnx"))
 
 
 def _check_parity(content: bytes, policy: Policy, task_id: str, actor) -> None:

@@ -480,12 +480,15 @@ def _run_step(step: Step, env: dict, where: str):
         raise PolicyError(f"{where}: {step.label} fails: {str(error)[:200]}") from None
 
 
-def _run(steps, env: dict, where: str) -> dict:
+def _run(steps, env: dict, where: str, check=None) -> dict:
+    """`env` with every step's output; `check(step, value)` after each, if given."""
     if not steps:
         return env
     with np.errstate(all="ignore"):  # a division by zero gives inf, as in float32
         for step in steps:
-            env[step.output] = _run_step(step, env, where)
+            value = env[step.output] = _run_step(step, env, where)
+            if check is not None:
+                check(step, value)
     return env
 
 
@@ -530,11 +533,29 @@ class Program:
         return _run(prefix, {self.input: observations}, self.where)[self.mlp_input]
 
 
-def compile_graph(model, discrete: bool, shapes: dict[str, tuple] | None = None) -> Program:
-    """A checked `OnnxModel` as a `Program`. `shapes`: each tensor's shape on a trial batch
-    (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
+@dataclasses.dataclass(frozen=True)
+class Steps:
+    """A checked `OnnxModel`'s nodes as steps (constants folded, layers formed), once."""
+
+    model: Any
+    steps: tuple[Step, ...]
+    output: str  # the graph's output, after aliases
+
+
+def compile_steps(model) -> Steps:
+    """The steps of a checked `OnnxModel`; `PolicyError` for a graph bbbench cannot run."""
     compiler = _Compiler(model)
-    steps, output = _fuse_normalization(compiler.compile(), model.input), compiler.output
+    steps = compiler.compile()
+    return Steps(model, tuple(steps), compiler.output)
+
+
+def compile_graph(
+    compiled: Steps, discrete: bool, shapes: dict[str, tuple] | None = None
+) -> Program:
+    """The compiled steps as a `Program`. `shapes`: each tensor's shape on a trial batch
+    (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
+    model = compiled.model
+    steps, output = _fuse_normalization(list(compiled.steps), model.input), compiled.output
     segment = _mlp_segment(steps, output, shapes)
     if segment is None:
         return Program(model.name, model.input, output, tuple(steps), None, None, None, ())
@@ -567,17 +588,17 @@ def compile_graph(model, discrete: bool, shapes: dict[str, tuple] | None = None)
     )
 
 
-def trial_shapes(model, observations: np.ndarray) -> dict[str, tuple]:
+def trial_shapes(compiled: Steps, observations: np.ndarray) -> dict[str, tuple]:
     """Every computed tensor's shape on `observations`, running the graph step by step;
     `RefusedForSafety` as soon as one holds more than `MAX_ROW_VALUES` values a row (a
     chain of Concats doubling a tensor grows it past any memory in 40 nodes)."""
-    compiler = _Compiler(model)
-    env = {model.input: observations}
-    with np.errstate(all="ignore"):
-        for step in compiler.compile():
-            value = env[step.output] = _run_step(step, env, model.name)
-            _check_size(model.name, step.label, np.size(value), len(observations))
-    env[model.output] = env[compiler.output]
+    model = compiled.model
+
+    def check(step: Step, value) -> None:
+        _check_size(model.name, step.label, np.size(value), len(observations))
+
+    env = _run(compiled.steps, {model.input: observations}, model.name, check)
+    env[model.output] = env[compiled.output]
     return {name: np.shape(value) for name, value in env.items()}
 
 

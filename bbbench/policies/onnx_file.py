@@ -84,58 +84,71 @@ class OnnxModel:
 
 def read_onnx(path: str | Path) -> OnnxModel:
     """An ONNX policy file, read safely; `PolicyError` (or `RefusedForSafety`) if not."""
-    import onnx  # lazy: onnx, for ONNX files only
-
     path = Path(path)
     content = read_file(path, MAX_FILE_BYTES, "an ONNX model (.onnx)")
+    return parse_onnx(content, str(path), path.name)
+
+
+def parse_proto(content: bytes, where: str):
+    """The bytes of an ONNX file as onnx's `ModelProto` (protobuf's parser only: no
+    `onnx.load`), with a graph of operators; `PolicyError` if they are not one."""
+    import onnx  # lazy: onnx, for ONNX files only
+
     if content[:4] == b"PK\x03\x04":
         raise PolicyError(
-            f"{path}: a zip file, not an ONNX model; a stable-baselines3 model is scored as a .zip"
+            f"{where}: a zip file, not an ONNX model; a stable-baselines3 model is scored as a .zip"
         )
     model = onnx.ModelProto()
     try:
         model.ParseFromString(content)
     except Exception as error:  # protobuf's DecodeError, or a recursion limit
         raise PolicyError(
-            f"{path}: not an ONNX model ({type(error).__name__}: the bytes are no ModelProto; "
+            f"{where}: not an ONNX model ({type(error).__name__}: the bytes are no ModelProto; "
             f"truncated?)"
         ) from None
     if not model.HasField("graph") or not model.graph.node or not model.ir_version:
-        raise PolicyError(f"{path}: not an ONNX model (no graph of operators; truncated?)")
-    opset = _opset(path, model)
+        raise PolicyError(f"{where}: not an ONNX model (no graph of operators; truncated?)")
+    return model
+
+
+def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
+    """The bytes of an ONNX policy, checked and decoded (`where` names them in errors,
+    `name` is the policy's name); `PolicyError` (or `RefusedForSafety`) if not one."""
+    model = parse_proto(content, where)
+    opset = _opset(where, model)
     if model.functions:
         raise RefusedForSafety(
-            f"{path}: it defines functions ({model.functions[0].name}); bbbench runs plain "
+            f"{where}: it defines functions ({model.functions[0].name}); bbbench runs plain "
             f"graphs only"
         )
     if model.training_info:
-        raise PolicyError(f"{path}: it holds training info; export the inference graph only")
+        raise PolicyError(f"{where}: it holds training info; export the inference graph only")
     graph = model.graph
     if graph.sparse_initializer:
-        raise PolicyError(f"{path}: sparse initializers; bbbench reads dense float32 weights")
+        raise PolicyError(f"{where}: sparse initializers; bbbench reads dense float32 weights")
     if len(graph.node) > MAX_NODES:
         raise RefusedForSafety(
-            f"{path}: {len(graph.node)} nodes, more than the {MAX_NODES} bbbench runs"
+            f"{where}: {len(graph.node)} nodes, more than the {MAX_NODES} bbbench runs"
         )
     tensors = [(t.name or "(unnamed)", t) for t in graph.initializer]
     declared = 0
     for node in graph.node:
-        _check_node(path, node)
+        _check_node(where, node)
         tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
         declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
     for name, tensor in tensors:  # every size and location before any value is decoded
-        declared += _check_tensor(path, name, tensor)
+        declared += _check_tensor(where, name, tensor)
         if declared > MAX_PARAMETERS:
             raise RefusedForSafety(
-                f"{path}: its tensors declare more than {MAX_PARAMETERS:,} values (at "
+                f"{where}: its tensors declare more than {MAX_PARAMETERS:,} values (at "
                 f"{name!r}, shape {list(tensor.dims)}); bbbench evaluates smaller networks"
             )
-    constants = {t.name: decode(path, t.name, t) for t in graph.initializer}
-    nodes = tuple(_node(path, node) for node in graph.node)
+    constants = {t.name: decode(where, t.name, t) for t in graph.initializer}
+    nodes = tuple(_node(where, node) for node in graph.node)
     inputs = [i for i in graph.input if i.name not in constants]
     if len(inputs) != 1 or len(graph.output) != 1:
         raise PolicyError(
-            f"{path}: {len(inputs)} graph input(s) and {len(graph.output)} output(s) "
+            f"{where}: {len(inputs)} graph input(s) and {len(graph.output)} output(s) "
             f"({', '.join(i.name for i in inputs)} -> {', '.join(o.name for o in graph.output)}); "
             f"a bbbench policy takes one observation and gives one output"
         )
@@ -143,23 +156,23 @@ def read_onnx(path: str | Path) -> OnnxModel:
     elem, dims = _tensor_type(graph_input)
     if elem != FLOAT:
         raise PolicyError(
-            f"{path}: its input {graph_input.name!r} is {_TYPE_NAMES.get(elem, elem)}; bbbench "
+            f"{where}: its input {graph_input.name!r} is {_TYPE_NAMES.get(elem, elem)}; bbbench "
             f"observations are float32"
         )
     if dims is not None and len(dims) != 2:
         raise PolicyError(
-            f"{path}: its input {graph_input.name!r} has {len(dims)} dimension(s); expected "
+            f"{where}: its input {graph_input.name!r} has {len(dims)} dimension(s); expected "
             f"(batch, observation width)"
         )
     output_type, output_dims = _tensor_type(graph_output)
     if output_type not in (FLOAT, 0):
         raise PolicyError(
-            f"{path}: its output {graph_output.name!r} is "
+            f"{where}: its output {graph_output.name!r} is "
             f"{_TYPE_NAMES.get(output_type, output_type)}; a bbbench policy outputs float32 "
             f"action scores (Discrete) or actions (Box)"
         )
     return OnnxModel(
-        name=path.name,
+        name=name,
         sha256=hashlib.sha256(content).hexdigest(),
         opset=opset,
         metadata={prop.key: prop.value for prop in model.metadata_props},

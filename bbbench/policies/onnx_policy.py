@@ -20,8 +20,8 @@ from gymnasium import spaces
 from bbbench.policies.contract import Contract, read_contract
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.file_policy import FilePolicy
-from bbbench.policies.interpreter import Program, compile_graph, trial_shapes
-from bbbench.policies.onnx_file import read_onnx
+from bbbench.policies.interpreter import Program, compile_graph, compile_steps, trial_shapes
+from bbbench.policies.onnx_file import OnnxModel, read_onnx
 from bbbench.policies.policy import Actor
 
 _TRIAL_ROWS = 3
@@ -32,9 +32,12 @@ class OnnxPolicy(FilePolicy):
     command line for a file whose metadata carries none."""
 
     def __init__(
-        self, path: str | Path, observation: int | None = None, action_space: str | None = None
+        self,
+        path: str | Path | OnnxModel,
+        observation: int | None = None,
+        action_space: str | None = None,
     ) -> None:
-        model = read_onnx(path)
+        model = path if isinstance(path, OnnxModel) else read_onnx(path)
         self.contract = contract = read_contract(
             model.name, model.metadata, observation, action_space
         )
@@ -114,14 +117,15 @@ def _actor(model, contract: Contract) -> OnnxActor:
     trial = np.linspace(-1.0, 1.0, _TRIAL_ROWS * width, dtype=np.float32).reshape(
         _TRIAL_ROWS, width
     )
-    shapes = _trial(model, trial[:1], outputs)
+    compiled = compile_steps(model)
+    shapes = _trial(compiled, trial[:1], outputs)
     rows = not model.batched
     if not rows:  # batched: one call must give what row-by-row calls give
         try:
-            shapes = _trial(model, trial, outputs)
+            shapes = _trial(compiled, trial, outputs)
         except PolicyError:
             rows = True
-    program = compile_graph(model, discrete, shapes)
+    program = compile_graph(compiled, discrete, shapes)
     if not rows:
         together = program(trial)
         apart = np.concatenate([program(row[None]) for row in trial])
@@ -137,8 +141,9 @@ def _actor(model, contract: Contract) -> OnnxActor:
     )
 
 
-def _trial(model, observations: np.ndarray, outputs: int) -> dict[str, tuple]:
-    shapes = trial_shapes(model, observations)
+def _trial(compiled, observations: np.ndarray, outputs: int) -> dict[str, tuple]:
+    model = compiled.model
+    shapes = trial_shapes(compiled, observations)
     got = shapes[model.output]
     want = (len(observations), outputs)
     if got != want:
