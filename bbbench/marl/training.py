@@ -198,11 +198,11 @@ def train_marl(
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")
     eval_freq = eval_freq or max(budget // 10, 1)
-    bots = bbbench.spec(task_id).group.n_bots
+    task = plan.task_config()
+    bots = task.config["n_bots"]  # the recipe's, which may differ from the task's default
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
-    task = plan.task_config()
     task.observation_normalization = observation_statistics(task_id, task.config, seed)
     with _quiet(), tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
         callback = TrainingEvaluation(
@@ -268,6 +268,7 @@ def _quiet() -> Iterator[None]:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", "PettingZoo in TorchRL is tested", UserWarning)
             warnings.filterwarnings("ignore", "SyncDataCollector has been deprecated")
+            warnings.filterwarnings("ignore", "No episode terminated this iteration")
             yield
     finally:
         module.tqdm = bar
