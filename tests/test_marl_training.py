@@ -15,7 +15,7 @@ from bbbench.cli import main
 from bbbench.policies import load_policy
 from bbbench.training import MARL_TRAINABLE, recipe
 from bbbench.training.recipes import recipe_file, recipes
-from tests.conftest import one_line_exit_2
+from conftest import one_line_exit_2
 
 TASK = "bbbench/BeamCarry-v0"
 # A recipe for tests: BenchMARL iterations of 200 world steps, one pass of two minibatches.
