@@ -28,7 +28,7 @@ from bbbench.marl.algorithms import MaskedIppoConfig, MaskedMappoConfig
 from bbbench.marl.models import NeighbourEncoderConfig
 from bbbench.marl.tasks import BbbenchTask
 from bbbench.policies.algorithms import unknown
-from bbbench.training.recipes import read_recipe_file
+from bbbench.training.recipe_files import read_recipe_file
 
 ALGORITHMS = {"ippo": MaskedIppoConfig, "mappo": MaskedMappoConfig}
 MODELS = ("mlp", "neighbour_encoder")

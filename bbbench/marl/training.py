@@ -26,10 +26,14 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import benchmarl
 import numpy as np
 import torch
+import torchrl
 from benchmarl.experiment import Experiment
+from benchmarl.experiment import experiment as benchmarl_experiment
 from benchmarl.experiment.callback import Callback
+from tqdm import tqdm
 
 import bbbench
 from bbbench.evaluation import evaluate, stats
@@ -38,6 +42,7 @@ from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
 from bbbench.marl.recipes import MarlRecipe, marl_recipe
 from bbbench.policies import export_onnx, load_policy
+from bbbench.training.logs import Trained, write_logs
 from bbbench.training.seeds import evaluation_seeds
 
 ACTION_MODE = "discrete"
@@ -188,8 +193,6 @@ def train_marl(
     `steps` (world steps, BenchMARL's frames) and `n_envs` (worlds collected side by
     side) default to the recipe's; `eval_freq` to a tenth of the budget, at the end of
     the training iteration that reaches it."""
-    from bbbench.training.trainer import Trained, _write_logs  # lazy: a cycle
-
     plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
     budget = steps or plan.n_timesteps
     n_envs = n_envs or plan.n_envs
@@ -249,7 +252,7 @@ def train_marl(
         "recipe": plan.record(),
         "versions": _versions(),
     }
-    _write_logs(log_dir, callback.curve, [task_id], algorithm, record, results)
+    write_logs(log_dir, callback.curve, [task_id], algorithm, record, results)
     return Trained(out, log_dir, None, callback.curve, results, seconds, plan)
 
 
@@ -257,12 +260,9 @@ def train_marl(
 def _quiet() -> Iterator[None]:
     """BenchMARL's own progress bar off (bbbench train draws one), TorchRL's notes and
     its warnings about versions it was not tested with left out."""
-    from benchmarl.experiment import experiment as module
-    from tqdm import tqdm
-
-    bar, logger = module.tqdm, logging.getLogger("torchrl")
+    bar, logger = benchmarl_experiment.tqdm, logging.getLogger("torchrl")
     level = logger.level
-    module.tqdm = functools.partial(tqdm, disable=True)
+    benchmarl_experiment.tqdm = functools.partial(tqdm, disable=True)
     logger.setLevel(logging.WARNING)
     try:
         with warnings.catch_warnings():
@@ -271,14 +271,11 @@ def _quiet() -> Iterator[None]:
             warnings.filterwarnings("ignore", "No episode terminated this iteration")
             yield
     finally:
-        module.tqdm = bar
+        benchmarl_experiment.tqdm = bar
         logger.setLevel(level)
 
 
 def _versions() -> dict[str, Any]:
-    import benchmarl
-    import torchrl
-
     return {
         "benchmarl": benchmarl.__version__,
         "torchrl": torchrl.__version__,

@@ -7,10 +7,10 @@ The training loop is `bbbench.training.trainer`; its evaluation during training,
 `bbbench.training.callbacks`; the rl-zoo3 recipe files, `bbbench.training.recipes`.
 """
 
+from bbbench.training.logs import Trained
 from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
-    Trained,
     build_model,
     check_request,
     reproducible_zip,

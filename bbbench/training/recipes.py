@@ -17,20 +17,12 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from bbbench.policies.algorithms import ALGORITHMS, unknown
 from bbbench.tasks.suite import SUITE, latest_version
-
-
-def recipe_file(algorithm: str):
-    """The recipe file of `algorithm` ("ppo"; a path inside the installed package)."""
-    return resources.files("bbbench.training") / "recipes" / f"{algorithm}.yml"
-
+from bbbench.training.recipe_files import read_recipe_file, recipe_file
 
 # The algorithms `bbbench train` trains: those of the table with a shipped recipe file.
 TRAINABLE = tuple(a.key for a in ALGORITHMS.values() if recipe_file(a.key).is_file())
@@ -87,18 +79,6 @@ def recipes(algorithm: str, file: str | Path | None = None) -> dict[str, dict[st
     if algorithm not in TRAINABLE:
         raise ValueError(unknown("algorithm", algorithm, TRAINABLE + MARL_TRAINABLE))
     return read_recipe_file(algorithm, file)
-
-
-def read_recipe_file(algorithm: str, file: str | Path | None = None) -> dict[str, Any]:
-    """A recipe file's table (task ID -> recipe): `file`, or `algorithm`'s shipped one."""
-    source = Path(file) if file is not None else recipe_file(algorithm)
-    try:
-        table = yaml.safe_load(source.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ValueError(f"recipe file {source}: {error}") from None
-    if not isinstance(table, dict):
-        raise ValueError(f"recipe file {source}: expected task IDs, each with its recipe")
-    return table
 
 
 def recipe(algorithm: str, key: str, file: str | Path | None = None):

@@ -17,7 +17,6 @@ policy where rl-zoo3 does and `bbbench eval` looks: `policy.zip` ->
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import json
 import os
@@ -28,34 +27,21 @@ import time
 import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from bbbench.evaluation import evaluate
-from bbbench.files import check_output_path, write_all_atomic, write_atomic
+from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import load_policy
 from bbbench.policies.algorithms import by_key, unknown
 from bbbench.policies.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import list_tasks, spec
+from bbbench.training.logs import Trained, write_logs
 from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import evaluation_seeds
 
 _ADDRESS = re.compile(r" at 0x[0-9a-f]+")
-
-
-@dataclasses.dataclass(frozen=True)
-class Trained:
-    """What `train` did: the zip, the learning curve, the final results document."""
-
-    out: Path
-    log_dir: Path
-    statistics: Path | None  # the VecNormalize statistics of a recipe with `normalize`
-    curve: list[dict[str, float]]
-    results: dict[str, Any]
-    seconds: float
-    recipe: Recipe
 
 
 def check_request(
@@ -224,20 +210,8 @@ def train(
         "recipe": plan.record(),
         **({"statistics": str(statistics)} if statistics is not None else {}),
     }
-    _write_logs(log_dir, callback.curve, tasks, algorithm, record, results)
+    write_logs(log_dir, callback.curve, tasks, algorithm, record, results)
     return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
-
-
-def _write_logs(log_dir: Path, curve, tasks, algorithm, record, results) -> None:
-    """curve.json, curve.png, train.json and results.json, all at once."""
-    write_all_atomic(
-        {
-            log_dir / "curve.json": _dumps({"points": curve}),
-            log_dir / "curve.png": _curve_png(curve, tasks, algorithm),
-            log_dir / "train.json": _dumps(record),
-            log_dir / "results.json": _dumps(results),
-        }
-    )
 
 
 def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
@@ -255,10 +229,6 @@ def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
             f"{statistics}, but {statistics.parent} is a file: choose another --out"
         )
     return statistics
-
-
-def _dumps(document: dict[str, Any]) -> bytes:
-    return (json.dumps(document, indent=2) + "\n").encode()
 
 
 def training_env(plan: Recipe, tasks: list[str], n_envs: int, mode: str, seed: int):
@@ -326,23 +296,4 @@ def reproducible_zip(data: bytes) -> bytes:
             member.compress_type = zipfile.ZIP_DEFLATED
             member.external_attr = 0o644 << 16
             target.writestr(member, content)
-    return buffer.getvalue()
-
-
-def _curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) -> bytes:
-    from matplotlib.figure import Figure  # lazy: matplotlib, for the curve only
-
-    figure = Figure(figsize=(6.0, 3.4), layout="constrained")
-    axes = figure.add_subplot()
-    steps = [point["steps"] for point in curve]
-    axes.plot(steps, [point["mean"] for point in curve], marker="o", label="mean return")
-    axes.plot(steps, [point["iqm"] for point in curve], marker=".", label="IQM")
-    axes.set_xlabel("environment steps")
-    axes.set_ylabel("return on training seeds")
-    names = ", ".join(task.removeprefix("bbbench/") for task in tasks)
-    axes.set_title(f"{algorithm.upper()} on {names}", fontsize=9)
-    axes.grid(alpha=0.3)
-    axes.legend(frameon=False)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
     return buffer.getvalue()

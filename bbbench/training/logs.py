@@ -1,0 +1,61 @@
+"""What a training leaves beside its policy, whichever trainer ran it (stable-baselines3
+in `bbbench.training.trainer`, BenchMARL in `bbbench.marl.training`): the `Trained`
+record, and curve.json, curve.png, train.json and results.json written at once."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+from bbbench.files import write_all_atomic
+
+
+@dataclasses.dataclass(frozen=True)
+class Trained:
+    """What `train` did: the zip, the learning curve, the final results document."""
+
+    out: Path
+    log_dir: Path
+    statistics: Path | None  # the VecNormalize statistics of a recipe with `normalize`
+    curve: list[dict[str, float]]
+    results: dict[str, Any]
+    seconds: float
+    recipe: Any  # the recipe it trained with
+
+
+def write_logs(log_dir: Path, curve, tasks, algorithm, record, results) -> None:
+    """curve.json, curve.png, train.json and results.json, all at once."""
+    write_all_atomic(
+        {
+            log_dir / "curve.json": dumps({"points": curve}),
+            log_dir / "curve.png": curve_png(curve, tasks, algorithm),
+            log_dir / "train.json": dumps(record),
+            log_dir / "results.json": dumps(results),
+        }
+    )
+
+
+def dumps(document: dict[str, Any]) -> bytes:
+    return (json.dumps(document, indent=2) + "\n").encode()
+
+
+def curve_png(curve: list[dict[str, float]], tasks: list[str], algorithm: str) -> bytes:
+    from matplotlib.figure import Figure  # lazy: matplotlib, for the curve only
+
+    figure = Figure(figsize=(6.0, 3.4), layout="constrained")
+    axes = figure.add_subplot()
+    steps = [point["steps"] for point in curve]
+    axes.plot(steps, [point["mean"] for point in curve], marker="o", label="mean return")
+    axes.plot(steps, [point["iqm"] for point in curve], marker=".", label="IQM")
+    axes.set_xlabel("environment steps")
+    axes.set_ylabel("return on training seeds")
+    names = ", ".join(task.removeprefix("bbbench/") for task in tasks)
+    axes.set_title(f"{algorithm.upper()} on {names}", fontsize=9)
+    axes.grid(alpha=0.3)
+    axes.legend(frameon=False)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    return buffer.getvalue()

@@ -1,0 +1,28 @@
+"""The recipe files shipped in the package (`bbbench/training/recipes/<algorithm>.yml`),
+read as data: rl-zoo3's format for stable-baselines3 (`bbbench.training.recipes`),
+BenchMARL's config groups for IPPO and MAPPO (`bbbench.marl.recipes`)."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+def recipe_file(algorithm: str):
+    """The recipe file of `algorithm` ("ppo"; a path inside the installed package)."""
+    return resources.files("bbbench.training") / "recipes" / f"{algorithm}.yml"
+
+
+def read_recipe_file(algorithm: str, file: str | Path | None = None) -> dict[str, Any]:
+    """A recipe file's table (task ID -> recipe): `file`, or `algorithm`'s shipped one."""
+    source = Path(file) if file is not None else recipe_file(algorithm)
+    try:
+        table = yaml.safe_load(source.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"recipe file {source}: {error}") from None
+    if not isinstance(table, dict):
+        raise ValueError(f"recipe file {source}: expected task IDs, each with its recipe")
+    return table
