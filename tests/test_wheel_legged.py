@@ -152,7 +152,9 @@ def test_the_layout_begins_with_the_shared_values_and_says_its_units():
         f"{name}_angle" for name in wheel_legged.LEG_JOINT_NAMES
     ]
     assert (layout[13].name, layout[13].unit) == ("roll", "rad")
-    assert WHEEL_LEGGED.observation_space() is WHEEL_LEGGED.observation_space()
+    # Equal each call, and a new object: a space carries its own random generator.
+    assert WHEEL_LEGGED.observation_space() == WHEEL_LEGGED.observation_space()
+    assert WHEEL_LEGGED.observation_space() is not WHEEL_LEGGED.observation_space()
     assert WHEEL_LEGGED.observation_space(height_scan=True).shape == (len(layout) + 11,)
     assert ROBOTS["wheel-legged"] is WHEEL_LEGGED
 
@@ -339,5 +341,5 @@ def test_a_sweep_of_the_legged_controller_plays_the_robots_own_profile_task(tmp_
 @pytest.mark.parametrize("task_id", LEGGED_TASKS)
 def test_every_legged_task_shares_the_robots_spaces(task_id):
     env = gymnasium.make(task_id).unwrapped
-    assert env.observation_space is WHEEL_LEGGED.observation_space()
+    assert env.observation_space == WHEEL_LEGGED.observation_space()
     assert env.action_space == WHEEL_LEGGED.action_space("continuous")
