@@ -15,6 +15,7 @@ through a fallen bot's rows).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -74,9 +75,9 @@ class MarlRecipe:
     model: dict[str, Any]
     critic_model: dict[str, Any]
     experiment: dict[str, Any]
-    normalize = None  # no VecNormalize: BenchMARL's models see the raw observations
+    normalize = None  # no VecNormalize: bbbench.marl.training fixes a normalizer first
 
-    @property
+    @functools.cached_property
     def n_timesteps(self) -> int:
         """The default budget, in world steps (BenchMARL's frames)."""
         return int(

@@ -36,13 +36,15 @@ from benchmarl.experiment.callback import Callback
 from tqdm import tqdm
 
 import bbbench
-from bbbench.evaluation import evaluate, stats
+from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
 from bbbench.marl.recipes import MarlRecipe, marl_recipe
-from bbbench.policies import export_onnx, load_policy
-from bbbench.training.logs import Trained, write_logs
+from bbbench.policies import load_policy, onnx_bytes
+from bbbench.policies.onnx_file import parse_onnx
+from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.training.logs import Trained, curve_point, write_logs
 from bbbench.training.seeds import evaluation_seeds
 
 ACTION_MODE = "discrete"
@@ -83,7 +85,9 @@ def observation_statistics(
         seen += list(rows)
         chosen = controller(rows, None)
         actions = {
-            bot: int(rng.integers(9)) if rng.random() < STATISTICS_EPSILON else int(chosen[i])
+            bot: int(rng.integers(env.action_space(bot).n))
+            if rng.random() < STATISTICS_EPSILON
+            else int(chosen[i])
             for i, bot in enumerate(bots)
         }
         observations, _, _, _, _ = env.step(actions)
@@ -110,11 +114,9 @@ class TrainingEvaluation(Callback):
     """After each training iteration: progress; every `every` frames, the policy exported
     and played on the training seeds, a point of the curve, the best file kept."""
 
-    def __init__(
-        self, task_id, every, scratch, began, on_progress, budget, bots, algorithm, normalization
-    ):
+    def __init__(self, task_id, every, began, on_progress, budget, bots, algorithm, normalization):
         super().__init__()
-        self.task_id, self.every, self.scratch = task_id, every, scratch
+        self.task_id, self.every = task_id, every
         self.mean, self.std = normalization
         self.began, self.on_progress, self.budget = began, on_progress, budget
         self.bots, self.algorithm = bots, algorithm
@@ -141,32 +143,22 @@ class TrainingEvaluation(Callback):
         frames = self.experiment.total_frames
         if self.curve and self.curve[-1]["steps"] == frames:
             return
-        candidate = Path(self.scratch) / "candidate.onnx"
-        network = actor_network(self.experiment)
-        export_onnx(
-            network,
+        candidate = onnx_bytes(
+            actor_network(self.experiment),
             self.task_id,
-            candidate,
             action_mode=ACTION_MODE,
             mean=self.mean,
             std=self.std,
             algorithm=self.algorithm.upper(),
             training_steps=frames * self.bots,
         )
-        self.player.actors[self.task_id] = load_policy(candidate).actor(self.task_id)
+        policy = OnnxPolicy(parse_onnx(candidate, "the candidate policy", "candidate.onnx"))
+        self.player.actors[self.task_id] = policy.actor(self.task_id)
         played = self.player.play(self.task_id, evaluation_seeds(self.task_id))
-        returns = np.array([episode.episode_return for episode in played])
-        point = {
-            "steps": int(frames),
-            "bot_steps": int(frames * self.bots),
-            "wall_time_s": round(time.perf_counter() - self.began, 2),
-            "mean": float(returns.mean()),
-            "iqm": stats.iqm(returns),
-            "mean_length": float(np.mean([episode.length for episode in played])),
-        }
+        point = curve_point(played, self.began, steps=frames, bot_steps=frames * self.bots)
         self.curve.append(point)
         if point["mean"] > self.best_mean:
-            self.best_mean, self.best = point["mean"], candidate.read_bytes()
+            self.best_mean, self.best = point["mean"], candidate
         if self.on_progress is not None:
             self.on_progress(frames, self.budget, point)
 
@@ -211,7 +203,6 @@ def train_marl(
         callback = TrainingEvaluation(
             task_id,
             eval_freq,
-            scratch,
             began,
             on_progress,
             budget,

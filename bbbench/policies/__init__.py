@@ -9,7 +9,7 @@ export_onnx(agent.actor, "bbbench/FlatBalance-v1", "policy.onnx")  # any torch a
 """
 
 from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.export import export_onnx, export_zip
+from bbbench.policies.export import export_onnx, export_zip, onnx_bytes
 from bbbench.policies.pd import PDController
 from bbbench.policies.registry import (
     BUILTIN_POLICIES,
@@ -29,5 +29,6 @@ __all__ = [
     "export_zip",
     "fitting_tasks",
     "load_policy",
+    "onnx_bytes",
     "register_policy",
 ]

@@ -76,10 +76,14 @@ def export_zip(
     return write_atomic(out, content)
 
 
-def export_onnx(
+def export_onnx(module: Any, task_id: str, out: str | Path, **options: Any) -> Path:
+    """Export a torch actor to the ONNX file `out`, written atomically: `onnx_bytes`."""
+    return write_atomic(out, onnx_bytes(module, task_id, **options))
+
+
+def onnx_bytes(
     module: Any,
     task_id: str,
-    out: str | Path,
     *,
     action_mode: str | None = None,
     mean: np.ndarray | None = None,
@@ -89,9 +93,10 @@ def export_onnx(
     training_steps: int | None = None,
     opset: int | None = None,
     dynamo: bool = False,
-) -> Path:
-    """Export a torch actor that maps raw (or normalized) observations of `task_id`'s bots
-    to its action scores (Discrete: one per action) or its action (Box), with its contract.
+) -> bytes:
+    """The ONNX file of a torch actor that maps raw (or normalized) observations of
+    `task_id`'s bots to its action scores (Discrete: one per action) or its action (Box),
+    with its contract, read back by bbbench's reader.
 
     `mean`, `std` and `clip`: a normalizer the actor was trained behind, `clip((obs -
     mean) / std, -clip, clip)` (CleanRL's and gymnasium's NormalizeObservation keep
@@ -133,7 +138,7 @@ def export_onnx(
                 **keywords,
             )
         content = raw.read_bytes()
-    return _with_contract(parse_proto(content, "torch's export"), contract, out)
+    return _with_contract(parse_proto(content, "torch's export"), contract)
 
 
 def export_foreign(
@@ -182,12 +187,12 @@ def export_foreign(
         kept = [value for value in field if keep_it(value)]
         del field[:]
         field.extend(kept)
-    return _with_contract(model, contract, out)
+    return write_atomic(out, _with_contract(model, contract))
 
 
-def _with_contract(model, contract: Contract, out: str | Path) -> Path:
-    """The `ModelProto` with the contract in its metadata_props, checked by bbbench's
-    reader, then written atomically."""
+def _with_contract(model, contract: Contract) -> bytes:
+    """The `ModelProto`'s bytes with the contract in its metadata_props, checked by
+    bbbench's reader."""
     import onnx  # lazy: onnx, for ONNX files only
 
     kept = [p for p in model.metadata_props if not p.key.startswith("bbbench.")]
@@ -196,7 +201,7 @@ def _with_contract(model, contract: Contract, out: str | Path) -> Path:
     onnx.helper.set_model_props(model, {**{p.key: p.value for p in kept}, **contract.metadata()})
     content = model.SerializeToString()
     _read_back(content)
-    return write_atomic(out, content)
+    return content
 
 
 def _read_back(content: bytes) -> OnnxPolicy:

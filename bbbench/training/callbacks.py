@@ -3,17 +3,15 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecNormalize
 
-from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.policies.policy import NormalizedActor, TorchActor
 from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.training.logs import curve_point
 from bbbench.training.seeds import evaluation_seeds
 
 
@@ -53,14 +51,7 @@ class TrainingEvaluation(BaseCallback):
         played: list[PlayedEpisode] = []
         for task_id in self.tasks:
             played += self.runner.play(task_id, evaluation_seeds(task_id))
-        returns = np.array([episode.episode_return for episode in played])
-        point = {
-            "steps": int(model.num_timesteps),
-            "wall_time_s": round(time.perf_counter() - self.began, 2),
-            "mean": float(returns.mean()),
-            "iqm": stats.iqm(returns),
-            "mean_length": float(np.mean([episode.length for episode in played])),
-        }
+        point = curve_point(played, self.began, steps=model.num_timesteps)
         self.curve.append(point)
         if point["mean"] > self.best:
             self.best = point["mean"]

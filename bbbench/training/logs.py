@@ -7,9 +7,14 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from bbbench.evaluation import stats
+from bbbench.evaluation.play import PlayedEpisode
 from bbbench.files import write_all_atomic
 
 
@@ -24,6 +29,20 @@ class Trained:
     results: dict[str, Any]
     seconds: float
     recipe: Any  # the recipe it trained with
+
+
+def curve_point(played: list[PlayedEpisode], began: float, **steps: int) -> dict[str, float]:
+    """A point of the learning curve: `steps` (the trainer's counts, `steps=` first), the
+    wall time since `began` (`time.perf_counter()`), and the mean return, IQM and mean
+    length of the episodes `played` on the training seeds."""
+    returns = np.array([episode.episode_return for episode in played])
+    return {
+        **{name: int(count) for name, count in steps.items()},
+        "wall_time_s": round(time.perf_counter() - began, 2),
+        "mean": float(returns.mean()),
+        "iqm": stats.iqm(returns),
+        "mean_length": float(np.mean([episode.length for episode in played])),
+    }
 
 
 def write_logs(log_dir: Path, curve, tasks, algorithm, record, results) -> None:
