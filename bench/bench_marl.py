@@ -6,7 +6,7 @@ shared-PPO route, in bot-steps per second.
 Both learn with their shipped recipe's rollout and update sizes (bbbench/training/
 recipes/ippo.yml and ppo.yml), one torch thread, and nothing else timed: SB3's
 `model.learn` over `make_vec`'s worlds (4 samples a world step), and BenchMARL's
-`Experiment.run` over TorchRL's `PettingZooWrapper` (one frame a world step, 4 bots).
+`Experiment.run` over `bbbench.marl.tasks.BbbenchWrapper` (a frame a world step, 4 bots).
 Set-up (building envs, models, observation statistics) is outside the clock. A round
 times both, alternating which goes first; the ratio IPPO / SB3 is per round. Run it on
 a quiet machine.
