@@ -1,0 +1,102 @@
+"""The MARL comparison tables of docs/baselines.md ("BenchMARL: IPPO and MAPPO"), from the
+runs' own files: each run's `baselines/<slug>/results.json` (its policy on the task's 100
+evaluation seeds, written by `bbbench train`) and `train.json` (bot-steps, wall time),
+and the classical controller's episodes on the board (`leaderboards/results/`).
+
+    python scripts/marl_tables.py [--root baselines] [--board leaderboards]
+
+A row is one method on one task, its seeds side by side. "P(> classical)" is rliable's
+probability of improvement of the median seed's episodes over the controller's, with
+its 95% stratified-bootstrap interval (`bbbench.evaluation.stats`, as the board ranks).
+Seeds not trained yet are shown as "-".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from bbbench.evaluation import stats
+from bbbench.evaluation.results import normalized
+from bbbench.tasks.suite import spec
+
+SEEDS = (0, 1, 2)
+# (task, method as the table names it, the slug of its runs without the seed suffix)
+ROWS = (
+    ("bbbench/MultiBalance-v1", "IPPO, encoder", "ippo-multibalance-v1"),
+    ("bbbench/MultiBalance-v1", "IPPO, MLP actor", "ippo-mlp-multibalance-v1"),
+    (
+        "bbbench/MultiBalance-v1",
+        "MAPPO, encoder, a value per bot",
+        "mappo-own-values-multibalance-v1",
+    ),
+    ("bbbench/MultiBalance-v1", "IPPO, encoder, gamma 0.995", "ippo-gamma995-multibalance-v1"),
+    ("bbbench/BeamCarry-v0", "MAPPO, encoder", "mappo-beamcarry-v0"),
+    ("bbbench/BeamCarry-v0", "MAPPO, MLP actor", "mappo-mlp-beamcarry-v0"),
+    ("bbbench/BeamCarry-v0", "IPPO, encoder", "ippo-beamcarry-v0"),
+)
+CLASSICAL = {"bbbench/MultiBalance-v1": "pd", "bbbench/BeamCarry-v0": "team"}
+
+
+def episodes(results: dict, task_id: str) -> list[dict]:
+    (block,) = [block for block in results["tasks"] if block["task"] == task_id]
+    return block["episodes"]
+
+
+def scores(played: list[dict], task_id: str) -> np.ndarray:
+    return np.array([normalized(episode["return"], spec(task_id)) for episode in played])
+
+
+def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | None:
+    runs = {}
+    for seed in SEEDS:
+        folder = root / f"{stem}-s{seed}"
+        if (folder / "results.json").exists():
+            results = json.loads((folder / "results.json").read_text())
+            record = json.loads((folder / "train.json").read_text())
+            runs[seed] = (episodes(results, task_id), record)
+    if not runs:
+        return None
+    score = {seed: float(scores(played, task_id).mean()) for seed, (played, _) in runs.items()}
+    minutes = {seed: record["wall_time_s"] / 60 for seed, (_, record) in runs.items()}
+    steps = {record["bot_steps"] for _, record in runs.values()}
+    by_seed = " / ".join(f"{score[s]:.3f}" if s in score else "-" for s in SEEDS)
+    walls = " / ".join(f"{minutes[s]:.1f}" if s in minutes else "-" for s in SEEDS)
+    median_seed = sorted(score, key=score.get)[(len(score) - 1) // 2]
+    played = [episode for episodes_, _ in runs.values() for episode in episodes_]
+    whole = np.mean([episode["falls"] == 0 for episode in played])
+    classical = json.loads((board / "results" / f"{CLASSICAL[task_id]}.json").read_text())
+    reference = scores(episodes(classical, task_id), task_id)
+    point, (low, high) = stats.probability_of_improvement(
+        [scores(runs[median_seed][0], task_id)], [reference]
+    )
+    median = statistics.median(score.values())
+    return (
+        f"| {task_id.removeprefix('bbbench/')} | {method} | {max(steps) / 1e6:.1f}M | {walls} min "
+        f"| {by_seed} | {median:.3f} | {whole:.0%} | {point:.2f} [{low:.2f}, {high:.2f}] "
+        f"| {reference.mean():.3f} |"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=Path("baselines"))
+    parser.add_argument("--board", type=Path, default=Path("leaderboards"))
+    args = parser.parse_args()
+    print(
+        "| task | method | bot-steps | wall time, by seed | normalized, by seed | median "
+        "| no fall | P(median seed > classical) [95% CI] | classical |"
+    )
+    print("|---|---|---:|---:|---|---:|---:|---|---:|")
+    for task_id, method, stem in ROWS:
+        line = row(args.root, args.board, task_id, method, stem)
+        if line is not None:
+            print(line)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,67 @@
+"""scripts/marl_tables.py, which writes docs/baselines.md's MARL comparison tables from the
+runs' own files: a run that plays exactly the classical controller's episodes ties it."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_script():
+    spec = importlib.util.spec_from_file_location(
+        "marl_tables", ROOT / "scripts" / "marl_tables.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def fake_run(folder: Path, results: dict, minutes: float) -> None:
+    folder.mkdir(parents=True)
+    (folder / "results.json").write_text(json.dumps(results))
+    (folder / "train.json").write_text(
+        json.dumps({"wall_time_s": minutes * 60, "bot_steps": 1_200_000})
+    )
+
+
+def test_a_run_playing_the_controllers_episodes_ties_it(tmp_path):
+    tables = load_script()
+    board = ROOT / "leaderboards"
+    pd = json.loads((board / "results" / "pd.json").read_text())
+    worse = json.loads(json.dumps(pd))
+    for block in worse["tasks"]:
+        for episode in block["episodes"]:
+            episode["return"] -= 50.0
+            episode["falls"] = 1
+    fake_run(tmp_path / "x-s0", pd, 20.0)
+    fake_run(tmp_path / "x-s2", worse, 21.5)
+    line = tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "X", "x")
+    cells = [cell.strip() for cell in line.strip("|").split("|")]
+    task, method, steps, walls, by_seed, median, whole, probability, classical = cells
+    assert (task, method, steps, walls) == ("MultiBalance-v1", "X", "1.2M", "20.0 / - / 21.5 min")
+    first, missing, third = by_seed.split(" / ")
+    assert first == classical  # the controller's own episodes score as the controller
+    assert missing == "-"
+    assert float(third) < float(first)
+    # Two seeds: the median is their mean, and the median seed is the lower one.
+    assert float(median) == round((float(first) + float(third)) / 2, 3)
+    assert float(probability.split()[0]) < 0.1  # 50 less an episode: below the controller
+    pd_whole = [
+        e["falls"] == 0
+        for b in pd["tasks"]
+        if b["task"] == "bbbench/MultiBalance-v1"
+        for e in b["episodes"]
+    ]
+    assert whole == f"{sum(pd_whole) / (2 * len(pd_whole)):.0%}"
+    assert tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "Y", "nothing") is None
+
+
+def test_the_same_episodes_give_one_half(tmp_path):
+    tables = load_script()
+    board = ROOT / "leaderboards"
+    fake_run(tmp_path / "x-s0", json.loads((board / "results" / "pd.json").read_text()), 20.0)
+    line = tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "X", "x")
+    assert "| 0.50 [" in line
