@@ -29,11 +29,7 @@ SEEDS = (0, 1, 2)
 ROWS = (
     ("bbbench/MultiBalance-v1", "IPPO, encoder", "ippo-multibalance-v1"),
     ("bbbench/MultiBalance-v1", "IPPO, MLP actor", "ippo-mlp-multibalance-v1"),
-    (
-        "bbbench/MultiBalance-v1",
-        "MAPPO, encoder, a value per bot",
-        "mappo-own-values-multibalance-v1",
-    ),
+    ("bbbench/MultiBalance-v1", "MAPPO, encoder", "mappo-multibalance-v1"),
     ("bbbench/MultiBalance-v1", "IPPO, encoder, gamma 0.995", "ippo-gamma995-multibalance-v1"),
     ("bbbench/BeamCarry-v0", "MAPPO, encoder", "mappo-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "MAPPO, MLP actor", "mappo-mlp-beamcarry-v0"),
