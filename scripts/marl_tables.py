@@ -5,7 +5,8 @@ and the classical controller's episodes on the board (`leaderboards/results/`).
 
     python scripts/marl_tables.py [--root baselines] [--board leaderboards]
 
-A row is one method on one task, its seeds side by side. "P(> classical)" is rliable's
+A row is one method on one task, its seeds side by side; a second table sets methods
+against each other, every trained seed's episodes pooled. "P(> classical)" is rliable's
 probability of improvement of the median seed's episodes over the controller's, with
 its 95% stratified-bootstrap interval (`bbbench.evaluation.stats`, as the board ranks).
 Seeds not trained yet are shown as "-".
@@ -36,6 +37,28 @@ ROWS = (
     ("bbbench/BeamCarry-v0", "IPPO, encoder", "ippo-beamcarry-v0"),
 )
 CLASSICAL = {"bbbench/MultiBalance-v1": "pd", "bbbench/BeamCarry-v0": "team"}
+# The comparisons: (task, what is compared, the first method's stem, the second's)
+VERSUS = (
+    (
+        "bbbench/MultiBalance-v1",
+        "encoder against MLP actor (IPPO)",
+        "ippo-multibalance-v1",
+        "ippo-mlp-multibalance-v1",
+    ),
+    (
+        "bbbench/MultiBalance-v1",
+        "MAPPO against IPPO",
+        "mappo-multibalance-v1",
+        "ippo-multibalance-v1",
+    ),
+    ("bbbench/BeamCarry-v0", "MAPPO against IPPO", "mappo-beamcarry-v0", "ippo-beamcarry-v0"),
+    (
+        "bbbench/BeamCarry-v0",
+        "encoder against MLP actor (MAPPO)",
+        "mappo-beamcarry-v0",
+        "mappo-mlp-beamcarry-v0",
+    ),
+)
 
 
 def episodes(results: dict, task_id: str) -> list[dict]:
@@ -47,7 +70,8 @@ def scores(played: list[dict], task_id: str) -> np.ndarray:
     return np.array([normalized(episode["return"], spec(task_id)) for episode in played])
 
 
-def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | None:
+def seed_runs(root: Path, task_id: str, stem: str) -> dict[int, tuple[list[dict], dict]]:
+    """Per trained seed: its episodes on the evaluation seeds and its train.json."""
     runs = {}
     for seed in SEEDS:
         folder = root / f"{stem}-s{seed}"
@@ -55,6 +79,27 @@ def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | 
             results = json.loads((folder / "results.json").read_text())
             record = json.loads((folder / "train.json").read_text())
             runs[seed] = (episodes(results, task_id), record)
+    return runs
+
+
+def versus(root: Path, task_id: str, compared: str, first: str, second: str) -> str | None:
+    """P(an episode of the first method > one of the second), every trained seed's
+    episodes pooled, with its interval; the seeds each has."""
+    a, b = seed_runs(root, task_id, first), seed_runs(root, task_id, second)
+    if not a or not b:
+        return None
+    pooled = [
+        np.concatenate([scores(played, task_id) for played, _ in runs.values()]) for runs in (a, b)
+    ]
+    point, (low, high) = stats.probability_of_improvement([pooled[0]], [pooled[1]])
+    return (
+        f"| {task_id.removeprefix('bbbench/')} | {compared} | {len(a)} / {len(b)} "
+        f"| {pooled[0].mean():.3f} / {pooled[1].mean():.3f} | {point:.2f} [{low:.2f}, {high:.2f}] |"
+    )
+
+
+def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | None:
+    runs = seed_runs(root, task_id, stem)
     if not runs:
         return None
     score = {seed: float(scores(played, task_id).mean()) for seed, (played, _) in runs.items()}
@@ -90,6 +135,13 @@ def main() -> None:
     print("|---|---|---:|---:|---|---:|---:|---|---:|")
     for task_id, method, stem in ROWS:
         line = row(args.root, args.board, task_id, method, stem)
+        if line is not None:
+            print(line)
+    print()
+    print("| task | compared | seeds | mean normalized, all seeds | P(first > second) [95% CI] |")
+    print("|---|---|---:|---:|---|")
+    for task_id, compared, first, second in VERSUS:
+        line = versus(args.root, task_id, compared, first, second)
         if line is not None:
             print(line)
 

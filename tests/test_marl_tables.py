@@ -65,3 +65,22 @@ def test_the_same_episodes_give_one_half(tmp_path):
     fake_run(tmp_path / "x-s0", json.loads((board / "results" / "pd.json").read_text()), 20.0)
     line = tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "X", "x")
     assert "| 0.50 [" in line
+
+
+def test_versus_pools_the_seeds_and_sets_one_method_against_the_other(tmp_path):
+    tables = load_script()
+    pd = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
+    better = json.loads(json.dumps(pd))
+    for block in better["tasks"]:
+        for episode in block["episodes"]:
+            episode["return"] += 200.0  # above every episode of PD's
+    fake_run(tmp_path / "a-s0", better, 20.0)
+    fake_run(tmp_path / "a-s1", better, 20.0)
+    fake_run(tmp_path / "b-s2", pd, 20.0)
+    task = "bbbench/MultiBalance-v1"
+    line = tables.versus(tmp_path, task, "A against B", "a", "b")
+    assert "| 2 / 1 |" in line
+    assert line.endswith("| 1.00 [1.00, 1.00] |")
+    same = tables.versus(tmp_path, task, "B against B", "b", "b")
+    assert "| 0.50 [" in same  # resampled independently, its interval spans 0.5
+    assert tables.versus(tmp_path, task, "A against none", "a", "c") is None
