@@ -35,8 +35,17 @@ ROWS = (
     ("bbbench/BeamCarry-v0", "MAPPO, encoder", "mappo-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "MAPPO, MLP actor", "mappo-mlp-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "IPPO, encoder", "ippo-beamcarry-v0"),
+    ("bbbench/MultiBumps-v1", "IPPO, encoder", "ippo-multibumps-v1"),
+    ("bbbench/BeamCarryBumps-v0", "MAPPO, encoder", "mappo-beamcarrybumps-v0"),
+    ("bbbench/Convoy-v0", "MAPPO, encoder", "mappo-convoy-v0"),
 )
-CLASSICAL = {"bbbench/MultiBalance-v1": "pd", "bbbench/BeamCarry-v0": "team"}
+CLASSICAL = {
+    "bbbench/MultiBalance-v1": "pd",
+    "bbbench/MultiBumps-v1": "pd",
+    "bbbench/BeamCarry-v0": "team",
+    "bbbench/BeamCarryBumps-v0": "team",
+    "bbbench/Convoy-v0": "team",
+}
 # The comparisons: (task, what is compared, the first method's stem, the second's)
 VERSUS = (
     (

@@ -1,0 +1,49 @@
+"""scripts/where_falls.py, which splits a multi-bot policy's lost return into falls and
+tracking: it plays the episodes `bbbench eval` plays (the board's falls, seed by seed)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from bbbench.tasks.suite import spec
+
+ROOT = Path(__file__).resolve().parents[1]
+TASK = "bbbench/MultiBalance-v1"
+
+
+def load_script():
+    found = importlib.util.spec_from_file_location(
+        "where_falls", ROOT / "scripts" / "where_falls.py"
+    )
+    module = importlib.util.module_from_spec(found)
+    sys.modules["where_falls"] = module  # its dataclass looks its module up
+    found.loader.exec_module(module)
+    return module
+
+
+def test_the_falls_are_the_boards_and_each_is_placed():
+    script = load_script()
+    seeds = list(spec(TASK).eval_seeds[:10])
+    counted = script.tally("pd", TASK, seeds)
+    board = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
+    (block,) = [block for block in board["tasks"] if block["task"] == TASK]
+    assert counted.falls == sum(episode["falls"] for episode in block["episodes"][:10]) > 0
+    assert all(0 < step < 1500 for step in counted.fall_steps)
+    assert all(distance > 0 for distance in counted.fall_distances)
+    # Up bot-steps earn the tracking share: at most 0.09 each, and PD tracks.
+    assert 0.03 < counted.velocity_reward / counted.bot_steps <= 0.09
+    row = counted.row("pd", 4, len(seeds))
+    assert row.startswith(f"| pd | {counted.falls} of 40 |")
+
+
+def test_nearest_reads_the_first_neighbour_slot():
+    script = load_script()
+    observation = np.zeros(17, dtype=np.float32)
+    assert script.nearest(observation) == float("inf")  # no bot within range
+    observation[5:7] = (3.0, -4.0)
+    assert script.nearest(observation) == 5.0
