@@ -38,7 +38,6 @@ ROWS = (
     ("bbbench/MultiBumps-v1", "IPPO, encoder", "ippo-multibumps-v1"),
     ("bbbench/BeamCarryBumps-v0", "MAPPO, encoder", "mappo-beamcarrybumps-v0"),
     ("bbbench/Convoy-v0", "MAPPO, encoder", "mappo-convoy-v0"),
-    ("bbbench/Convoy-v0", "MAPPO, encoder, lr 1e-4", "mappo-lr1e-4-convoy-v0"),
 )
 CLASSICAL = {
     "bbbench/MultiBalance-v1": "pd",
