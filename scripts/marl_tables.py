@@ -36,8 +36,12 @@ ROWS = (
     ("bbbench/BeamCarry-v0", "MAPPO, MLP actor", "mappo-mlp-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "IPPO, encoder", "ippo-beamcarry-v0"),
     ("bbbench/MultiBumps-v1", "IPPO, encoder", "ippo-multibumps-v1"),
+    ("bbbench/MultiBumps-v1", "MAPPO, encoder", "mappo-multibumps-v1"),
     ("bbbench/BeamCarryBumps-v0", "MAPPO, encoder", "mappo-beamcarrybumps-v0"),
+    ("bbbench/BeamCarryBumps-v0", "IPPO, encoder", "ippo-beamcarrybumps-v0"),
     ("bbbench/Convoy-v0", "MAPPO, encoder", "mappo-convoy-v0"),
+    ("bbbench/Convoy-v0", "IPPO, encoder", "ippo-convoy-v0"),
+    ("bbbench/Convoy-v0", "MAPPO, encoder, lr 1e-4", "mappo-lr1e-4-convoy-v0"),
 )
 CLASSICAL = {
     "bbbench/MultiBalance-v1": "pd",
@@ -67,6 +71,14 @@ VERSUS = (
         "mappo-beamcarry-v0",
         "mappo-mlp-beamcarry-v0",
     ),
+    ("bbbench/MultiBumps-v1", "MAPPO against IPPO", "mappo-multibumps-v1", "ippo-multibumps-v1"),
+    (
+        "bbbench/BeamCarryBumps-v0",
+        "MAPPO against IPPO",
+        "mappo-beamcarrybumps-v0",
+        "ippo-beamcarrybumps-v0",
+    ),
+    ("bbbench/Convoy-v0", "MAPPO against IPPO", "mappo-convoy-v0", "ippo-convoy-v0"),
 )
 
 

@@ -2,13 +2,16 @@
 up (the velocity credit each up bot-step earns), or by its falls (each forfeits the rest
 of a bot's episode), and how near the nearest other bot was just before each fall.
 
-    python scripts/where_falls.py POLICY [POLICY ...] [--task bbbench/MultiBalance-v1]
+    python scripts/where_falls.py SLUG [SLUG ...] [--task bbbench/MultiBalance-v1]
                                   [--episodes 100]
 
-Each POLICY (a built-in name, an ONNX file or an SB3 zip, with the `vecnormalize.pkl`
-beside it if there is one, as the board keeps them) plays the task's first
-`--episodes` evaluation seeds deterministically, as `bbbench eval` plays them; the output
-is one Markdown row per policy. docs/baselines.md ("Where IPPO loses to PD") quotes it.
+Each SLUG names a board entry (`leaderboards/submissions/<slug>/`: a built-in, an ONNX
+graph or an SB3 zip with its statistics), loaded and checked as `bbbench leaderboard
+check` loads it; it plays the task's first `--episodes` evaluation seeds
+deterministically, as `bbbench eval` plays them, and the output is one Markdown row per
+entry. docs/baselines.md ("Where IPPO loses to PD") quotes it. Only the crossing tasks
+(MultiBalance, MultiBumps): a team task's observation has another layout, and one bot's
+fall ends the team.
 """
 
 from __future__ import annotations
@@ -20,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 import bbbench
-from bbbench.policies import load_policy
+from bbbench.leaderboard.submissions import read_submission
 from bbbench.tasks.suite import spec
+
+BOARD = Path(__file__).resolve().parents[1] / "leaderboards" / "submissions"
 
 NEAR = 1.0  # m: a fall with another bot's torso this close is a fall in contact
 
@@ -58,21 +63,31 @@ def nearest(observation: np.ndarray) -> float:
     return float(np.hypot(right, forward)) if right or forward else float("inf")
 
 
-def tally(policy_name: str, task_id: str, seeds: list[int]) -> Tally:
-    """`policy_name`'s bots on `task_id` over `seeds`."""
-    statistics = Path(policy_name).with_name("vecnormalize.pkl")  # where the board keeps them
-    beside = policy_name.endswith(".zip") and statistics.is_file()
-    actor = load_policy(policy_name, vecnormalize=statistics if beside else None).actor(task_id)
+def check_task(task_id: str) -> None:
+    """Refuse a task whose falls this script would misread."""
+    task = spec(task_id)
+    if task.group is None or task.coupling is not None:
+        raise SystemExit(
+            f"{task_id}: not a crossing task; where_falls reads MultiBalance's and "
+            f"MultiBumps' layout, where each bot falls on its own"
+        )
+
+
+def tally(slug: str, task_id: str, seeds: list[int], board: Path = BOARD) -> Tally:
+    """The board entry `slug`'s bots on the crossing task `task_id` over `seeds`."""
+    check_task(task_id)
+    policy = read_submission(board / slug).load_policy()
+    actor = policy.actor(task_id)
     counted = Tally()
+    env = bbbench.make_parallel(task_id, action_mode=policy.action_mode)
     for seed in seeds:
-        env = bbbench.make_parallel(task_id, action_mode="discrete")
         observations, _ = env.reset(seed=seed)
         while env.agents:
             agents = list(env.agents)
             actions = actor(np.stack([observations[agent] for agent in agents]))
             before = observations
             observations, _, terminations, _, infos = env.step(
-                {agent: int(action) for agent, action in zip(agents, actions, strict=True)}
+                dict(zip(agents, actions, strict=True))
             )
             for agent in agents:
                 if terminations[agent]:
@@ -82,16 +97,17 @@ def tally(policy_name: str, task_id: str, seeds: list[int]) -> Tally:
                     counted.bot_steps += 1
                     counted.velocity_reward += infos[agent]["reward_velocity"]
                     counted.near_steps += nearest(observations[agent]) < NEAR
-        env.close()
+    env.close()
     return counted
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("policies", nargs="+")
+    parser.add_argument("slugs", nargs="+", help="board entries, e.g. pd ippo-multibalance-v1-s0")
     parser.add_argument("--task", default="bbbench/MultiBalance-v1")
     parser.add_argument("--episodes", type=int, default=100)
     args = parser.parse_args()
+    check_task(args.task)
     task = spec(args.task)
     seeds = list(task.eval_seeds[: args.episodes])
     print(
@@ -99,8 +115,8 @@ def main() -> None:
         "| velocity reward per up bot-step | up bot-steps with a bot within 1 m |"
     )
     print("|---|---:|---:|---:|---:|---:|")
-    for name in args.policies:
-        print(tally(name, args.task, seeds).row(name, task.group.n_bots, len(seeds)))
+    for slug in args.slugs:
+        print(tally(slug, args.task, seeds).row(slug, task.group.n_bots, len(seeds)))
 
 
 if __name__ == "__main__":

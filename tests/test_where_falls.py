@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from bbbench.tasks.suite import spec
 
@@ -47,3 +48,9 @@ def test_nearest_reads_the_first_neighbour_slot():
     assert script.nearest(observation) == float("inf")  # no bot within range
     observation[5:7] = (3.0, -4.0)
     assert script.nearest(observation) == 5.0
+
+
+def test_a_team_task_is_refused():
+    script = load_script()
+    with pytest.raises(SystemExit, match="not a crossing task"):
+        script.tally("pd", "bbbench/Convoy-v0", [0])
