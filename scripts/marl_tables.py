@@ -32,6 +32,11 @@ ROWS = (
     ("bbbench/MultiBalance-v1", "IPPO, MLP actor", "ippo-mlp-multibalance-v1"),
     ("bbbench/MultiBalance-v1", "MAPPO, encoder", "mappo-multibalance-v1"),
     ("bbbench/MultiBalance-v1", "IPPO, encoder, gamma 0.995", "ippo-gamma995-multibalance-v1"),
+    (
+        "bbbench/MultiBalance-v1",
+        "IPPO, encoder, gamma 0.995, twice the budget",
+        "ippo-gamma995-2x-multibalance-v1",
+    ),
     ("bbbench/BeamCarry-v0", "MAPPO, encoder", "mappo-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "MAPPO, MLP actor", "mappo-mlp-beamcarry-v0"),
     ("bbbench/BeamCarry-v0", "IPPO, encoder", "ippo-beamcarry-v0"),
