@@ -84,6 +84,12 @@ VERSUS = (
         "ippo-beamcarrybumps-v0",
     ),
     ("bbbench/Convoy-v0", "MAPPO against IPPO", "mappo-convoy-v0", "ippo-convoy-v0"),
+    (
+        "bbbench/Convoy-v0",
+        "lr 1e-4 against 3e-4 (MAPPO)",
+        "mappo-lr1e-4-convoy-v0",
+        "mappo-convoy-v0",
+    ),
 )
 
 
