@@ -66,7 +66,7 @@ def nearest(observation: np.ndarray) -> float:
 def check_task(task_id: str) -> None:
     """Refuse a task whose falls this script would misread."""
     task = spec(task_id)
-    if task.group is None or task.coupling is not None:
+    if not task.multi_agent or task.coupling is not None:
         raise SystemExit(
             f"{task_id}: not a crossing task; where_falls reads MultiBalance's and "
             f"MultiBumps' layout, where each bot falls on its own"
