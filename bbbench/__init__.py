@@ -5,6 +5,7 @@
 
     env = gym.make("bbbench/FlatBalance-v1")
     parallel_env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=8)
+    batched_env = bbbench.make_batched("bbbench/MultiBalance-v1", worlds=16)  # (16, 4, ...)
     vec_env = bbbench.make_vec("bbbench/MultiBalance-v1", n_envs=2)  # for stable-baselines3
     bbbench.spec("bbbench/FlatBalance-v1").eval_seeds
 
@@ -12,11 +13,20 @@ Importing bbbench registers every task of the suite with gymnasium.
 """
 
 import bbbench.sim  # noqa: F401  (first: it imports pybullet without its banner)
-from bbbench.envs import make, make_parallel
+from bbbench.envs import make, make_batched, make_parallel
 from bbbench.tasks import TaskSpec, list_tasks, register_suite, spec
 
 __version__ = "0.1.0"
-__all__ = ["TaskSpec", "__version__", "list_tasks", "make", "make_parallel", "make_vec", "spec"]
+__all__ = [
+    "TaskSpec",
+    "__version__",
+    "list_tasks",
+    "make",
+    "make_batched",
+    "make_parallel",
+    "make_vec",
+    "spec",
+]
 
 register_suite()
 

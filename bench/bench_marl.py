@@ -51,7 +51,7 @@ def ippo_seconds(bot_steps: int) -> float:
 
     plan = recipe("ippo", TASK)
     task = plan.task_config()
-    task.observation_normalization = observation_statistics(TASK, task.config, seed=0)
+    task.observation_normalization = observation_statistics(TASK, task.env_kwargs, seed=0)
     bots = task.config["n_bots"]
     with _quiet(), tempfile.TemporaryDirectory() as folder:
         config = plan.experiment_config(bot_steps // bots, plan.n_envs, Path(folder))

@@ -127,7 +127,8 @@ def _torchrl_faces() -> list[type]:
     return [
         value
         for value in vars(tasks).values()
-        if isinstance(value, type) and value.__module__.startswith("bbbench")
+        if isinstance(value, type)
+        and value.__module__.startswith("bbbench")
         and hasattr(value, "_step")
     ]
 
@@ -144,7 +145,7 @@ def run(
 
     plan = marl_recipe(algorithm, task_id, recipe_file)
     task = plan.task_config()
-    task.observation_normalization = observation_statistics(task_id, task.config, seed=0)
+    task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed=0)
     batch = int(plan.experiment.get("on_policy_collected_frames_per_batch", 6000))
     frames = batch * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:

@@ -1,5 +1,6 @@
-"""A task's env by ID: `make` (Gymnasium, single bot) and `make_parallel` (PettingZoo,
-several bots), each with a clear error for the other kind of task or an unknown ID."""
+"""A task's env by ID: `make` (Gymnasium, single bot), `make_parallel` (PettingZoo,
+several bots) and `make_batched` (many worlds of several bots, as arrays), each with a
+clear error for the other kind of task or an unknown ID."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from typing import Any
 
 import gymnasium
 
+from bbbench.envs.batched import BatchedEnv
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import list_tasks, multi_bot_hint, spec
 
@@ -27,3 +29,9 @@ def make_parallel(task_id: str, **kwargs: Any) -> MultiBalanceEnv:
             f"{', '.join(list_tasks(multi_agent=True))}"
         )
     return MultiBalanceEnv(task_id, **kwargs)
+
+
+def make_batched(task_id: str, worlds: int = 1, workers: int = 1, **kwargs: Any) -> BatchedEnv:
+    """`worlds` worlds of a multi-bot or team task stepped together, in `workers`
+    processes (see `BatchedEnv`; keywords as `make_parallel`'s)."""
+    return BatchedEnv(task_id, worlds=worlds, workers=workers, **kwargs)

@@ -230,6 +230,11 @@ class MultiBalanceEnv(ParallelEnv):
         self._warned_options = False
 
     @property
+    def episode_seed(self) -> int:
+        """The seed of the episode being played (-1 before the first reset)."""
+        return self._episode_seed
+
+    @property
     def scene(self) -> Scene:
         """The episode's world, ground and bots, and what its seed drew (`scene.episode`)."""
         return self._scene

@@ -1,20 +1,19 @@
 """bbbench's multi-bot and team tasks as a BenchMARL task family.
 
-Every task is its PettingZoo parallel env (`bbbench.make_parallel`) in TorchRL's
-`PettingZooWrapper`, whose group map puts every bot in one group, `bot`. One
-BenchMARL task per latest multi-bot task ID (`BbbenchTask`); its configuration
-(`conf/task/bbbench/<name>.yaml`) holds the env's own keywords: `n_bots`, and
-`difficulty` on terrain. The action mode follows BenchMARL's
-`prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))` per bot.
+One BenchMARL task per latest multi-bot task ID (`BbbenchTask`). BenchMARL asks a task
+for an env of `num_envs` worlds; a bbbench task gives one batched env of that many
+worlds (`bbbench.marl.batched_env`, `batch_size=[num_envs]`, as VMAS's), so the
+collector calls the policy once a step for every world, and every bot is in one
+group, `bot`. The task's configuration (`conf/task/bbbench/<name>.yaml`) holds the
+env's own keywords (`n_bots`, and `difficulty` on terrain) and `workers`, the
+processes that step the worlds (the same results for any number). The action mode
+follows BenchMARL's `prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))`
+per bot.
 
-A bot that falls leaves the episode (the others play on, on the crossing
-tasks); the wrapper reports which bots are still playing as `("bot", "mask")`.
-
-`BbbenchWrapper` is that wrapper with its step rewritten for bbbench's envs: the same
-tensordict, bit for bit (tests/test_marl_benchmarl.py), in a third of the time.
-TorchRL's own step looks the live bots up through `EnvBase.__getattr__` (which lists
-the wrapper's attributes on every miss), deep-copies the observations to strip action
-masks bbbench has none of, and writes every value as a tensor of its own.
+A bot that falls leaves the episode (the others play on, on the crossing tasks); the
+env reports which bots are still playing as `("bot", "mask")`, with the keys and
+values of TorchRL's `PettingZooWrapper` over the task's parallel env
+(tests/test_batched.py).
 """
 
 from __future__ import annotations
@@ -28,12 +27,11 @@ import torch
 from benchmarl.environments import task_config_registry
 from benchmarl.environments.common import Task, TaskClass
 from benchmarl.utils import _read_yaml_config
-from tensordict import TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase, ObservationNorm, Transform
-from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
 import bbbench
+from bbbench.marl.batched import batched_env
 
 CONF = Path(__file__).with_name("conf") / "task"
 ENV_NAME = "bbbench"
@@ -46,53 +44,6 @@ def task_id(name: str) -> str:
         if candidate.removeprefix("bbbench/").lower() == wanted:
             return candidate
     raise ValueError(f"no bbbench task for BenchMARL's {name!r}")
-
-
-class BbbenchWrapper(PettingZooWrapper):
-    """TorchRL's `PettingZooWrapper` over a bbbench parallel env (masked bots, done when
-    every bot is), with a step that writes its tensordict through numpy views."""
-
-    def _init_env(self) -> None:
-        super()._init_env()
-        if any(self.has_action_mask.values()) or self.return_state or not self.parallel:
-            raise ValueError("BbbenchWrapper takes a parallel env with no action mask or state")
-        if not self.use_mask or self.done_on_any:
-            raise ValueError("BbbenchWrapper needs use_mask=True and done_on_any=False")
-
-    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        actions = {}
-        for group, agents in self.group_map.items():
-            chosen = tensordict.get((group, "action")).detach().cpu().numpy()
-            actions.update(zip(agents, chosen, strict=True))
-        observations, rewards, terminations, truncations, infos = self._env.step(actions)
-        playing = set(self._env.agents)
-        out = self.cached_step_output_zero.clone()
-        done = terminated = truncated = True
-        for group, agents in self.group_map.items():
-            views = {key: out.get((group, key)).numpy() for key in _STEP_KEYS}
-            info = out.get((group, "info"), None)
-            info_views = {} if info is None else {key: value.numpy() for key, value in info.items()}
-            for index, agent in enumerate(agents):
-                views["mask"][index] = agent in playing
-                ended = terminations.get(agent, True), truncations.get(agent, True)
-                views["terminated"][index], views["truncated"][index] = ended
-                views["done"][index] = ended[0] or ended[1]
-                if agent not in observations:  # fallen before this step: zeros, as TorchRL
-                    continue
-                views["observation"][index] = observations[agent]
-                views["reward"][index] = rewards[agent]
-                for key, value in infos[agent].items():
-                    info_views[key][index] = value
-            done &= bool(views["done"].all())
-            terminated &= bool(views["terminated"].all())
-            truncated &= bool(views["truncated"].all())
-        out.set("done", torch.tensor([done], device=self.device))
-        out.set("terminated", torch.tensor([terminated], device=self.device))
-        out.set("truncated", torch.tensor([truncated], device=self.device))
-        return out
-
-
-_STEP_KEYS = ("mask", "observation", "reward", "done", "terminated", "truncated")
 
 
 class BbbenchTaskClass(TaskClass):
@@ -109,23 +60,25 @@ class BbbenchTaskClass(TaskClass):
     def task_id(self) -> str:
         return task_id(self.name)
 
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The env's keywords in the configuration (all but `workers`)."""
+        return {key: value for key, value in self.config.items() if key != "workers"}
+
     def get_env_fun(
         self, num_envs: int, continuous_actions: bool, seed: int | None, device: Any
     ) -> Callable[[], EnvBase]:
-        config = copy.deepcopy(self.config)
+        config = copy.deepcopy(self.env_kwargs)
+        workers = min(int(self.config.get("workers", 1)), num_envs)
         mode = "continuous" if continuous_actions else "discrete"
         task = self.task_id
 
         def make() -> EnvBase:
-            env = bbbench.make_parallel(task, action_mode=mode, **config)
-            return BbbenchWrapper(
-                env,
-                use_mask=True,
-                done_on_any=False,
-                categorical_actions=True,
-                seed=seed,
-                device=device,
+            env = batched_env(
+                task, worlds=num_envs, workers=workers, device=device, action_mode=mode, **config
             )
+            env.set_seed(seed)
+            return env
 
         return make
 
@@ -148,13 +101,13 @@ class BbbenchTaskClass(TaskClass):
         return bbbench.spec(self.task_id).max_episode_steps
 
     def has_render(self, env: EnvBase) -> bool:
-        return True
+        return False  # a batch of worlds renders no frame: bbbench eval --video does
 
     def group_map(self, env: EnvBase) -> dict[str, list[str]]:
         return env.group_map
 
     def _keys(self, env: EnvBase, keep: str) -> Composite | None:
-        spec = env.observation_spec.clone()
+        spec = env.full_observation_spec_unbatched.clone()  # one world's, as VMAS's family
         for group in self.group_map(env):
             for key in list(spec[group].keys()):
                 if key != keep:
@@ -176,7 +129,7 @@ class BbbenchTaskClass(TaskClass):
         return None
 
     def action_spec(self, env: EnvBase) -> Composite:
-        return env.full_action_spec
+        return env.full_action_spec_unbatched
 
     @staticmethod
     def env_name() -> str:

@@ -198,7 +198,7 @@ def train_marl(
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
-    task.observation_normalization = observation_statistics(task_id, task.config, seed)
+    task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed)
     with _quiet(), tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
         callback = TrainingEvaluation(
             task_id,

@@ -1,0 +1,172 @@
+"""`batched_env`: K worlds of a multi-bot or team task as one TorchRL env of
+`batch_size=[K]`, as VMAS's envs are, so that a collector (BenchMARL's) calls the policy
+once a step for every world.
+
+    env = bbbench.marl.batched_env("bbbench/MultiBalance-v1", worlds=16, workers=2)
+    rollout = env.rollout(100)  # (16, 100) of ("bot", "observation"): (4, 17) ...
+
+Over `bbbench.envs.batched.BatchedEnv` (the worlds, in `workers` processes), with the
+keys and specs of TorchRL's `PettingZooWrapper` over the task's parallel env (the one
+group `bot`; `("bot", "mask")`: the bots still in the episode; the root `done` when
+every bot is), so a world plays, bit for bit, what `bbbench.make_parallel` plays from
+the same seed, and BenchMARL's models and losses see the same keys. A bot out of the
+episode reads zeros and reward 0, and its `done` stays set until its world resets
+(tests/test_batched.py).
+
+Seeds: `set_seed(S)` (BenchMARL passes its experiment's seed) makes the next reset of
+every world play seed S + k in world k; after that each world draws its own
+(`MultiBalanceEnv.reset()`), and a partial reset (`"_reset"`) restarts only the worlds
+whose episode is done.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from bbbench.envs.batched import BatchedEnv
+
+GROUP = "bot"
+
+
+class BatchedTorchEnv(EnvBase):
+    """A `BatchedEnv` under TorchRL's API (see the module's doc)."""
+
+    def __init__(self, env: BatchedEnv, device: Any = "cpu") -> None:
+        worlds, bots = env.num_worlds, env.n_bots
+        super().__init__(
+            batch_size=torch.Size([worlds]), device=device, allow_done_after_reset=True
+        )
+        self.env = env
+        self.group_map = {GROUP: list(env.possible_agents)}
+        self._seed: int | None = None
+        self._live = np.ones((worlds, bots), dtype=bool)
+        self._make_specs(worlds, bots)
+
+    def _make_specs(self, worlds: int, bots: int) -> None:
+        env, device = self.env, self.device
+        group, root = (worlds, bots), (worlds,)
+        space = env.single_observation_space
+        shape = (*group, space.shape[0])
+        info = {
+            name: Unbounded(shape=group, dtype=torch.float32, device=device)
+            for name in env.buffers.term_names
+        }
+        self.observation_spec = Composite(
+            {
+                GROUP: Composite(
+                    observation=Bounded(
+                        torch.tensor(np.broadcast_to(space.low, shape)),
+                        torch.tensor(np.broadcast_to(space.high, shape)),
+                        shape=shape,
+                        dtype=torch.float32,
+                        device=device,
+                    ),
+                    mask=Categorical(2, shape=group, dtype=torch.bool, device=device),
+                    info=Composite(info, shape=group),
+                    shape=group,
+                )
+            },
+            shape=root,
+        )
+        action = env.single_action_space
+        if hasattr(action, "n"):
+            chosen = Categorical(int(action.n), shape=group, dtype=torch.int64, device=device)
+        else:
+            chosen = Bounded(
+                float(action.low.min()),
+                float(action.high.max()),
+                shape=(*group, *action.shape),
+                dtype=torch.float32,
+                device=device,
+            )
+        self.action_spec = Composite({GROUP: Composite(action=chosen, shape=group)}, shape=root)
+        self.reward_spec = Composite(
+            {GROUP: Composite(reward=Unbounded(shape=(*group, 1), device=device), shape=group)},
+            shape=root,
+        )
+
+        def flags(shape):
+            return {
+                key: Categorical(2, shape=(*shape, 1), dtype=torch.bool, device=device)
+                for key in ("done", "terminated", "truncated")
+            }
+
+        self.done_spec = Composite(
+            {**flags(root), GROUP: Composite(flags(group), shape=group)}, shape=root
+        )
+
+    # -- EnvBase ----------------------------------------------------------------------
+
+    def _set_seed(self, seed: int | None) -> None:
+        self._seed = seed
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        which = np.ones(self.env.num_worlds, dtype=bool)
+        if tensordict is not None and "_reset" in tensordict:
+            which = tensordict.get("_reset").reshape(-1).numpy().copy()
+        seed, self._seed = self._seed, None
+        if seed is not None and not which.all():
+            which[:] = True  # a new seed restarts every world on it
+        self.env.reset_worlds(which, seed)
+        self._live = self.env.buffers.live.copy()
+        ended = np.zeros_like(self._live)
+        return self._output(ended, ended, reward=False)
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        actions = tensordict.get((GROUP, "action")).detach().cpu().numpy()
+        out_before = ~self._live
+        self.env.step_worlds(actions)
+        b = self.env.buffers
+        self._live = b.live.copy()
+        # A bot out of the episode before this step stays done (as PettingZooWrapper).
+        return self._output(b.terminated | out_before, b.truncated | out_before, reward=True)
+
+    def _output(self, terminated: np.ndarray, truncated: np.ndarray, reward: bool):
+        b = self.env.buffers
+        done = terminated | truncated
+        bots = {
+            "observation": torch.from_numpy(b.observations.copy()),
+            "mask": torch.from_numpy(b.live.copy()),
+            "info": TensorDict(
+                {
+                    name: torch.from_numpy(b.terms[:, :, i].astype(np.float32))
+                    for i, name in enumerate(b.term_names)
+                },
+                batch_size=b.live.shape,
+            ),
+            "done": torch.from_numpy(done[..., None]),
+            "terminated": torch.from_numpy(terminated[..., None]),
+            "truncated": torch.from_numpy(truncated[..., None]),
+        }
+        if reward:
+            bots["reward"] = torch.from_numpy(b.rewards.astype(np.float32)[..., None])
+        return TensorDict(
+            {
+                GROUP: TensorDict(bots, batch_size=b.live.shape),
+                "done": torch.from_numpy(done.all(axis=1, keepdims=True)),
+                "terminated": torch.from_numpy(terminated.all(axis=1, keepdims=True)),
+                "truncated": torch.from_numpy(truncated.all(axis=1, keepdims=True)),
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def close(self, *, raise_if_closed: bool = True) -> None:
+        self.env.close()
+        super().close(raise_if_closed=raise_if_closed)
+
+
+def batched_env(
+    task_id: str, worlds: int = 1, workers: int = 1, device: Any = "cpu", **env_kwargs: Any
+) -> BatchedTorchEnv:
+    """K = `worlds` worlds of the multi-bot or team task `task_id` as one TorchRL env of
+    `batch_size=[K]`, stepped in `workers` processes; `env_kwargs` as `make_parallel`'s."""
+    return BatchedTorchEnv(
+        BatchedEnv(task_id, worlds=worlds, workers=workers, **env_kwargs), device=device
+    )
