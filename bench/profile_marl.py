@@ -172,8 +172,9 @@ def main() -> None:
     parser.add_argument("--algo", default="ippo")
     parser.add_argument("--batches", type=int, default=4)
     parser.add_argument("--recipe", default=None)
+    parser.add_argument("--threads", type=int, default=1, help="torch's threads")
     args = parser.parse_args()
-    torch.set_num_threads(1)
+    torch.set_num_threads(args.threads)
     run(args.task, args.algo, 1, args.recipe)  # imports and first calls: off the clock
     untimed, frames = run(args.task, args.algo, args.batches, args.recipe)
     parts = Parts()

@@ -167,7 +167,7 @@ class Scene:
             # played in a row differed from the same seed in a fresh world. Re-adding
             # the colliders in their first order is not enough (the broadphase keeps a
             # trace): a fresh world it is (tests/test_determinism.py).
-            self.world.close()
+            self.world.clear()
             self._clear()
         if not self._bots:
             self._build()
