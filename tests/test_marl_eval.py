@@ -72,3 +72,32 @@ def test_an_onnx_policy_records_its_training_steps_and_its_run(tmp_path):
     [(run, steps)] = json.loads(out.read_text())["bbbench"]["FlatBalance-v1"]["PPO"].items()
     assert run.startswith("run_")
     assert steps["step_0"]["step_count"] == 400_000
+
+
+def test_runs_are_named_by_training_seed_so_two_algorithms_merge_in_marl_eval(tmp_path):
+    """IPPO's and MAPPO's files of seeds 0 and 1, each evaluated alone, merge into one
+    document that marl-eval's pipeline turns into rliable's matrices (it wants the same
+    run names for every algorithm)."""
+    import torch
+
+    from bbbench.policies import onnx_bytes
+
+    processing, _ = marl_eval()
+    task = "bbbench/MultiBalance-v1"
+    merged: dict = {}
+    for algorithm in ("IPPO", "MAPPO"):
+        for seed in (0, 1):
+            torch.manual_seed(seed)
+            network = torch.nn.Linear(17, 9)
+            path = tmp_path / f"{algorithm}-{seed}.onnx"
+            path.write_bytes(onnx_bytes(network, task, algorithm=algorithm, training_seed=seed))
+            out = tmp_path / f"{algorithm}-{seed}.json"
+            argv = ["eval", str(path), "--task", task, "--episodes", "2", "--workers", "1"]
+            assert main([*argv, "--marl-eval", str(out)]) == 0
+            runs = json.loads(out.read_text())["bbbench"]["MultiBalance-v1"][algorithm]
+            assert list(runs) == [f"run_{seed}"]
+            merged.setdefault(algorithm, {}).update(runs)
+    data = {"bbbench": {"MultiBalance-v1": merged}}
+    processed = processing.data_process_pipeline(data, ["return"])
+    matrices = processing.create_matrices_for_rliable(processed, "bbbench", ["return"])
+    assert matrices

@@ -1,6 +1,7 @@
 """`bbbench train TASK --algo ippo|mappo`: BenchMARL recipes, trained for real (a few
-hundred world steps), the best policy exported to ONNX with its contract, the same bytes
-from the same seed in another process, and bad recipes refused in one line."""
+hundred world steps), the last policy exported to ONNX with its contract, the same bytes
+from the same seed in another process and with any number of worker processes, and bad
+recipes refused in one line."""
 
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ from bbbench.training.recipes import recipe_file, recipes
 from conftest import one_line_exit_2
 
 TASK = "bbbench/BeamCarry-v0"
-# A recipe for tests: BenchMARL iterations of 200 world steps, one pass of two minibatches.
+# A recipe for tests: BenchMARL iterations of 200 world steps from 2 worlds, one pass of two
+# minibatches.
 SMALL = """\
 bbbench/BeamCarry-v0:
   algorithm: {lmbda: 0.95}
@@ -27,7 +29,7 @@ bbbench/BeamCarry-v0:
   experiment:
     lr: 0.001
     on_policy_collected_frames_per_batch: 200
-    on_policy_n_envs_per_worker: 1
+    on_policy_n_envs_per_worker: 2
     on_policy_n_minibatch_iters: 1
     on_policy_minibatch_size: 100
 """
@@ -101,6 +103,9 @@ def test_a_marl_request_that_cannot_train_exits_2(tmp_path, capsys, monkeypatch,
         (("experiment:", "teams: 2\n  experiment:"), "unknown section 'teams'"),
         (("embed: 8,", "embed: 8, pool: sum,"), "pool 'sum'"),
         (("{name: mlp, num_cells: [16]}", "{name: mlp, layer_class: torch.nn.Conv1d}"), "Linear"),
+        (("frames_per_batch: 200", "frames_per_batch: 1"), "less than one step per world"),
+        (("algorithm:", "task: {workers: 0}\n  algorithm:"), "workers 0"),
+        (("algorithm:", "task: {workers: two}\n  algorithm:"), "whole number"),
     ],
 )
 def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expected):
@@ -110,6 +115,46 @@ def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expec
     argv = ["train", TASK, "--algo", "ippo", "--recipe", small_recipe(tmp_path, text)]
     assert expected in one_line_exit_2(capsys, *argv, "--out", str(out))
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"),
+    [
+        (["--workers", "0"], "--workers 0"),
+        (["--workers", "3"], "more worker processes than the 2 worlds"),
+        (["--n-envs", "300"], "less than one step per world"),
+    ],
+)
+def test_bad_worlds_or_workers_exit_2_with_one_line(tmp_path, capsys, flags, expected):
+    out = tmp_path / "policy.onnx"
+    argv = ["train", TASK, "--algo", "ippo", "--recipe", small_recipe(tmp_path), *flags]
+    assert expected in one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert not out.exists()
+
+
+def test_workers_belong_to_the_marl_algorithms(tmp_path, capsys):
+    argv = ["train", "bbbench/FlatBalance-v1", "--algo", "ppo", "--workers", "2"]
+    assert "--n-envs" in one_line_exit_2(capsys, *argv, "--out", str(tmp_path / "p.zip"))
+
+
+@pytest.mark.parametrize("algorithm", ["ippo", "ppo"])
+def test_a_budget_below_one_batch_trains_one_batch_says_so_and_evaluates_once(
+    tmp_path, capsys, algorithm
+):
+    """--steps 10 is rounded up to one batch (IPPO: 200 world steps of the recipe; PPO on
+    MultiBalance-v1: 512 steps of each of its 2 worlds' 4 bots), said on stderr, and
+    evaluated once, at its end."""
+    out = tmp_path / ("policy.onnx" if algorithm == "ippo" else "policy.zip")
+    argv = ["train", TASK, "--algo", "ippo", "--recipe", small_recipe(tmp_path)]
+    if algorithm == "ppo":
+        argv = ["train", "bbbench/MultiBalance-v1", "--algo", "ppo"]
+    code = main([*argv, "--steps", "10", "--out", str(out), "--eval-episodes", "1"])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    batch = 200 if algorithm == "ippo" else 512 * 2 * 4
+    assert f"--steps 10 is less than one batch of the recipe ({batch:,} steps" in err
+    points = json.loads((tmp_path / "curve.json").read_text())["points"]
+    assert [point["steps"] for point in points] == [batch]
 
 
 def test_mappo_refuses_a_critic_that_is_not_centralised(tmp_path, capsys):
@@ -136,15 +181,16 @@ def untimed(curve: Path) -> list[dict]:
     return [{k: v for k, v in point.items() if k != "wall_time_s"} for point in points]
 
 
-def test_ippo_trains_exports_its_best_point_and_each_seed_is_its_own_runs_bytes(tmp_path):
-    """A seed trained alone and the same seed among --seeds (each in a fresh process)
-    write the same bytes; another seed writes other bytes. The file written is the ONNX
-    policy of the best point of the curve, with its contract, and scores as the
-    results document says."""
+def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(tmp_path):
+    """A seed trained alone (its worlds in two processes) and the same seed among --seeds
+    (in one), each in a fresh process, write the same bytes; another seed writes other
+    bytes. The file written is the ONNX policy of the curve's last point, with its
+    contract, and scores as the results document says."""
     plan = small_recipe(tmp_path)
     alone = tmp_path / "alone" / "policy.onnx"
     alone.parent.mkdir()
-    bbbench_cli("train", TASK, "--algo", "ippo", "--recipe", plan, "--out", str(alone), *TRAIN)
+    argv = ["--recipe", plan, "--out", str(alone), "--workers", "2", *TRAIN]
+    bbbench_cli("train", TASK, "--algo", "ippo", *argv)
     runs = tmp_path / "runs" / "policy.onnx"
     runs.parent.mkdir()
     argv = ["train", TASK, "--algo", "ippo", "--recipe", plan, "--seeds", "0,1", "--out", str(runs)]
@@ -161,11 +207,15 @@ def test_ippo_trains_exports_its_best_point_and_each_seed_is_its_own_runs_bytes(
     record = json.loads((alone.parent / "train.json").read_text())
     curve = json.loads((alone.parent / "curve.json").read_text())["points"]
     assert [point["steps"] for point in curve] == [200, 400]
-    assert record["best"] == max(curve, key=lambda point: point["mean"])
+    assert record["checkpoint_rule"] == "last"
+    assert record["kept"] == curve[-1]
+    assert record["workers"] == 2
+    assert json.loads((seed0 / "train.json").read_text())["workers"] == 1
     assert record["bot_steps"] == 400 * 3
     assert record["recipe"]["trainer"] == "BenchMARL"
     assert policy.contract.task == TASK
-    assert policy.contract.training_steps == record["best"]["bot_steps"]
+    assert policy.contract.training_steps == record["kept"]["bot_steps"]
+    assert policy.contract.training_seed == 0
 
     # The file scores as train's results document says.
     scored = tmp_path / "scored.json"

@@ -171,7 +171,7 @@ def _reported(args: argparse.Namespace, policy, task_ids: list[str], result) -> 
         from bbbench.evaluation.marl_eval import marl_eval_document  # lazy: bbbench.evaluation
 
         steps = getattr(policy, "training_steps", None)
-        data = marl_eval_document(document, steps)
+        data = marl_eval_document(document, steps, getattr(policy, "training_seed", None))
         write_atomic(args.marl_eval, (json.dumps(data, indent=1) + "\n").encode())
         args.written.append(args.marl_eval)
         print(f"wrote {args.marl_eval} (marl-eval's raw data)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -62,6 +63,12 @@ def add_parser(commands) -> None:
     trainer.add_argument("--address", help="a Ray cluster's address (default: a local Ray)")
     trainer.add_argument("--n-envs", type=int, help="parallel envs (default: the recipe's)")
     trainer.add_argument(
+        "--workers",
+        type=int,
+        help="IPPO and MAPPO: processes that step the worlds (default: the recipe's; the "
+        "same result for any number)",
+    )
+    trainer.add_argument(
         "--out", help="the policy file (default policy.zip; policy.onnx for IPPO and MAPPO)"
     )
     trainer.add_argument(
@@ -98,7 +105,9 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_seed(args.seed)
         check_output_path(args.out, "--out")
-        training.statistics_path(args.out, training.recipe(args.algo, key, args.recipe))
+        plan = training.recipe(args.algo, key, args.recipe)
+        training.statistics_path(args.out, plan)
+        _, note = _check_collection(args, plan, tasks)
         if args.log is not None:
             log = Path(args.log)
             if log.exists() and not log.is_dir():
@@ -106,6 +115,8 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise UsageError(str(error)) from None
     console = Console(stderr=True)
+    if note is not None:
+        print(f"bbbench: {note}", file=sys.stderr)
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -151,19 +162,21 @@ def run(args: argparse.Namespace) -> int:
             final_episodes=args.eval_episodes,
             on_progress=on_progress,
             recipe_file=args.recipe,
+            workers=args.workers,
         )
     args.written.append(args.out)
     if trained.statistics is not None:
         args.written.append(str(trained.statistics))
-    best = max(trained.curve, key=lambda point: point["mean"])
+    kept = trained.kept
+    which = "the last policy" if kept is trained.curve[-1] and marl else "best"
     out = Console()
     if not out.is_terminal:
         out = Console(width=120)
     out.print(results_table(trained.results))
     statistics = f", its VecNormalize statistics {trained.statistics}" if trained.statistics else ""
     print(
-        f"wrote {args.out}{statistics} (best at {best['steps']:,} steps: mean return "
-        f"{best['mean']:.1f} on training seeds) and {trained.log_dir}/curve.json, curve.png, "
+        f"wrote {args.out}{statistics} ({which} at {kept['steps']:,} steps: mean return "
+        f"{kept['mean']:.1f} on training seeds) and {trained.log_dir}/curve.json, curve.png, "
         f"train.json, results.json; {trained.seconds:.0f} s"
     )
     return 0
@@ -186,10 +199,9 @@ def _run_seeds(args: argparse.Namespace) -> int:
         tasks, key, _ = training.check_request(
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
-        if args.n_envs is not None and args.n_envs < 1:
-            raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_output_path(args.out, "--out")  # its folder holds the seeds' folders
         plan = training.recipe(args.algo, key, args.recipe)
+        _, note = _check_collection(args, plan, tasks)
         for seed in seeds:
             out = fanout.seed_out(args.out, seed)
             if out.parent.exists() and not out.parent.is_dir():
@@ -199,6 +211,8 @@ def _run_seeds(args: argparse.Namespace) -> int:
             check_ray_address(args.address)
     except ValueError as error:
         raise UsageError(str(error)) from None
+    if note is not None:
+        print(f"bbbench: {note}", file=sys.stderr)
 
     def done(run) -> None:
         args.written.append(f"{run.out.parent}/")
@@ -218,6 +232,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
             n_envs=args.n_envs,
             final_episodes=args.eval_episodes,
             recipe_file=args.recipe,
+            workers=args.workers,
         )
     except ConnectionError as error:
         raise UsageError(f"--address {args.address}: {error}") from None
@@ -225,3 +240,26 @@ def _run_seeds(args: argparse.Namespace) -> int:
         score = run.results["overall"]["normalized_iqm"]
         print(f"seed {run.seed}: {run.out}, normalized IQM {score:.3f}")
     return 0
+
+
+def _check_collection(args: argparse.Namespace, plan, tasks: list[str]) -> tuple[int, str | None]:
+    """Check --n-envs and --workers against the recipe `plan`: the budget as it will be
+    trained, and the note that says it was rounded up to one batch (else None)."""
+    from bbbench import training  # lazy: bbbench.training
+
+    if args.n_envs is not None and args.n_envs < 1:
+        raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
+    marl = args.algo in training.MARL_TRAINABLE
+    if args.workers is not None and not marl:
+        raise ValueError(
+            f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
+            f"{args.algo} collects with --n-envs"
+        )
+    if marl:
+        from bbbench.marl.recipes import check_workers  # lazy: benchmarl
+
+        worlds = args.n_envs or plan.n_envs
+        plan.check_worlds(worlds)
+        if args.workers is not None:
+            check_workers(args.workers, worlds)
+    return training.budget_of(plan, tasks, args.n_envs, args.steps)

@@ -8,8 +8,11 @@ reads one JSON of runs:
 
 bbbench writes the environment `bbbench`, one task per bbbench task (`MultiBalance-v1`),
 the policy's algorithm (commas dropped: marl-eval splits on them), one run named after
-the policy file's SHA-256 (`run_<first 12 hex digits>`, so that the files of several
-training seeds merge into one without clashing; the built-in's name for a built-in),
+the policy's training seed (`run_<seed>`, from the file's `bbbench.training_seed`), so
+that the files of several seeds and several algorithms merge into one document that
+marl-eval's `create_matrices_for_rliable` takes (it wants the same run names for every
+algorithm); a file that does not say its seed is named after its SHA-256
+(`run_<first 12 hex digits>`), a built-in after itself,
 and one logging step, at the policy's training steps (0 when it does not say), holding
 each evaluation episode's value of:
 
@@ -31,11 +34,18 @@ from bbbench.tasks.suite import spec
 ENVIRONMENT = "bbbench"
 
 
-def marl_eval_document(results: dict[str, Any], training_steps: int | None = None) -> dict:
+def marl_eval_document(
+    results: dict[str, Any], training_steps: int | None = None, training_seed: int | None = None
+) -> dict:
     """marl-eval's raw data for a `bbbench eval` results document."""
     policy = results["policy"]
     algorithm = policy["algorithm"].replace(",", "") or "policy"
-    run = f"run_{policy['sha256'][:12]}" if policy["sha256"] else f"run_{policy['name']}"
+    if training_seed is not None:
+        run = f"run_{training_seed}"
+    elif policy["sha256"]:
+        run = f"run_{policy['sha256'][:12]}"
+    else:
+        run = f"run_{policy['name']}"
     tasks: dict[str, Any] = {}
     for block in results["tasks"]:
         task = spec(block["task"])

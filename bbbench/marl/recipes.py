@@ -86,8 +86,27 @@ class MarlRecipe:
 
     @property
     def n_envs(self) -> int:
-        """Worlds collected side by side."""
+        """Worlds collected at once (one batched env of them)."""
         return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
+
+    def batch(self) -> int:
+        """World steps collected before each update (BenchMARL's frames per batch)."""
+        return int(
+            self.experiment.get(
+                "on_policy_collected_frames_per_batch",
+                ExperimentConfig.get_from_yaml().on_policy_collected_frames_per_batch,
+            )
+        )
+
+    def check_worlds(self, worlds: int) -> None:
+        """`ValueError` unless a batch holds at least one world step of each of `worlds`."""
+        if self.batch() < worlds:
+            raise ValueError(
+                f"{self.algorithm} recipe for {self.key}: a batch of {self.batch():,} world "
+                f"steps from {worlds} worlds is less than one step per world: collect at "
+                f"least {worlds} world steps a batch (on_policy_collected_frames_per_batch), "
+                f"or fewer worlds"
+            )
 
     def record(self) -> dict[str, Any]:
         """As `train.json` records it: the recipe's sections as written."""
@@ -175,6 +194,8 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
             f"the rows of fallen bots, which the masked algorithms leave out"
         )
     _check_task(where, key, sections["task"])
+    if "workers" in sections["task"]:
+        check_workers(sections["task"]["workers"], None, f"{where}, task: workers")
     for name in ("model", "critic_model"):
         _check_model(f"{where}, {name}", sections[name])
     if algorithm == "mappo" and sections["critic_model"]["name"] != "mlp":
@@ -186,7 +207,7 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         if field in OWNED:
             raise ValueError(f"{where}, experiment: {field} is bbbench train's: {OWNED[field]}")
     _check_fields(f"{where}, experiment", sections["experiment"], ExperimentConfig)
-    return MarlRecipe(
+    plan = MarlRecipe(
         algorithm=algorithm,
         key=key,
         task=sections["task"],
@@ -195,6 +216,20 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         critic_model=sections["critic_model"],
         experiment=sections["experiment"],
     )
+    plan.check_worlds(plan.n_envs)
+    return plan
+
+
+def check_workers(workers: Any, worlds: int | None, what: str = "--workers") -> int:
+    """`workers` if it is a whole number of processes from 1 to `worlds` (if given)."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"{what} {workers!r}: expected a whole number of processes, at least 1")
+    if worlds is not None and workers > worlds:
+        raise ValueError(
+            f"{what} {workers}: more worker processes than the {worlds} worlds they step; "
+            f"give at most {worlds}"
+        )
+    return workers
 
 
 def _member(task_id: str) -> str:

@@ -4,12 +4,18 @@
 The policy shared by every bot is exported to ONNX (`bbbench.policies.export_onnx`, with
 its contract) at every evaluation point, and that file plays the task's training seeds
 (`bbbench.training.evaluation_seeds`, never an eval seed) as `bbbench eval` would play
-it: the curve is the board's own arithmetic, and the best point's file is the one
-written to `--out`. Written beside it, as for stable-baselines3: `curve.json`,
-`curve.png`, `train.json`, `results.json`.
+it: the curve is the board's own arithmetic. The policy written to `--out` is the last
+one (`CHECKPOINT_RULE`): the best of ten evaluations on a dozen training episodes each
+is a lucky pick, flattered by about 1.5 standard errors of its mean, and evaluating
+every candidate on enough episodes to make the pick fair would cost more than the
+training. Written beside it, as for stable-baselines3: `curve.json`, `curve.png`,
+`train.json`, `results.json`.
 
-Seeded (BenchMARL's `seed_everything`, each world's `reset(seed=...)`) and on one CPU
-thread, so the same call on one machine writes the same bytes.
+A budget is trained in whole batches (at least one), and evaluated at most once a
+batch. The worlds are collected in one batched env (`bbbench.marl.batched_env`),
+stepped in `workers` processes; seeded (BenchMARL's `seed_everything`, world k's first
+episode on seed + k) and on one torch thread, so the same call writes the same bytes
+for any number of workers, on any machine of one kind.
 """
 
 from __future__ import annotations
@@ -40,14 +46,16 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
-from bbbench.marl.recipes import MarlRecipe, marl_recipe
+from bbbench.marl.recipes import MarlRecipe, check_workers, marl_recipe
 from bbbench.policies import load_policy, onnx_bytes
 from bbbench.policies.onnx_file import parse_onnx
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.training.logs import Trained, curve_point, write_logs
+from bbbench.training.recipes import whole_batches
 from bbbench.training.seeds import evaluation_seeds
 
 ACTION_MODE = "discrete"
+CHECKPOINT_RULE = "last"  # the policy written: the last one, never a lucky best
 
 
 # World steps of the classical controller's play the observation statistics are measured
@@ -112,18 +120,19 @@ def actor_network(experiment: Experiment) -> torch.nn.Module:
 
 class TrainingEvaluation(Callback):
     """After each training iteration: progress; every `every` frames, the policy exported
-    and played on the training seeds, a point of the curve, the best file kept."""
+    and played on the training seeds, a point of the curve; the last file kept."""
 
-    def __init__(self, task_id, every, began, on_progress, budget, bots, algorithm, normalization):
+    def __init__(
+        self, task_id, every, began, on_progress, budget, bots, algorithm, normalization, seed
+    ):
         super().__init__()
         self.task_id, self.every = task_id, every
         self.mean, self.std = normalization
         self.began, self.on_progress, self.budget = began, on_progress, budget
-        self.bots, self.algorithm = bots, algorithm
+        self.bots, self.algorithm, self.seed = bots, algorithm, seed
         self.next_at = every
         self.curve: list[dict[str, float]] = []
-        self.best_mean = -np.inf
-        self.best: bytes | None = None
+        self.last: bytes | None = None
         self.player = LockstepPlayer(actors={}, action_mode=ACTION_MODE, sampled=False)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -151,14 +160,14 @@ class TrainingEvaluation(Callback):
             std=self.std,
             algorithm=self.algorithm.upper(),
             training_steps=frames * self.bots,
+            training_seed=self.seed,
         )
         policy = OnnxPolicy(parse_onnx(candidate, "the candidate policy", "candidate.onnx"))
         self.player.actors[self.task_id] = policy.actor(self.task_id)
         played = self.player.play(self.task_id, evaluation_seeds(self.task_id))
         point = curve_point(played, self.began, steps=frames, bot_steps=frames * self.bots)
         self.curve.append(point)
-        if point["mean"] > self.best_mean:
-            self.best_mean, self.best = point["mean"], candidate
+        self.last = candidate
         if self.on_progress is not None:
             self.on_progress(frames, self.budget, point)
 
@@ -178,22 +187,27 @@ def train_marl(
     final_episodes: int | None = None,
     on_progress: Callable[[int, int, dict | None], None] | None = None,
     recipe_file: str | Path | None = None,
+    workers: int | None = None,
 ):
     """Train `algorithm` (ippo, mappo) on the multi-bot task `task_id` with BenchMARL and
-    its recipe; write the best policy, as ONNX, to `out` and the logs beside it.
+    its recipe; write the last policy, as ONNX, to `out` and the logs beside it.
 
-    `steps` (world steps, BenchMARL's frames) and `n_envs` (worlds collected side by
-    side) default to the recipe's; `eval_freq` to a tenth of the budget, at the end of
-    the training iteration that reaches it."""
+    `steps` (world steps, BenchMARL's frames; at least one batch), `n_envs` (worlds
+    collected at once, in one batched env) and `workers` (the processes that step them)
+    default to the recipe's; `eval_freq` to a tenth of the budget and at least a batch,
+    at the end of the training iteration that reaches it."""
     plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
-    budget = steps or plan.n_timesteps
     n_envs = n_envs or plan.n_envs
+    plan.check_worlds(n_envs)
+    budget, _ = whole_batches(steps or plan.n_timesteps, plan.batch())
     out = check_output_path(out, "--out")
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")
-    eval_freq = eval_freq or max(budget // 10, 1)
+    eval_freq = max(eval_freq or budget // 10, plan.batch())
     task = plan.task_config()
+    if workers is not None:
+        task.config["workers"] = check_workers(workers, n_envs)
     bots = task.config["n_bots"]  # the recipe's, which may differ from the task's default
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
@@ -209,6 +223,7 @@ def train_marl(
             bots,
             algorithm,
             task.observation_normalization,
+            seed,
         )
         experiment = Experiment(
             task=task,
@@ -224,7 +239,7 @@ def train_marl(
         experiment.close()
         callback.close()
     seconds = time.perf_counter() - began
-    write_atomic(out, callback.best)
+    write_atomic(out, callback.last)
 
     results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
     frames = experiment.total_frames
@@ -235,16 +250,20 @@ def train_marl(
         "steps": frames,
         "bot_steps": frames * bots,
         "n_envs": n_envs,
+        "workers": min(int(task.config.get("workers", 1)), n_envs),
         "eval_freq": eval_freq,
         "evaluation_seeds": {task_id: evaluation_seeds(task_id)},
-        "best": max(callback.curve, key=lambda point: point["mean"]),
+        "checkpoint_rule": CHECKPOINT_RULE,
+        "kept": callback.curve[-1],
         "wall_time_s": round(seconds, 1),
         "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
         "recipe": plan.record(),
         "versions": _versions(),
     }
     write_logs(log_dir, callback.curve, [task_id], algorithm, record, results)
-    return Trained(out, log_dir, None, callback.curve, results, seconds, plan)
+    return Trained(
+        out, log_dir, None, callback.curve, results, seconds, plan, kept=callback.curve[-1]
+    )
 
 
 @contextlib.contextmanager

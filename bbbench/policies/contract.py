@@ -10,8 +10,9 @@ board records covers it:
 - `bbbench.action_space`: the action space as Gymnasium prints it:
   `Discrete(9)`, `Box(-1.0, 1.0, (1,), float32)`;
 - optional, for the board: `bbbench.algorithm` (what trained it, e.g. `PPO`),
-  `bbbench.training_steps` (environment steps; bot-steps on a multi-bot task)
-  and `bbbench.task` (the task it was trained on).
+  `bbbench.training_steps` (environment steps; bot-steps on a multi-bot task),
+  `bbbench.task` (the task it was trained on) and `bbbench.training_seed` (the
+  training's seed: marl-eval's run name, `run_<seed>`).
 
 The graph's input is the raw bbbench observation (any normalization is inside
 the graph). A Discrete policy outputs one score per action and plays the best;
@@ -36,7 +37,8 @@ from bbbench.policies.errors import PolicyError
 PREFIX = "bbbench."
 OBSERVATION, ACTION_SPACE = "bbbench.observation", "bbbench.action_space"
 ALGORITHM, TRAINING_STEPS, TASK = "bbbench.algorithm", "bbbench.training_steps", "bbbench.task"
-KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK)
+TRAINING_SEED = "bbbench.training_seed"
+KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK, TRAINING_SEED)
 MAX_OBSERVATION = 1024  # wider than any layout of the suite
 MAX_ACTIONS = 64
 FLAGS = "--observation N (the observation width: 5, 16, 17, 19 ...) and --action-space SPACE"
@@ -56,6 +58,7 @@ class Contract:
     algorithm: str = "ONNX policy"
     training_steps: int | None = None
     task: str | None = None
+    training_seed: int | None = None
     source: str = "metadata"  # where it came from: "metadata" or "command line"
 
     @property
@@ -73,6 +76,8 @@ class Contract:
             props[TRAINING_STEPS] = str(self.training_steps)
         if self.task is not None:
             props[TASK] = self.task
+        if self.training_seed is not None:
+            props[TRAINING_SEED] = str(self.training_seed)
         return props
 
     def record(self) -> dict[str, Any]:
@@ -163,8 +168,9 @@ def read_contract(
         observation=_width(width, f"{where}: {OBSERVATION}"),
         action_space=parse_action_space(props[ACTION_SPACE], f"{where}: {ACTION_SPACE}"),
         algorithm=props.get(ALGORITHM, "ONNX policy").strip()[:60] or "ONNX policy",
-        training_steps=_steps(where, props.get(TRAINING_STEPS)),
+        training_steps=_whole(where, TRAINING_STEPS, props.get(TRAINING_STEPS)),
         task=props.get(TASK),
+        training_seed=_whole(where, TRAINING_SEED, props.get(TRAINING_SEED)),
     )
     if given:
         on_command_line = (observation, action_space)
@@ -186,13 +192,13 @@ def _width(value: int, what: str) -> int:
     return value
 
 
-def _steps(where: str, text: str | None) -> int | None:
+def _whole(where: str, key: str, text: str | None) -> int | None:
     if text is None:
         return None
     try:
-        steps = int(text)
+        value = int(text)
     except ValueError:
-        steps = -1
-    if steps < 0:
-        raise PolicyError(f"{where}: {TRAINING_STEPS} must be a whole number, got {text!r}")
-    return steps
+        value = -1
+    if value < 0:
+        raise PolicyError(f"{where}: {key} must be a whole number, got {text!r}")
+    return value

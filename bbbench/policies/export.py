@@ -91,6 +91,7 @@ def onnx_bytes(
     clip: float | None = None,
     algorithm: str = "ONNX policy",
     training_steps: int | None = None,
+    training_seed: int | None = None,
     opset: int | None = None,
     dynamo: bool = False,
 ) -> bytes:
@@ -115,6 +116,7 @@ def onnx_bytes(
         algorithm=algorithm,
         training_steps=training_steps,
         task=task_id,
+        training_seed=training_seed,
     )
     wrapped = _Normalized(module, mean, std, clip).eval()
     example = torch.zeros((2, contract.observation), dtype=torch.float32)

@@ -45,6 +45,7 @@ class OnnxPolicy(FilePolicy):
         self.sha256 = model.sha256
         self.algorithm = contract.algorithm
         self.training_steps = contract.training_steps
+        self.training_seed = contract.training_seed
         self.observation_shape = contract.observation_shape
         self.action_space = contract.action_space
         self.action_mode = (

@@ -11,6 +11,7 @@ from bbbench.training.logs import Trained
 from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
+    budget_of,
     build_model,
     check_request,
     reproducible_zip,
@@ -26,6 +27,7 @@ __all__ = [
     "TRAINABLE",
     "Recipe",
     "Trained",
+    "budget_of",
     "build_model",
     "check_request",
     "evaluation_seeds",

@@ -29,6 +29,11 @@ class Trained:
     results: dict[str, Any]
     seconds: float
     recipe: Any  # the recipe it trained with
+    kept: dict[str, float] | None = None  # the curve's point of the policy written
+
+    def __post_init__(self) -> None:
+        if self.kept is None:  # stable-baselines3's rule: the best point's policy
+            object.__setattr__(self, "kept", max(self.curve, key=lambda point: point["mean"]))
 
 
 def curve_point(played: list[PlayedEpisode], began: float, **steps: int) -> dict[str, float]:

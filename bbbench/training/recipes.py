@@ -20,7 +20,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from bbbench.policies.algorithms import ALGORITHMS, unknown
+from bbbench.policies.algorithms import ALGORITHMS, by_key, unknown
 from bbbench.tasks.suite import SUITE, latest_version
 from bbbench.training.recipe_files import read_recipe_file, recipe_file
 
@@ -58,6 +58,18 @@ class Recipe:
     noise_std: float | None = None  # Gaussian action noise (TD3)
     # Keywords of the VecNormalize the policy trains inside; None: raw observations.
     normalize: dict[str, Any] | None = None
+
+    def batch(self, slots: int) -> int:
+        """Steps of one rollout over a VecEnv of `slots` envs (a multi-bot world counts
+        one per bot): the least a training collects before it learns (an on-policy
+        algorithm's `n_steps` per slot, else one step per slot)."""
+        import inspect  # the algorithm's own default n_steps, if the recipe sets none
+
+        steps = self.hyperparameters.get("n_steps")
+        if steps is None:
+            parameters = inspect.signature(by_key(self.algorithm).model_class()).parameters
+            steps = parameters["n_steps"].default if "n_steps" in parameters else 1
+        return int(steps) * slots
 
     def record(self) -> dict[str, Any]:
         """As `train.json` records it."""
@@ -195,3 +207,15 @@ def parse_policy_kwargs(text: str) -> dict[str, Any]:
 
 def _show_policy_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     return {k: v.__name__ if isinstance(v, type) else v for k, v in kwargs.items()}
+
+
+def whole_batches(steps: int, batch: int) -> tuple[int, str | None]:
+    """A budget of `steps` as a training honours it: at least one batch (`batch` steps,
+    the least a training collects before it learns); and the note that says so when it
+    is rounded up, else None."""
+    if steps >= batch:
+        return steps, None
+    return batch, (
+        f"--steps {steps:,} is less than one batch of the recipe ({batch:,} steps collected "
+        f"before it learns): training one batch, {batch:,} steps"
+    )

@@ -38,7 +38,14 @@ from bbbench.policies.algorithms import by_key, unknown
 from bbbench.policies.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import list_tasks, spec
 from bbbench.training.logs import Trained, write_logs
-from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
+from bbbench.training.recipes import (
+    MARL_TRAINABLE,
+    MIX,
+    TRAINABLE,
+    Recipe,
+    recipe,
+    whole_batches,
+)
 from bbbench.training.seeds import evaluation_seeds
 
 _ADDRESS = re.compile(r" at 0x[0-9a-f]+")
@@ -131,14 +138,17 @@ def train(
     final_episodes: int | None = None,
     on_progress: Callable[[int, int, dict | None], None] | None = None,
     recipe_file: str | Path | None = None,
+    workers: int | None = None,
 ) -> Trained:
     """Train `algorithm` on `task_ids` (several: one generalist on all of them) with its
     recipe (from `recipe_file`, else the shipped one); write the best policy to `out`
     and the logs beside it. IPPO and MAPPO train with BenchMARL (`bbbench.marl.training`)
     and write an ONNX policy.
 
-    `steps` and `n_envs` default to the recipe's; `eval_freq` to a tenth of the
-    budget; `final_episodes` (the closing `bbbench eval`) to every eval seed.
+    `steps` and `n_envs` default to the recipe's (a budget is at least one rollout, see
+    `budget`); `eval_freq` to a tenth of the budget, and at least a rollout;
+    `final_episodes` (the closing `bbbench eval`) to every eval seed. `workers` (IPPO and
+    MAPPO): the processes that step the worlds, default the recipe's.
     `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
     """
     import torch  # lazy: torch, stable_baselines3, for training only
@@ -163,18 +173,25 @@ def train(
             final_episodes=final_episodes,
             on_progress=on_progress,
             recipe_file=recipe_file,
+            workers=workers,
+        )
+    if workers is not None:
+        raise ValueError(
+            f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
+            f"{algorithm} collects with --n-envs"
         )
     from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable_baselines3
 
     plan = recipe(algorithm, key, recipe_file)
-    budget = steps or plan.n_timesteps
     n_envs = n_envs or plan.n_envs
+    budget, _ = budget_of(plan, tasks, n_envs, steps)
+    batch = plan.batch(vec_slots(tasks, n_envs))
     out = check_output_path(out, "--out")
     statistics = statistics_path(out, plan)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")
-    eval_freq = eval_freq or max(budget // 10, 1)
+    eval_freq = max(eval_freq or budget // 10, batch)
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
@@ -212,6 +229,25 @@ def train(
     }
     write_logs(log_dir, callback.curve, tasks, algorithm, record, results)
     return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
+
+
+def vec_slots(tasks: Sequence[str], n_envs: int) -> int:
+    """The slots of the VecEnv `n_envs` envs of `tasks` make (a multi-bot world: one per
+    bot)."""
+    task = spec(tasks[0])
+    return n_envs * (task.group.n_bots if task.multi_agent else 1)
+
+
+def budget_of(plan, tasks: Sequence[str], n_envs: int | None, steps: int | None):
+    """The steps a training of `plan` runs for `steps` (default: the recipe's): at least
+    one batch (a rollout of every env; IPPO's and MAPPO's batch of world steps), and the
+    note that says so when it is rounded up, else None."""
+    n_envs = n_envs or plan.n_envs
+    if plan.algorithm in MARL_TRAINABLE:
+        batch = plan.batch()
+    else:
+        batch = plan.batch(vec_slots(tasks, n_envs))
+    return whole_batches(steps or plan.n_timesteps, batch)
 
 
 def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
