@@ -1,17 +1,19 @@
 """The classical baselines and reference policies every task can be scored against:
-PD, stand (PD holding 0 m/s), LQR, random and zero; and the team tasks' own, team."""
+PD, stand (PD holding 0 m/s), LQR, random and zero; the team tasks' own, team; and the
+crossing tasks' own, crossing."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from bbbench.policies.crossing import CrossingController
 from bbbench.policies.legged import LeggedController
 from bbbench.policies.lqr import LQRController
 from bbbench.policies.pd import PDController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
 from bbbench.policies.team import TeamController
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
-from bbbench.tasks.scenarios import Column
+from bbbench.tasks.scenarios import Column, Crossing
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
 
@@ -96,6 +98,32 @@ class TeamPolicy(TwoWheelPolicy):
 
 def _is_team(task_id: str) -> bool:
     return issubclass(spec(task_id).scenario_class, Column)
+
+
+class CrossingPolicy(TwoWheelPolicy):
+    """The crossing tasks' classical controller (`bbbench.policies.crossing`): PD, the
+    bot that would reach a crossing later yielding and the earlier one passing, from
+    the neighbours it observes. It plays the crossing tasks (MultiBalance, MultiBumps)
+    only; on them, `pd` is the baseline the targets are set against."""
+
+    name = algorithm = "crossing"
+
+    def __init__(self, action_mode: str = "discrete") -> None:
+        self.action_mode = action_mode
+
+    def mismatch(self, task_id: str) -> str | None:
+        refused = robot_mismatch(self, task_id)
+        if refused is None and not issubclass(spec(task_id).scenario_class, Crossing):
+            crossings = [
+                t
+                for t in list_tasks(multi_agent=True, latest=True)
+                if issubclass(spec(t).scenario_class, Crossing)
+            ]
+            return f"{task_id} is not a crossing task; crossing plays {', '.join(crossings)}"
+        return refused
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        return PDActor(CrossingController(self.action_mode))
 
 
 class LeggedPolicy(Policy):

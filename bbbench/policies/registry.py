@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from bbbench.policies.builtin import (
+    CrossingPolicy,
     LeggedPolicy,
     LQRPolicy,
     PDPolicy,
@@ -50,6 +51,7 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "lqr": LQRPolicy,
     "legged": LeggedPolicy,
     "team": TeamPolicy,
+    "crossing": CrossingPolicy,
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,
