@@ -1,19 +1,20 @@
-"""Training throughput on MultiBalance-v1 (4 bots): BenchMARL's IPPO against the SB3
-shared-PPO route, in bot-steps per second.
+"""Whole trainings on MultiBalance-v1 (4 bots) against the bare env, in bot-steps per
+second: BenchMARL's IPPO with its shipped recipe, and the SB3 shared-PPO route.
 
-    python bench/bench_marl.py [--bot-steps 32000] [--rounds 2] [--collect-steps 2000]
+    python bench/bench_marl.py [--batches 4] [--rounds 2] [--recipe FILE]
 
-Both learn with their shipped recipe's rollout and update sizes (bbbench/training/
-recipes/ippo.yml and ppo.yml), one torch thread, and nothing else timed: SB3's
-`model.learn` over `make_vec`'s worlds (4 samples a world step), and BenchMARL's
-`Experiment.run` over `bbbench.marl.tasks.BbbenchWrapper` (a frame a world step, 4 bots).
+- **bare env**: `bbbench.make_parallel` under PD, one world at a time, one core
+  (`bench_batched.bare`), the yardstick;
+- **IPPO**: `Experiment.run` of the shipped recipe (`bbbench/training/recipes/ippo.yml`,
+  or `--recipe`) for `--batches` of its batches: collection from its batched worlds (in
+  the recipe's worker processes), the updates on one torch thread, as `bbbench train`
+  runs it;
+- **SB3 shared PPO**: `model.learn` with `ppo.yml`'s recipe over `make_vec`'s worlds (4
+  samples a world step), as many bot-steps.
+
 Set-up (building envs, models, observation statistics) is outside the clock. A round
-times both, alternating which goes first; the ratio IPPO / SB3 is per round. Run it on
-a quiet machine.
-
-Collection alone, too: `--collect-steps` world steps of TorchRL's own
-`PettingZooWrapper` against `bbbench.marl.tasks.BbbenchWrapper` (what BenchMARL trains
-on), the same seeded random actions, resets included; the ratio is per round.
+times every route, the order turning round by round; the ratios to the bare env are
+within a round. Run it on a quiet machine.
 """
 
 from __future__ import annotations
@@ -26,11 +27,12 @@ import time
 from pathlib import Path
 
 import torch
+from bench_batched import bare
 
 TASK = "bbbench/MultiBalance-v1"
 
 
-def sb3_seconds(bot_steps: int) -> float:
+def sb3_rate(bot_steps: int) -> float:
     from bbbench.training import build_model, recipe, training_env
 
     plan = recipe("ppo", TASK)
@@ -40,97 +42,69 @@ def sb3_seconds(bot_steps: int) -> float:
     model.learn(total_timesteps=bot_steps)
     seconds = time.perf_counter() - began
     env.close()
-    return seconds
+    return bot_steps / seconds
 
 
-def ippo_seconds(bot_steps: int) -> float:
+def ippo_rate(batches: int, recipe_file: str | None) -> float:
+    """Bot-steps per second of `batches` IPPO iterations."""
     from benchmarl.experiment import Experiment
 
+    from bbbench.marl.recipes import marl_recipe
     from bbbench.marl.training import _quiet, observation_statistics
-    from bbbench.training import recipe
 
-    plan = recipe("ippo", TASK)
+    plan = marl_recipe("ippo", TASK, recipe_file)
     task = plan.task_config()
     task.observation_normalization = observation_statistics(TASK, task.env_kwargs, seed=0)
-    bots = task.config["n_bots"]
+    frames = plan.batch() * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
-        config = plan.experiment_config(bot_steps // bots, plan.n_envs, Path(folder))
         experiment = Experiment(
             task=task,
             algorithm_config=plan.algorithm_config(),
             model_config=plan.model_config(),
             critic_model_config=plan.model_config(critic=True),
             seed=0,
-            config=config,
+            config=plan.experiment_config(frames, plan.n_envs, Path(folder)),
         )
         began = time.perf_counter()
         experiment.run()
         seconds = time.perf_counter() - began
         experiment.close()
-    return seconds
-
-
-def collect_seconds(wrapper: type, world_steps: int) -> float:
-    """`world_steps` of `wrapper` over MultiBalance-v1, seeded random actions."""
-    import bbbench
-
-    options = {"use_mask": True, "done_on_any": False, "categorical_actions": True, "seed": 0}
-    env = wrapper(bbbench.make_parallel(TASK, action_mode="discrete"), **options)
-    spec = env.full_action_spec["bot", "action"]
-    actions = torch.randint(
-        9, (world_steps, *spec.shape), generator=torch.Generator().manual_seed(0)
-    )
-    state = env.reset()
-    began = time.perf_counter()
-    for action in actions:
-        state = env.step(state.set(("bot", "action"), action))["next"]
-        if state["done"].all():
-            state = env.reset()
-    seconds = time.perf_counter() - began
-    env.close()
-    return seconds
-
-
-def collection_round(world_steps: int, first_ours: bool) -> dict[str, float]:
-    from torchrl.envs.libs.pettingzoo import PettingZooWrapper
-
-    from bbbench.marl.tasks import BbbenchWrapper
-
-    order = (
-        (BbbenchWrapper, PettingZooWrapper) if first_ours else (PettingZooWrapper, BbbenchWrapper)
-    )
-    seconds = {wrapper.__name__: collect_seconds(wrapper, world_steps) for wrapper in order}
-    return {
-        "torchrl_wrapper_s": round(seconds["PettingZooWrapper"], 2),
-        "bbbench_wrapper_s": round(seconds["BbbenchWrapper"], 2),
-        "speed_up": round(seconds["PettingZooWrapper"] / seconds["BbbenchWrapper"], 2),
-    }
+    return frames * task.config["n_bots"] / seconds
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--bot-steps", type=int, default=32_000)
+    parser.add_argument("--batches", type=int, default=4)
     parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--collect-steps", type=int, default=2000)
+    parser.add_argument("--recipe", default=None, help="an ippo recipe file instead of ippo.yml")
+    parser.add_argument("--bare-steps", type=int, default=16_000, help="world steps")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    collection = [collection_round(args.collect_steps, i % 2 == 1) for i in range(args.rounds)]
+    from bbbench.marl.recipes import marl_recipe
+
+    plan = marl_recipe("ippo", TASK, args.recipe)
+    bot_steps = plan.batch() * args.batches * plan.task_config().config["n_bots"]
     rounds = []
     for index in range(args.rounds):
-        order = (sb3_seconds, ippo_seconds) if index % 2 == 0 else (ippo_seconds, sb3_seconds)
-        seconds = {run.__name__: run(args.bot_steps) for run in order}
-        sb3 = args.bot_steps / seconds["sb3_seconds"]
-        ippo = args.bot_steps / seconds["ippo_seconds"]
+        rates: dict[str, float] = {}
+        order = ("bare", "ippo", "sb3") if index % 2 == 0 else ("sb3", "ippo", "bare")
+        for route in order:
+            if route == "bare":
+                rates["bare"] = bare(args.bare_steps)
+            elif route == "ippo":
+                rates["ippo"] = ippo_rate(args.batches, args.recipe)
+            else:
+                rates["sb3"] = sb3_rate(bot_steps)
         rounds.append(
             {
-                "sb3_bot_steps_per_s": round(sb3),
-                "ippo_bot_steps_per_s": round(ippo),
-                "ratio": round(ippo / sb3, 3),
+                **{f"{name}_bot_steps_per_s": round(rate) for name, rate in rates.items()},
+                "ippo_to_bare": round(rates["ippo"] / rates["bare"], 3),
+                "sb3_to_bare": round(rates["sb3"] / rates["bare"], 3),
             }
         )
-    report = {"task": TASK, "bot_steps": args.bot_steps, "rounds": rounds}
-    report["median_ratio"] = statistics.median(r["ratio"] for r in rounds)
-    report["collection"] = {"world_steps": args.collect_steps, "rounds": collection}
+    report = {"task": TASK, "batches": args.batches, "bot_steps": bot_steps, "rounds": rounds}
+    for key in ("ippo_to_bare", "sb3_to_bare"):
+        report[f"median_{key}"] = statistics.median(r[key] for r in rounds)
     print(json.dumps(report, indent=2))
 
 

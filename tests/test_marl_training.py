@@ -63,6 +63,12 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
         assert plan.model_config() is not None
         assert plan.model_config(critic=True) is not None
         assert plan.task_config().task_id == task_id
+        # The field's budget and batches (BenchMARL's defaults): 3M world steps, batches
+        # of 6,000 from 10 worlds, in worker processes.
+        assert plan.n_timesteps == 3_000_000
+        assert plan.batch() >= 6000
+        assert plan.n_envs >= 10
+        assert plan.task_config().config["workers"] == 2
 
 
 def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():

@@ -79,3 +79,23 @@ def test_seeds_trained_here_are_each_the_bytes_of_its_own_run(tmp_path, capsys):
     assert main(["train", FLAT, *TINY, *argv]) == 0
     for name in ("policy.zip", "results.json"):
         assert (there / "policy-s2" / name).read_bytes() == (here / name).read_bytes(), name
+
+
+def test_an_ippo_seed_on_ray_with_worker_processes_is_the_local_runs_bytes(tmp_path, capsys):
+    """The campaign's route: IPPO's seeds as Ray tasks, each stepping its worlds in two
+    worker processes, against a local run on one process (a fresh one, as a user's)."""
+    from test_marl_training import SMALL, TASK
+
+    recipe = tmp_path / "recipe.yml"
+    recipe.write_text(SMALL)
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    tiny = ["--algo", "ippo", "--recipe", str(recipe), "--steps", "400", "--eval-episodes", "2"]
+    local = ["train", TASK, *tiny, "--seed", "1", "--workers", "1"]
+    local += ["--out", str(here / "policy.onnx")]
+    subprocess.run([sys.executable, "-m", "bbbench", *local], check=True, capture_output=True)
+    argv = ["--seeds", "1", "--backend", "ray", "--workers", "2"]
+    assert main(["train", TASK, *tiny, *argv, "--out", str(there / "policy.onnx")]) == 0
+    for name in ("policy.onnx", "results.json"):
+        assert (there / "policy-s1" / name).read_bytes() == (here / name).read_bytes(), name
