@@ -54,10 +54,10 @@ OWNED = {
     "save_folder": "bbbench train writes where --out says",
     "restore_file": "a training starts from its seed",
     "restore_map_location": "a training starts from its seed",
-    "checkpoint_interval": "bbbench train keeps the best policy itself",
-    "checkpoint_at_end": "bbbench train keeps the best policy itself",
-    "keep_checkpoints_num": "bbbench train keeps the best policy itself",
-    "exclude_buffer_from_checkpoint": "bbbench train keeps the best policy itself",
+    "checkpoint_interval": "bbbench train keeps the policy itself (the last one)",
+    "checkpoint_at_end": "bbbench train keeps the policy itself (the last one)",
+    "keep_checkpoints_num": "bbbench train keeps the policy itself (the last one)",
+    "exclude_buffer_from_checkpoint": "bbbench train keeps the policy itself (the last one)",
     "max_n_iters": "the budget is max_n_frames (or --steps)",
 }
 _ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "Sigmoid")  # the ONNX reader runs these

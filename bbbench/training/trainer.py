@@ -143,7 +143,7 @@ def train(
     """Train `algorithm` on `task_ids` (several: one generalist on all of them) with its
     recipe (from `recipe_file`, else the shipped one); write the best policy to `out`
     and the logs beside it. IPPO and MAPPO train with BenchMARL (`bbbench.marl.training`)
-    and write an ONNX policy.
+    and write their last policy, as ONNX.
 
     `steps` and `n_envs` default to the recipe's (a budget is at least one rollout, see
     `budget`); `eval_freq` to a tenth of the budget, and at least a rollout;
