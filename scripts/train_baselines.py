@@ -3,12 +3,19 @@ leaderboard with `bbbench leaderboard add` as it finishes.
 
     python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-v1-s0 ...] [--list]
                                       [--train-only] [--add-trained] [--table]
+    python scripts/train_baselines.py --campaign [--only ippo-multibalance-v1-3m ...]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
 the command's output); its policy goes into `leaderboards/submissions/<slug>/` with a
 submission.json that records the exact command, the steps, the wall time and the
 machine. Runs already on the board are skipped. Training takes most of a 2-core
 machine for hours: run it in the background.
+
+`--campaign` trains the MARL baselines at the field's budget (the shipped IPPO and MAPPO
+recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds as Ray
+tasks (`bbbench train ... --seeds 0,1,2 --backend ray --workers 1`: one CPU each, the
+same bytes as a local run); each seed goes on the board as `<algo>-<task>-3m-s<seed>`
+in place of the 300k entry of its seed, whose logs stay in `baselines/`.
 """
 
 from __future__ import annotations
@@ -50,6 +57,8 @@ SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
 MARL = ("mappo", "ippo")
+# The MARL baselines at the field's budget (issue 50): each cell's seeds as Ray tasks.
+CAMPAIGN_BUDGET = "3m"
 
 
 def runs() -> list[dict]:
@@ -81,6 +90,21 @@ def runs() -> list[dict]:
     return plan
 
 
+def campaign() -> list[dict]:
+    """The MARL cells at the field's budget, IPPO first: (algorithm, task), its seeds."""
+    return [
+        {
+            "cell": f"{algo}-{_short(task)}-{CAMPAIGN_BUDGET}",
+            "algo": algo,
+            "tasks": [task],
+            "seeds": SEEDS,
+            "replaces": [f"{algo}-{_short(task)}-s{seed}" for seed in SEEDS],
+        }
+        for algo in ("ippo", "mappo")
+        for task in (*LATEST_MULTI, *TEAMS)
+    ]
+
+
 def _short(task_id: str) -> str:
     return task_id.removeprefix("bbbench/").lower()
 
@@ -97,9 +121,17 @@ def command(run: dict, folder: Path) -> list[str]:
     ]  # fmt: skip
 
 
-def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int | str) -> str:
-    """`bbbench leaderboard add` of a finished run, with what it took."""
-    argv = command(run, folder)
+def _add(
+    run: dict,
+    folder: Path,
+    board: Path,
+    minutes: float,
+    side_by_side: int | str,
+    argv: list[str] | None = None,
+) -> str:
+    """`bbbench leaderboard add` of a finished run, with what it took (`argv`: the
+    command that trained it, default `command(run, folder)`)."""
+    argv = argv or command(run, folder)
     record = json.loads((folder / "train.json").read_text())
     points = len(json.loads((folder / "curve.json").read_text())["points"])
     names = "a mix of the single-bot tasks" if run.get("generalist") else run["tasks"][0]
@@ -118,8 +150,10 @@ def _add(run: dict, folder: Path, board: Path, minutes: float, side_by_side: int
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
         "--licence", "MIT",
         "--notes", f"Trained on {names} with the shipped {run['algo']} recipe "
-        f"(bbbench/training/recipes/{run['algo']}.yml): the best of {points} evaluations "
-        f"on training seeds. Curve and logs: baselines/{run['slug']}/.",
+        f"(bbbench/training/recipes/{run['algo']}.yml): "
+        + (f"the last of {points} evaluations" if run["algo"] in MARL
+           else f"the best of {points} evaluations")
+        + f" on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
     # A recipe with `normalize` writes statistics where rl-zoo3 does; eval finds them so.
     statistics = find_rl_zoo_statistics(policy) if policy.suffix == ".zip" else None
@@ -208,9 +242,22 @@ def main() -> None:
     parser.add_argument(
         "--table", action="store_true", help="print the Markdown table of the runs on the board"
     )
+    parser.add_argument(
+        "--campaign",
+        action="store_true",
+        help="the MARL cells at the field's budget, each cell's seeds as Ray tasks",
+    )
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
     args = parser.parse_args()
+    if args.campaign:
+        for cell in campaign():
+            if not args.only or cell["cell"] in args.only:
+                if args.list:
+                    print(cell["cell"], cell["seeds"])
+                else:
+                    _train_cell(cell, args)
+        return
     plan = [run for run in runs() if not args.only or run["slug"] in args.only]
     missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
     args.plan = missing
@@ -232,6 +279,46 @@ def main() -> None:
     with ThreadPoolExecutor(args.parallel) as pool:
         for line in pool.map(lambda run: _train_and_add(run, args), missing):
             print(line, flush=True)
+
+
+def _train_cell(cell: dict, args: argparse.Namespace) -> None:
+    """A campaign cell: its missing seeds as Ray tasks, then each on the board in place
+    of its 300k entry."""
+    seeds = [s for s in cell["seeds"] if not (args.board / "submissions" / _slug(cell, s)).exists()]
+    if not seeds:
+        return
+    folder = args.root / cell["cell"]
+    folder.mkdir(parents=True, exist_ok=True)
+    argv = [
+        "bbbench", "train", *cell["tasks"], "--algo", cell["algo"],
+        "--seeds", ",".join(map(str, seeds)), "--backend", "ray", "--workers", "1",
+        "--out", str(folder / "policy.onnx"),
+    ]  # fmt: skip
+    began = time.perf_counter()
+    with open(folder / "train.log", "w") as log:
+        done = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT)
+    if done.returncode:
+        print(f"{cell['cell']}: training failed (exit {done.returncode}), see {folder}/train.log")
+        return
+    for seed in seeds:
+        slug = _slug(cell, seed)
+        target = args.root / slug
+        (folder / f"policy-s{seed}").rename(target)
+        run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
+        record = json.loads((target / "train.json").read_text())
+        old = args.board / "submissions" / cell["replaces"][cell["seeds"].index(seed)]
+        if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
+            subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
+        seeded = [*argv[: argv.index("--seeds")], "--seed", str(seed), "--workers", "1"]
+        minutes = record["wall_time_s"] / 60
+        print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
+    (folder / "train.log").rename(args.root / f"{cell['cell']}.log")
+    folder.rmdir()
+    print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
+
+
+def _slug(cell: dict, seed: int) -> str:
+    return f"{cell['cell']}-s{seed}"
 
 
 _BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
