@@ -49,7 +49,9 @@ def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, c
         assert (first / name).stat().st_size > 0, name
     curve = json.loads((first / "curve.json").read_text())["points"]
     assert [point["steps"] for point in curve] == sorted(p["steps"] for p in curve)
-    assert set(curve[0]) == {"steps", "wall_time_s", "mean", "iqm", "mean_length"}
+    assert set(curve[0]) == {"steps", "wall_time_s", "mean", "iqm", "mean_length", "returns"}
+    assert len(curve[0]["returns"]) == len(training.evaluation_seeds(FLAT))
+    assert curve[0]["mean"] == pytest.approx(sum(curve[0]["returns"]) / len(curve[0]["returns"]))
     record = json.loads((first / "train.json").read_text())
     seeds = record["evaluation_seeds"][FLAT]
     assert seeds == training.evaluation_seeds(FLAT)

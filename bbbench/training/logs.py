@@ -38,8 +38,9 @@ class Trained:
 
 def curve_point(played: list[PlayedEpisode], began: float, **steps: int) -> dict[str, float]:
     """A point of the learning curve: `steps` (the trainer's counts, `steps=` first), the
-    wall time since `began` (`time.perf_counter()`), and the mean return, IQM and mean
-    length of the episodes `played` on the training seeds."""
+    wall time since `began` (`time.perf_counter()`), the mean return, IQM and mean
+    length of the episodes `played` on the training seeds, and each episode's return (in
+    the order of the seeds: curves over several training seeds pool them)."""
     returns = np.array([episode.episode_return for episode in played])
     return {
         **{name: int(count) for name, count in steps.items()},
@@ -47,6 +48,7 @@ def curve_point(played: list[PlayedEpisode], began: float, **steps: int) -> dict
         "mean": float(returns.mean()),
         "iqm": stats.iqm(returns),
         "mean_length": float(np.mean([episode.length for episode in played])),
+        "returns": [float(value) for value in returns],
     }
 
 
