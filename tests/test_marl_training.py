@@ -129,6 +129,7 @@ def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expec
         (["--workers", "0"], "--workers 0"),
         (["--workers", "3"], "more worker processes than the 2 worlds"),
         (["--n-envs", "300"], "less than one step per world"),
+        (["--n-envs", "100000000"], "more than this machine's"),
     ],
 )
 def test_bad_worlds_or_workers_exit_2_with_one_line(tmp_path, capsys, flags, expected):

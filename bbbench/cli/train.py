@@ -256,9 +256,11 @@ def _check_collection(args: argparse.Namespace, plan, tasks: list[str]) -> tuple
             f"{args.algo} collects with --n-envs"
         )
     if marl:
+        from bbbench.envs.batched import check_memory  # lazy: bbbench.envs
         from bbbench.marl.recipes import check_workers  # lazy: benchmarl
 
         worlds = args.n_envs or plan.n_envs
+        check_memory(worlds)
         plan.check_worlds(worlds)
         if args.workers is not None:
             check_workers(args.workers, worlds)

@@ -220,7 +220,7 @@ class BatchedEnv:
                 f"workers={workers} for {worlds} world(s): each worker steps at least one "
                 f"world; give workers from 1 to {worlds}"
             )
-        _check_memory(worlds)
+        check_memory(worlds)
         first = MultiBalanceEnv(task_id, **env_kwargs)  # the keywords checked here
         self.task = first.task
         self.task_id = task_id
@@ -411,7 +411,8 @@ def _seeds(seed: int | Sequence[int] | None, worlds: int) -> np.ndarray:
     return np.asarray(seeds, dtype=np.int64)
 
 
-def _check_memory(worlds: int) -> None:
+def check_memory(worlds: int) -> None:
+    """`ValueError` if `worlds` worlds would not fit in this machine's memory."""
     machine = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**20
     if worlds * WORLD_MEMORY_MIB > machine:
         raise ValueError(
