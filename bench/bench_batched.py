@@ -2,8 +2,9 @@
 
     python bench/bench_batched.py [--worlds 16] [--world-steps 16000] [--rounds 2]
 
-MultiBalance-v1 (4 bots), every bot driven by the PD baseline, so that every route
-plays the same kind of episodes (bots that stand, some falling at the crossings):
+MultiBalance-v1 (4 bots), every bot driven by the PD baseline (its law in one numpy pass
+over the rows, for every route), so that every route plays the same kind of episodes
+(bots that stand, some falling at the crossings):
 
 - **bare env**: `bbbench.make_parallel`, PD on the live bots' rows, one world at a
   time, in one process (one core) and in two processes side by side (two cores);
@@ -33,9 +34,22 @@ TASK = "bbbench/MultiBalance-v1"
 
 
 def pd_actor():
-    from bbbench.policies import load_policy
+    """PD's discrete actions for a batch of observation rows, in one numpy pass (the same
+    law as `bbbench.policies.PDController`, vectorized: the driver's cost stays out of
+    the comparison; both routes use it)."""
+    from bbbench.policies.pd import _CHANGES
+    from bbbench.robots.twowheel import TWO_WHEEL
 
-    return load_policy("pd").actor(TASK)
+    radius, kp, kd, kv = TWO_WHEEL.wheel_radius, 40.0, 6.0, 20.0
+
+    def act(rows: np.ndarray, rngs=None) -> np.ndarray:
+        rows = np.asarray(rows, dtype=np.float64)
+        pitch, rate, wheel, command, target = (rows[:, i] for i in range(5))
+        velocity = radius * (wheel + rate)
+        desired = target / radius + kp * pitch + kd * rate + kv * (velocity - target)
+        return np.abs(_CHANGES[None, :] - (desired - command)[:, None]).argmin(axis=1)
+
+    return act
 
 
 def bare(world_steps: int, seed: int = 0) -> float:
@@ -98,6 +112,7 @@ def recipe_policy(worlds: int, folder: str):
             seed=0,
             config=plan.experiment_config(worlds, worlds, Path(folder)),
         )
+        experiment.close()  # its own envs: only the policy is wanted
     return experiment.policy
 
 

@@ -262,6 +262,7 @@ class BatchedEnv:
             self._context = context
         self._local = WorldSlice(task_id, self.env_kwargs, *self._slices[0], self.buffers, first)
         self._workers: list[tuple[Any, Any]] = []  # (process, connection), started lazily
+        self._owner = os.getpid()  # a forked worker inherits this object: not its to close
         self._autoreset = np.zeros(worlds, dtype=bool)
         self._closed = False
 
@@ -367,7 +368,7 @@ class BatchedEnv:
         return infos
 
     def close(self) -> None:
-        if self._closed:
+        if self._closed or os.getpid() != self._owner:
             return
         self._closed = True
         for process, connection in self._workers:
