@@ -247,6 +247,11 @@ def main() -> None:
         action="store_true",
         help="the MARL cells at the field's budget, each cell's seeds as Ray tasks",
     )
+    parser.add_argument(
+        "--seeds",
+        type=lambda text: [int(seed) for seed in text.split(",")],
+        help="with --campaign: these seeds of each cell only (default 0,1,2)",
+    )
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
     args = parser.parse_args()
@@ -284,7 +289,11 @@ def main() -> None:
 def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     """A campaign cell: its missing seeds as Ray tasks, then each on the board in place
     of its 300k entry."""
-    seeds = [s for s in cell["seeds"] if not (args.board / "submissions" / _slug(cell, s)).exists()]
+    seeds = [
+        s
+        for s in (args.seeds or cell["seeds"])
+        if not (args.board / "submissions" / _slug(cell, s)).exists()
+    ]
     if not seeds:
         return
     folder = args.root / cell["cell"]
