@@ -174,7 +174,11 @@ def _serve(connection, task_id, env_kwargs, start, stop, blocks, layout) -> None
     buffers = Buffers(*layout, allocate=lambda shape, dtype: next(views))
     worlds_slice = None
     try:
-        worlds_slice = WorldSlice(task_id, env_kwargs, start, stop, buffers)
+        try:
+            worlds_slice = WorldSlice(task_id, env_kwargs, start, stop, buffers)
+        except Exception:  # the batch raises it, with the worker's traceback
+            connection.send(traceback.format_exc())
+            return
         connection.send(None)
         while True:
             word = connection.recv()
@@ -316,10 +320,16 @@ class BatchedEnv:
             raise RuntimeError(f"{self.task_id}: this batched env is closed")
         if self.workers > 1 and not self._workers:
             self._start_workers()
-        for _, connection in self._workers:
-            connection.send("advance")
-        self._local.advance()
-        failures = [connection.recv() for _, connection in self._workers]
+        try:
+            for _, connection in self._workers:
+                connection.send("advance")
+            self._local.advance()
+            failures = [connection.recv() for _, connection in self._workers]
+        except (EOFError, BrokenPipeError) as error:
+            raise RuntimeError(
+                f"a worker process of the batched env ended ({type(error).__name__}): "
+                f"make the env again"
+            ) from None
         for failure in failures:
             if failure is not None:
                 raise RuntimeError(f"a worker of the batched env failed:\n{failure}")
