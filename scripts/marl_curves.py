@@ -1,0 +1,191 @@
+"""The MARL campaign's sample-efficiency curves (docs/baselines.md, "The field's budget"):
+for each task, the IQM of the normalized return over every seed's training episodes at
+each evaluation point, with its 95% stratified-bootstrap interval (the seeds are the
+strata: rliable's and marl-eval's curve), IPPO and MAPPO, and the classical
+controller's return on the same training seeds as a line.
+
+    python scripts/marl_curves.py [--root baselines] [--out docs/images]
+                                  [--marl-eval curves.json] [--cells CELL ...]
+
+Reads each run's `baselines/<algo>-<task>-3m-s<seed>/curve.json` (every point keeps
+each training episode's return); seeds not trained yet are left out, and a task with
+no run is skipped. Writes `marl-curves-<task>.svg` per task and prints, per task and
+method, the points' steps, IQM and interval as a Markdown table. `--marl-eval` also
+writes the curves as marl-eval's raw data (one run per seed, one logging step per
+evaluation point), for its own `sample_efficiency_curves`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from bbbench.evaluation import stats
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.evaluation.marl_eval import ENVIRONMENT
+from bbbench.evaluation.results import normalized
+from bbbench.policies import load_policy
+from bbbench.tasks.suite import spec
+from bbbench.training import evaluation_seeds
+
+TASKS = (
+    "bbbench/MultiBalance-v1",
+    "bbbench/MultiBumps-v1",
+    "bbbench/BeamCarry-v0",
+    "bbbench/BeamCarryBumps-v0",
+    "bbbench/Convoy-v0",
+)
+METHODS = ("ippo", "mappo")
+SEEDS = (0, 1, 2)
+BUDGET = "3m"
+
+
+def classical(task_id: str) -> str:
+    return "team" if spec(task_id).scenario_class.team else "pd"
+
+
+def cell_runs(root: Path, stem: str) -> dict[int, list[dict]]:
+    """Each trained seed's curve points, from `<root>/<stem>-s<seed>/curve.json`."""
+    runs = {}
+    for seed in SEEDS:
+        path = root / f"{stem}-s{seed}" / "curve.json"
+        if path.is_file():
+            runs[seed] = json.loads(path.read_text())["points"]
+    return runs
+
+
+def curve(task_id: str, runs: dict[int, list[dict]]) -> list[dict]:
+    """At each evaluation point every seed reached: the steps, the IQM of the normalized
+    returns of every seed's episodes, and its 95% stratified-bootstrap interval."""
+    task = spec(task_id)
+    points = []
+    for index in range(min(len(points) for points in runs.values())):
+        strata = [
+            np.array([normalized(value, task) for value in run[index]["returns"]])
+            for run in runs.values()
+        ]
+        low, high = stats.stratified_bootstrap_ci(strata, stats.iqm)
+        steps = max(run[index]["steps"] for run in runs.values())
+        points.append({"steps": steps, "iqm": stats.iqm(np.concatenate(strata)), "ci": (low, high)})
+    return points
+
+
+def controller_line(task_id: str) -> float:
+    """The classical controller's normalized mean return on the curve's training seeds."""
+    player = LockstepPlayer(
+        actors={task_id: load_policy(classical(task_id)).actor(task_id)},
+        action_mode="discrete",
+        sampled=False,
+    )
+    played = player.play(task_id, evaluation_seeds(task_id))
+    player.close()
+    return float(np.mean([normalized(episode.episode_return, spec(task_id)) for episode in played]))
+
+
+def figure(task_id: str, curves: dict[str, list[dict]], line: float) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams["svg.hashsalt"] = "bbbench"
+    fig, axes = plt.subplots(figsize=(6, 3.6))
+    for method, points in curves.items():
+        steps = [point["steps"] / 1e6 for point in points]
+        axes.plot(steps, [point["iqm"] for point in points], marker="o", label=method.upper())
+        axes.fill_between(
+            steps, [p["ci"][0] for p in points], [p["ci"][1] for p in points], alpha=0.25
+        )
+    axes.axhline(line, color="black", linestyle="--", label=f"{classical(task_id)} controller")
+    axes.set_xlabel("world steps (millions)")
+    axes.set_ylabel("normalized return (IQM, 95% CI)")
+    axes.set_title(f"{task_id.removeprefix('bbbench/')}: training seeds")
+    axes.legend(loc="lower right")
+    fig.tight_layout()
+    out = io.BytesIO()
+    fig.savefig(out, format="svg", metadata={"Date": None})
+    plt.close(fig)
+    return out.getvalue()
+
+
+def final_returns(root: Path, stem: str, seed: int) -> list[float] | None:
+    """The kept policy's returns on the task's evaluation seeds (its results.json)."""
+    path = root / f"{stem}-s{seed}" / "results.json"
+    if not path.is_file():
+        return None
+    (block,) = json.loads(path.read_text())["tasks"]
+    return [episode["return"] for episode in block["episodes"]]
+
+
+def marl_eval_curves(runs: dict[int, list[dict]], finals: dict[int, list[float] | None]) -> dict:
+    """One method's curves on one task as marl-eval's raw data: a logging step per
+    evaluation point, and as `absolute_metrics` the kept policy's returns on the
+    evaluation seeds (the last point's, for a run without its results)."""
+    data = {}
+    for seed, points in runs.items():
+        steps = {
+            f"step_{index}": {"step_count": point["steps"], "return": point["returns"]}
+            for index, point in enumerate(points)
+        }
+        final = finals.get(seed) or points[-1]["returns"]
+        data[f"run_{seed}"] = {**steps, "absolute_metrics": {"return": final}}
+    return data
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=Path("baselines"))
+    parser.add_argument("--out", type=Path, default=Path("docs/images"))
+    parser.add_argument("--marl-eval", type=Path, help="also write the curves for marl-eval")
+    parser.add_argument(
+        "--cells",
+        nargs="*",
+        help="METHOD=STEM TASK: other runs' folders (<STEM>-s<seed>) instead of the campaign's",
+    )
+    args = parser.parse_args()
+    cells = {
+        (task, method): f"{method}-{task.removeprefix('bbbench/').lower()}-{BUDGET}"
+        for task in TASKS
+        for method in METHODS
+    }
+    if args.cells:
+        cells = {}
+        for text in args.cells:
+            named, _, task = text.partition(" ")
+            method, _, stem = named.partition("=")
+            cells[(task, method)] = stem
+    data: dict = {}
+    for task_id in dict.fromkeys(task for task, _ in cells):
+        curves = {}
+        for (task, method), stem in cells.items():
+            runs = cell_runs(args.root, stem) if task == task_id else {}
+            if runs:
+                curves[method] = curve(task_id, runs)
+                name = task_id.removeprefix("bbbench/")
+                finals = {seed: final_returns(args.root, stem, seed) for seed in runs}
+                data.setdefault(name, {})[method.upper()] = marl_eval_curves(runs, finals)
+        if not curves:
+            continue
+        line = controller_line(task_id)
+        target = args.out / f"marl-curves-{task_id.removeprefix('bbbench/').lower()}.svg"
+        target.write_bytes(figure(task_id, curves, line))
+        print(f"\n{task_id} ({classical(task_id)} on the same seeds: {line:.3f}), {target}\n")
+        print("| method | world steps | IQM [95% CI] |")
+        print("|---|---:|---|")
+        for method, points in curves.items():
+            for point in points:
+                low, high = point["ci"]
+                print(
+                    f"| {method.upper()} | {point['steps']:,} | "
+                    f"{point['iqm']:.3f} [{low:.3f}, {high:.3f}] |"
+                )
+    if args.marl_eval is not None:
+        args.marl_eval.write_text(json.dumps({ENVIRONMENT: data}, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
