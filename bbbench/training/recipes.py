@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import inspect
 from pathlib import Path
 from typing import Any
 
@@ -63,10 +64,8 @@ class Recipe:
         """Steps of one rollout over a VecEnv of `slots` envs (a multi-bot world counts
         one per bot): the least a training collects before it learns (an on-policy
         algorithm's `n_steps` per slot, else one step per slot)."""
-        import inspect  # the algorithm's own default n_steps, if the recipe sets none
-
         steps = self.hyperparameters.get("n_steps")
-        if steps is None:
+        if steps is None:  # the algorithm's own default
             parameters = inspect.signature(by_key(self.algorithm).model_class()).parameters
             steps = parameters["n_steps"].default if "n_steps" in parameters else 1
         return int(steps) * slots
