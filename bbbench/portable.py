@@ -13,7 +13,10 @@ here by its value, not by the machine:
   computed exactly;
 - `exp` (the terrain's kernel) and the rarer activations (`exp32`, `expm1`,
   `sigmoid`) use only operations IEEE 754 rounds exactly (+, -, *, /, `rint`,
-  `ldexp`), in a fixed order.
+  `ldexp`), in a fixed order;
+- `dot3`, the dot product of two 3-vectors, as OpenBLAS's default kernels compute it
+  (which `np.dot` and `np.linalg.norm` call, and `OPENBLAS_CORETYPE=Haswell` replaces
+  with another rounding), each fused multiply-add computed exactly.
 
 Measured: on a machine without AVX2, a stored SAC episode played from the
 numpy `@` and `np.tanh` of an AVX-512 machine took other actions from the first
@@ -217,3 +220,38 @@ def exact_tanh(value: float) -> np.float32:
         e = (decimal.Decimal(value) * 2).exp()
         exact = (e - 1) / (e + 1)
         return _nearest_float32(float(exact), lambda: exact - decimal.Decimal(float(exact)))
+
+
+def dot3(x, y) -> float:
+    """x . y for 3-vectors, as OpenBLAS's default x86-64 kernels (SkylakeX, Zen) compute
+    it for three values, `fma(x2, y2, fma(x1, y1, x0 * y0))`, on every CPU.
+
+    `np.dot` of float64 vectors calls BLAS, whose kernel numpy's OpenBLAS picks by CPU:
+    the Haswell kernel (`OPENBLAS_CORETYPE=Haswell`, set on some machines) rounds each
+    product, the default ones fuse them; over an episode of Convoy-v0's tethers the two
+    part in the last bits, then in whole steps. Its published episodes were played with
+    the fused sums: this is that arithmetic, with each fused multiply-add exact
+    (`fused_multiply_add`).
+    """
+    x0, x1, x2 = (float(value) for value in x)
+    y0, y1, y2 = (float(value) for value in y)
+    return fused_multiply_add(x2, y2, fused_multiply_add(x1, y1, x0 * y0))
+
+
+def fused_multiply_add(a: float, b: float, c: float) -> float:
+    """a * b + c rounded once (C's `fma`; `math.fma` arrives in Python 3.13): the product
+    split exactly into two floats (Dekker's product, Veltkamp's split), then the three
+    summed with one rounding (`math.fsum`). Exact for finite values away from overflow
+    (|a|, |b| < 2**995) and underflow."""
+    product = a * b
+    a_high, a_low = _split(a)
+    b_high, b_low = _split(b)
+    error = ((a_high * b_high - product) + a_high * b_low + a_low * b_high) + a_low * b_low
+    return math.fsum((product, error, c))
+
+
+def _split(value: float) -> tuple[float, float]:
+    """Veltkamp's split: value = high + low, each with at most 26 significant bits."""
+    scaled = 134217729.0 * value  # 2**27 + 1
+    high = scaled - (scaled - value)
+    return high, value - high

@@ -196,3 +196,52 @@ def test_a_nan_observation_is_left_to_the_defined_network():
     observation = np.array([[0.1, np.nan, 0.0, 0.0, 0.0]], dtype=np.float32)
     assert actor.greedy(observation) is None
     assert actor(observation) == [None]
+
+
+def test_dot3_is_the_fused_sum_exactly():
+    """dot3 = fma(x2, y2, fma(x1, y1, x0 y0)), each fma rounded once: against exact
+    rational arithmetic, on vectors of positions (m), velocities (m/s) and their
+    differences, where the fused and the plain sums often part."""
+    from fractions import Fraction
+
+    def exact_fma(a, b, c):
+        return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+    rng = np.random.default_rng(0)
+    parted = 0
+    for scale in (1e-6, 1e-2, 1.0, 3.0, 1e3):
+        for _ in range(500):
+            x, y = rng.normal(size=3) * scale, rng.normal(size=3)
+            expected = exact_fma(x[2], y[2], exact_fma(x[1], y[1], x[0] * y[0]))
+            assert portable.dot3(x, y) == expected
+            parted += expected != x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+    assert parted > 100  # the plain sum (OpenBLAS's Haswell kernel) differs often
+
+
+@pytest.mark.parametrize("coretype", ["Haswell", None])
+def test_a_convoy_episode_is_the_recorded_one_whatever_blas_kernel_runs(coretype):
+    """Convoy-v0's tethers read lengths and rates with dot3, not BLAS: the team
+    controller's recorded episode replays bit for bit under OpenBLAS's Haswell kernel
+    (which rounds each product) and under the default one."""
+    board = Path(__file__).resolve().parents[1] / "leaderboards" / "results" / "team.json"
+    (block,) = [
+        b for b in json.loads(board.read_text())["tasks"] if b["task"].endswith("Convoy-v0")
+    ]
+    # An episode whose tethers part under the Haswell kernel's rounding (measured).
+    (recorded,) = [e for e in block["episodes"] if e["seed"] == 2147483658]
+    code = f"""
+import json
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.policies import load_policy
+task = "bbbench/Convoy-v0"
+player = LockstepPlayer({{task: load_policy("team").actor(task)}}, "discrete", sampled=False)
+(episode,) = player.play(task, [{recorded["seed"]}])
+print(json.dumps([episode.episode_return, episode.length]))
+"""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("OPENBLAS_")}
+    if coretype is not None:
+        env["OPENBLAS_CORETYPE"] = coretype
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    ).stdout
+    assert json.loads(out.splitlines()[-1]) == [recorded["return"], recorded["length"]]

@@ -11,6 +11,7 @@ import numpy as np
 import pybullet
 from gymnasium import spaces
 
+from bbbench.portable import dot3
 from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField
 from bbbench.tasks.coupling import MAX_TEAM, Beam, Tether
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
@@ -419,9 +420,10 @@ class Convoy(Column):
         tethers = []
         for j in range(len(positions) - 1):
             delta = np.subtract(positions[j + 1], positions[j])
-            length = float(np.linalg.norm(delta)) or 1e-9
+            # dot3, not np.dot / np.linalg.norm: BLAS's rounding varies with the CPU.
+            length = math.sqrt(dot3(delta, delta)) or 1e-9
             direction = delta / length  # from bot j to bot j + 1
-            rate = float(np.dot(np.subtract(velocities[j + 1], velocities[j]), direction))
+            rate = dot3(np.subtract(velocities[j + 1], velocities[j]), direction)
             tethers.append((direction, length - rest, rate))
         self._tethers = tethers
 
