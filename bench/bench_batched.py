@@ -97,21 +97,12 @@ def recipe_policy(worlds: int, folder: str):
     sampling), as BenchMARL's `Experiment` builds it."""
     from pathlib import Path
 
-    from benchmarl.experiment import Experiment
-
     from bbbench.marl.recipes import marl_recipe
     from bbbench.marl.training import _quiet
 
     plan = marl_recipe("ippo", TASK)
     with _quiet():
-        experiment = Experiment(
-            task=plan.task_config(),
-            algorithm_config=plan.algorithm_config(),
-            model_config=plan.model_config(),
-            critic_model_config=plan.model_config(critic=True),
-            seed=0,
-            config=plan.experiment_config(worlds, worlds, Path(folder)),
-        )
+        experiment = plan.build_experiment(plan.task_config(), 0, worlds, worlds, Path(folder))
         experiment.close()  # its own envs: only the policy is wanted
     return experiment.policy
 

@@ -47,8 +47,6 @@ def sb3_rate(bot_steps: int) -> float:
 
 def ippo_rate(batches: int, recipe_file: str | None) -> float:
     """Bot-steps per second of `batches` IPPO iterations."""
-    from benchmarl.experiment import Experiment
-
     from bbbench.marl.recipes import marl_recipe
     from bbbench.marl.training import _quiet, observation_statistics
 
@@ -57,14 +55,7 @@ def ippo_rate(batches: int, recipe_file: str | None) -> float:
     task.observation_normalization = observation_statistics(TASK, task.env_kwargs, seed=0)
     frames = plan.batch() * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
-        experiment = Experiment(
-            task=task,
-            algorithm_config=plan.algorithm_config(),
-            model_config=plan.model_config(),
-            critic_model_config=plan.model_config(critic=True),
-            seed=0,
-            config=plan.experiment_config(frames, plan.n_envs, Path(folder)),
-        )
+        experiment = plan.build_experiment(task, 0, frames, plan.n_envs, Path(folder))
         began = time.perf_counter()
         experiment.run()
         seconds = time.perf_counter() - began

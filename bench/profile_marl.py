@@ -150,6 +150,7 @@ def run(
     batch = int(plan.experiment.get("on_policy_collected_frames_per_batch", 6000))
     frames = batch * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
+        # Built by hand, not `plan.build_experiment`: this runs on the code before it too.
         experiment = Experiment(
             task=task,
             algorithm_config=plan.algorithm_config(),

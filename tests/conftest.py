@@ -141,3 +141,18 @@ def assert_acts_as_predict(path: Path, model, steps: int = 200, **load) -> None:
         observation, _, terminated, truncated, _ = env.step(expected)
         if terminated or truncated:
             observation, _ = env.reset()
+
+
+def load_script(name: str):
+    """`scripts/<name>.py` as a module (registered under its name: a dataclass there
+    looks its module up)."""
+    import importlib.util
+    import sys
+
+    found = importlib.util.spec_from_file_location(
+        name, Path(__file__).resolve().parents[1] / "scripts" / f"{name}.py"
+    )
+    module = importlib.util.module_from_spec(found)
+    sys.modules[name] = module
+    found.loader.exec_module(module)
+    return module

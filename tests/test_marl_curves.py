@@ -4,7 +4,6 @@ its stratified-bootstrap interval, and marl-eval's raw data of the same curves."
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -13,18 +12,9 @@ import pytest
 
 from bbbench.evaluation.results import normalized
 from bbbench.tasks.suite import spec
+from conftest import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
 TASK = "bbbench/MultiBalance-v1"
-
-
-def load_script():
-    found = importlib.util.spec_from_file_location(
-        "marl_curves", ROOT / "scripts" / "marl_curves.py"
-    )
-    module = importlib.util.module_from_spec(found)
-    found.loader.exec_module(module)
-    return module
 
 
 def fake_runs(root: Path, stem: str, levels: dict[int, list[float]]) -> None:
@@ -40,7 +30,7 @@ def fake_runs(root: Path, stem: str, levels: dict[int, list[float]]) -> None:
 
 
 def test_the_curve_pools_every_seeds_episodes_at_each_point(tmp_path):
-    curves = load_script()
+    curves = load_script("marl_curves")
     fake_runs(tmp_path, "ippo-multibalance-v1-3m", {0: [40.0, 80.0], 2: [60.0, 100.0]})
     runs = curves.cell_runs(tmp_path, "ippo-multibalance-v1-3m")
     assert sorted(runs) == [0, 2]  # seed 1 not trained yet: left out
@@ -59,7 +49,7 @@ def test_the_curves_go_through_marl_evals_own_pipeline(tmp_path):
         from marl_eval.utils import data_processing_utils
     except ImportError:
         pytest.skip("id-marl-eval is not installed (.ci/run installs it)")
-    curves = load_script()
+    curves = load_script("marl_curves")
     data = {}
     for method, shift in (("ippo", 0.0), ("mappo", 10.0)):
         stem = f"{method}-multibalance-v1-3m"
@@ -73,7 +63,7 @@ def test_the_curves_go_through_marl_evals_own_pipeline(tmp_path):
 
 
 def test_the_script_draws_each_task_with_its_controllers_line(tmp_path, monkeypatch, capsys):
-    curves = load_script()
+    curves = load_script("marl_curves")
     fake_runs(tmp_path, "ippo-x", {0: [40.0, 80.0], 1: [50.0, 90.0]})
     out = tmp_path / "images"
     out.mkdir()

@@ -3,20 +3,12 @@ runs' own files: a run that plays exactly the classical controller's episodes ti
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
+from conftest import load_script
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def load_script():
-    spec = importlib.util.spec_from_file_location(
-        "marl_tables", ROOT / "scripts" / "marl_tables.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def fake_run(folder: Path, results: dict, minutes: float) -> None:
@@ -28,7 +20,7 @@ def fake_run(folder: Path, results: dict, minutes: float) -> None:
 
 
 def test_a_run_playing_the_controllers_episodes_ties_it(tmp_path):
-    tables = load_script()
+    tables = load_script("marl_tables")
     board = ROOT / "leaderboards"
     pd = json.loads((board / "results" / "pd.json").read_text())
     worse = json.loads(json.dumps(pd))
@@ -60,7 +52,7 @@ def test_a_run_playing_the_controllers_episodes_ties_it(tmp_path):
 
 
 def test_the_same_episodes_give_one_half(tmp_path):
-    tables = load_script()
+    tables = load_script("marl_tables")
     board = ROOT / "leaderboards"
     fake_run(tmp_path / "x-s0", json.loads((board / "results" / "pd.json").read_text()), 20.0)
     line = tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "X", "x")
@@ -68,7 +60,7 @@ def test_the_same_episodes_give_one_half(tmp_path):
 
 
 def test_versus_pools_the_seeds_and_sets_one_method_against_the_other(tmp_path):
-    tables = load_script()
+    tables = load_script("marl_tables")
     pd = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
     better = json.loads(json.dumps(pd))
     for block in better["tasks"]:

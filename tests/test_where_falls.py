@@ -3,32 +3,21 @@ tracking: it plays the episodes `bbbench eval` plays (the board's falls, seed by
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bbbench.tasks.suite import spec
+from conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 TASK = "bbbench/MultiBalance-v1"
 
 
-def load_script():
-    found = importlib.util.spec_from_file_location(
-        "where_falls", ROOT / "scripts" / "where_falls.py"
-    )
-    module = importlib.util.module_from_spec(found)
-    sys.modules["where_falls"] = module  # its dataclass looks its module up
-    found.loader.exec_module(module)
-    return module
-
-
 def test_the_falls_are_the_boards_and_each_is_placed():
-    script = load_script()
+    script = load_script("where_falls")
     seeds = list(spec(TASK).eval_seeds[:10])
     counted = script.tally("pd", TASK, seeds)
     board = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
@@ -43,7 +32,7 @@ def test_the_falls_are_the_boards_and_each_is_placed():
 
 
 def test_nearest_reads_the_first_neighbour_slot():
-    script = load_script()
+    script = load_script("where_falls")
     observation = np.zeros(17, dtype=np.float32)
     assert script.nearest(observation) == float("inf")  # no bot within range
     observation[5:7] = (3.0, -4.0)
@@ -51,6 +40,6 @@ def test_nearest_reads_the_first_neighbour_slot():
 
 
 def test_a_team_task_is_refused():
-    script = load_script()
+    script = load_script("where_falls")
     with pytest.raises(SystemExit, match="not a crossing task"):
         script.tally("pd", "bbbench/Convoy-v0", [0])

@@ -101,13 +101,11 @@ def run(args: argparse.Namespace) -> int:
         tasks, key, _ = training.check_request(
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
-        if args.n_envs is not None and args.n_envs < 1:
-            raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
         check_seed(args.seed)
         check_output_path(args.out, "--out")
         plan = training.recipe(args.algo, key, args.recipe)
         training.statistics_path(args.out, plan)
-        _, note = _check_collection(args, plan, tasks)
+        _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
         if args.log is not None:
             log = Path(args.log)
             if log.exists() and not log.is_dir():
@@ -201,7 +199,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
         )
         check_output_path(args.out, "--out")  # its folder holds the seeds' folders
         plan = training.recipe(args.algo, key, args.recipe)
-        _, note = _check_collection(args, plan, tasks)
+        _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
         for seed in seeds:
             out = fanout.seed_out(args.out, seed)
             if out.parent.exists() and not out.parent.is_dir():
@@ -240,28 +238,3 @@ def _run_seeds(args: argparse.Namespace) -> int:
         score = run.results["overall"]["normalized_iqm"]
         print(f"seed {run.seed}: {run.out}, normalized IQM {score:.3f}")
     return 0
-
-
-def _check_collection(args: argparse.Namespace, plan, tasks: list[str]) -> tuple[int, str | None]:
-    """Check --n-envs and --workers against the recipe `plan`: the budget as it will be
-    trained, and the note that says it was rounded up to one batch (else None)."""
-    from bbbench import training  # lazy: bbbench.training
-
-    if args.n_envs is not None and args.n_envs < 1:
-        raise ValueError(f"--n-envs must be at least 1, got {args.n_envs}")
-    marl = args.algo in training.MARL_TRAINABLE
-    if args.workers is not None and not marl:
-        raise ValueError(
-            f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
-            f"{args.algo} collects with --n-envs"
-        )
-    if marl:
-        from bbbench.envs.batched import check_memory  # lazy: bbbench.envs
-        from bbbench.marl.recipes import check_workers  # lazy: benchmarl
-
-        worlds = args.n_envs or plan.n_envs
-        check_memory(worlds)
-        plan.check_worlds(worlds)
-        if args.workers is not None:
-            check_workers(args.workers, worlds)
-    return training.budget_of(plan, tasks, args.n_envs, args.steps)

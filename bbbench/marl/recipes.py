@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import torch.nn
-from benchmarl.experiment import ExperimentConfig
+from benchmarl.experiment import Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
 from benchmarl.utils import _read_yaml_config
 
@@ -142,6 +142,21 @@ class MarlRecipe:
             if fields.get(key) is not None:
                 fields[key] = getattr(torch.nn, fields[key].removeprefix("torch.nn."))
         return dataclasses.replace(MlpConfig.get_from_yaml(), **fields)
+
+    def build_experiment(
+        self, task, seed: int, frames: int, n_envs: int, folder: Path, callbacks=()
+    ) -> Experiment:
+        """BenchMARL's `Experiment` of this recipe on `task` (`task_config()`'s, perhaps
+        changed): `frames` world steps from `n_envs` worlds, writing under `folder`."""
+        return Experiment(
+            task=task,
+            algorithm_config=self.algorithm_config(),
+            model_config=self.model_config(),
+            critic_model_config=self.model_config(critic=True),
+            seed=seed,
+            config=self.experiment_config(frames, n_envs, folder),
+            callbacks=list(callbacks),
+        )
 
     def experiment_config(self, frames: int, n_envs: int, folder: Path) -> ExperimentConfig:
         config = ExperimentConfig.get_from_yaml()

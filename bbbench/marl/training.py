@@ -46,12 +46,12 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
-from bbbench.marl.recipes import MarlRecipe, check_workers, marl_recipe
+from bbbench.marl.recipes import MarlRecipe, marl_recipe
 from bbbench.policies import load_policy, onnx_bytes
 from bbbench.policies.onnx_file import parse_onnx
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.training.logs import Trained, curve_point, write_logs
-from bbbench.training.recipes import whole_batches
+from bbbench.training.recipes import check_collection
 from bbbench.training.seeds import evaluation_seeds
 
 ACTION_MODE = "discrete"
@@ -197,17 +197,16 @@ def train_marl(
     default to the recipe's; `eval_freq` to a tenth of the budget and at least a batch,
     at the end of the training iteration that reaches it."""
     plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
+    budget, batch, _ = check_collection(plan, [task_id], n_envs, workers, steps)
     n_envs = n_envs or plan.n_envs
-    plan.check_worlds(n_envs)
-    budget, _ = whole_batches(steps or plan.n_timesteps, plan.batch())
     out = check_output_path(out, "--out")
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")
-    eval_freq = max(eval_freq or budget // 10, plan.batch())
+    eval_freq = max(eval_freq or budget // 10, batch)
     task = plan.task_config()
     if workers is not None:
-        task.config["workers"] = check_workers(workers, n_envs)
+        task.config["workers"] = workers
     bots = task.config["n_bots"]  # the recipe's, which may differ from the task's default
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
@@ -225,15 +224,7 @@ def train_marl(
             task.observation_normalization,
             seed,
         )
-        experiment = Experiment(
-            task=task,
-            algorithm_config=plan.algorithm_config(),
-            model_config=plan.model_config(),
-            critic_model_config=plan.model_config(critic=True),
-            seed=seed,
-            config=plan.experiment_config(budget, n_envs, Path(scratch)),
-            callbacks=[callback],
-        )
+        experiment = plan.build_experiment(task, seed, budget, n_envs, Path(scratch), [callback])
         experiment.run()
         callback.evaluate_now()  # the end of the budget is a point of the curve
         experiment.close()

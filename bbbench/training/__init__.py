@@ -8,10 +8,16 @@ The training loop is `bbbench.training.trainer`; its evaluation during training,
 """
 
 from bbbench.training.logs import Trained
-from bbbench.training.recipes import MARL_TRAINABLE, MIX, TRAINABLE, Recipe, recipe
+from bbbench.training.recipes import (
+    MARL_TRAINABLE,
+    MIX,
+    TRAINABLE,
+    Recipe,
+    check_collection,
+    recipe,
+)
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
-    budget_of,
     build_model,
     check_request,
     reproducible_zip,
@@ -27,8 +33,8 @@ __all__ = [
     "TRAINABLE",
     "Recipe",
     "Trained",
-    "budget_of",
     "build_model",
+    "check_collection",
     "check_request",
     "evaluation_seeds",
     "recipe",

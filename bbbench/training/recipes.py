@@ -18,11 +18,12 @@ from __future__ import annotations
 import ast
 import dataclasses
 import inspect
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from bbbench.policies.algorithms import ALGORITHMS, by_key, unknown
-from bbbench.tasks.suite import SUITE, latest_version
+from bbbench.tasks.suite import SUITE, latest_version, spec
 from bbbench.training.recipe_files import read_recipe_file, recipe_file
 
 # The algorithms `bbbench train` trains: those of the table with a shipped recipe file.
@@ -218,3 +219,40 @@ def whole_batches(steps: int, batch: int) -> tuple[int, str | None]:
         f"--steps {steps:,} is less than one batch of the recipe ({batch:,} steps collected "
         f"before it learns): training one batch, {batch:,} steps"
     )
+
+
+def vec_slots(tasks: Sequence[str], n_envs: int) -> int:
+    """The slots of the VecEnv `n_envs` envs of `tasks` make (a multi-bot world: one per
+    bot)."""
+    task = spec(tasks[0])
+    return n_envs * (task.group.n_bots if task.multi_agent else 1)
+
+
+def check_collection(
+    plan, tasks: Sequence[str], n_envs: int | None, workers: int | None, steps: int | None
+) -> tuple[int, int, str | None]:
+    """How a training of `plan` collects, checked: its budget (`steps`, default the
+    recipe's, at least one batch), its batch (a rollout of every env; IPPO's and MAPPO's
+    world steps a batch), and the note that says the budget was rounded up (else None).
+    `ValueError` for envs or worker processes the recipe cannot take."""
+    if n_envs is not None and n_envs < 1:
+        raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
+    n_envs = n_envs or plan.n_envs
+    if plan.algorithm in MARL_TRAINABLE:
+        from bbbench.envs.batched import check_memory  # lazy: bbbench.envs
+        from bbbench.marl.recipes import check_workers  # lazy: benchmarl
+
+        check_memory(n_envs)
+        plan.check_worlds(n_envs)
+        if workers is not None:
+            check_workers(workers, n_envs)
+        batch = plan.batch()
+    else:
+        if workers is not None:
+            raise ValueError(
+                f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
+                f"{plan.algorithm} collects with --n-envs"
+            )
+        batch = plan.batch(vec_slots(tasks, n_envs))
+    budget, note = whole_batches(steps or plan.n_timesteps, batch)
+    return budget, batch, note

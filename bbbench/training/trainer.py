@@ -43,8 +43,8 @@ from bbbench.training.recipes import (
     MIX,
     TRAINABLE,
     Recipe,
+    check_collection,
     recipe,
-    whole_batches,
 )
 from bbbench.training.seeds import evaluation_seeds
 
@@ -146,7 +146,7 @@ def train(
     and write their last policy, as ONNX.
 
     `steps` and `n_envs` default to the recipe's (a budget is at least one rollout, see
-    `budget`); `eval_freq` to a tenth of the budget, and at least a rollout;
+    `check_collection`); `eval_freq` to a tenth of the budget, and at least a rollout;
     `final_episodes` (the closing `bbbench eval`) to every eval seed. `workers` (IPPO and
     MAPPO): the processes that step the worlds, default the recipe's.
     `on_progress(steps, total, latest evaluation point or None)` is called as it goes.
@@ -154,8 +154,6 @@ def train(
     import torch  # lazy: torch, stable_baselines3, for training only
 
     tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps, recipe_file)
-    if n_envs is not None and n_envs < 1:
-        raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
     if seed < 0:
         raise ValueError(f"--seed must be >= 0, got {seed}")
     if algorithm in MARL_TRAINABLE:
@@ -175,17 +173,11 @@ def train(
             recipe_file=recipe_file,
             workers=workers,
         )
-    if workers is not None:
-        raise ValueError(
-            f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
-            f"{algorithm} collects with --n-envs"
-        )
     from bbbench.training.callbacks import TrainingEvaluation  # lazy: stable_baselines3
 
     plan = recipe(algorithm, key, recipe_file)
+    budget, batch, _ = check_collection(plan, tasks, n_envs, workers, steps)
     n_envs = n_envs or plan.n_envs
-    budget, _ = budget_of(plan, tasks, n_envs, steps)
-    batch = plan.batch(vec_slots(tasks, n_envs))
     out = check_output_path(out, "--out")
     statistics = statistics_path(out, plan)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
@@ -229,25 +221,6 @@ def train(
     }
     write_logs(log_dir, callback.curve, tasks, algorithm, record, results)
     return Trained(out, log_dir, statistics, callback.curve, results, seconds, plan)
-
-
-def vec_slots(tasks: Sequence[str], n_envs: int) -> int:
-    """The slots of the VecEnv `n_envs` envs of `tasks` make (a multi-bot world: one per
-    bot)."""
-    task = spec(tasks[0])
-    return n_envs * (task.group.n_bots if task.multi_agent else 1)
-
-
-def budget_of(plan, tasks: Sequence[str], n_envs: int | None, steps: int | None):
-    """The steps a training of `plan` runs for `steps` (default: the recipe's): at least
-    one batch (a rollout of every env; IPPO's and MAPPO's batch of world steps), and the
-    note that says so when it is rounded up, else None."""
-    n_envs = n_envs or plan.n_envs
-    if plan.algorithm in MARL_TRAINABLE:
-        batch = plan.batch()
-    else:
-        batch = plan.batch(vec_slots(tasks, n_envs))
-    return whole_batches(steps or plan.n_timesteps, batch)
 
 
 def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
