@@ -337,3 +337,11 @@ def test_a_graph_exported_for_one_observation_runs_row_by_row_alike(tmp_path):
     assert not batched.rows
     observations = np.random.default_rng(4).normal(0, 2, (64, 5)).astype(np.float32)
     assert single(observations) == batched(observations)
+
+
+def test_an_onnx_policy_is_named_after_its_file_in_the_results(tmp_path):
+    path = export_zip(load_policy("reference"), tmp_path / "my-policy.onnx")
+    document = evaluation.evaluate(
+        load_policy(path), ["bbbench/FlatBalance-v1"], episodes=1, workers=1
+    ).document
+    assert document["policy"]["name"] == "my-policy.onnx"

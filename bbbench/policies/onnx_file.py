@@ -136,12 +136,12 @@ def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
         _check_node(where, node)
         tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
         declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
-    for name, tensor in tensors:  # every size and location before any value is decoded
-        declared += _check_tensor(where, name, tensor)
+    for tensor_name, tensor in tensors:  # every size and location before any value is decoded
+        declared += _check_tensor(where, tensor_name, tensor)
         if declared > MAX_PARAMETERS:
             raise RefusedForSafety(
                 f"{where}: its tensors declare more than {MAX_PARAMETERS:,} values (at "
-                f"{name!r}, shape {list(tensor.dims)}); bbbench evaluates smaller networks"
+                f"{tensor_name!r}, shape {list(tensor.dims)}); bbbench evaluates smaller networks"
             )
     constants = {t.name: decode(where, t.name, t) for t in graph.initializer}
     nodes = tuple(_node(where, node) for node in graph.node)
