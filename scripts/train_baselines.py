@@ -32,6 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from bbbench.policies.vecnormalize import find_rl_zoo_statistics
+from bbbench.training.beside import described
 
 LATEST_SINGLE = (
     "bbbench/FlatBalance-v1",
@@ -145,7 +146,7 @@ def _add(
         "--env-steps", str(record.get("bot_steps", record["steps"])),
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
-        + (f"{side_by_side} trainings side by side" if side_by_side != 1 else "one training"),
+        + (described(record.get("trainings_beside")) or _asked(side_by_side)),
         "--seeds", str(run["seed"]),
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
         "--licence", "MIT",
@@ -165,6 +166,12 @@ def _add(
         statistics.unlink()
         statistics.parent.rmdir()
     return f"{run['slug']}: {minutes:.1f} min, on the board"
+
+
+def _asked(side_by_side: int | str) -> str:
+    """Trainings side by side as the script ran them, for records made before trainings
+    counted their neighbours (`trainings_beside` in train.json)."""
+    return f"{side_by_side} trainings side by side" if side_by_side != 1 else "one training"
 
 
 def table(root: Path, board: Path) -> str:

@@ -53,6 +53,7 @@ def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, c
     assert len(curve[0]["returns"]) == len(training.evaluation_seeds(FLAT))
     assert curve[0]["mean"] == pytest.approx(sum(curve[0]["returns"]) / len(curve[0]["returns"]))
     record = json.loads((first / "train.json").read_text())
+    assert record["trainings_beside"]["samples"] >= 2  # counted at its start and its end
     seeds = record["evaluation_seeds"][FLAT]
     assert seeds == training.evaluation_seeds(FLAT)
     assert not set(seeds) & set(bbbench.spec(FLAT).eval_seeds)

@@ -50,6 +50,7 @@ from bbbench.marl.recipes import MarlRecipe, marl_recipe
 from bbbench.policies import load_policy, onnx_bytes
 from bbbench.policies.onnx_file import parse_onnx
 from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.training.beside import trainings_beside
 from bbbench.training.logs import Trained, curve_point, write_logs
 from bbbench.training.recipes import check_collection
 from bbbench.training.seeds import evaluation_seeds
@@ -212,7 +213,11 @@ def train_marl(
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
     task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed)
-    with _quiet(), tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
+    with (
+        _quiet(),
+        trainings_beside() as beside,
+        tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch,
+    ):
         callback = TrainingEvaluation(
             task_id,
             eval_freq,
@@ -247,6 +252,7 @@ def train_marl(
         "checkpoint_rule": CHECKPOINT_RULE,
         "kept": callback.curve[-1],
         "wall_time_s": round(seconds, 1),
+        "trainings_beside": beside.record(),
         "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
         "recipe": plan.record(),
         "versions": _versions(),

@@ -37,6 +37,7 @@ from bbbench.policies import load_policy
 from bbbench.policies.algorithms import by_key, unknown
 from bbbench.policies.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import list_tasks, spec
+from bbbench.training.beside import trainings_beside
 from bbbench.training.logs import Trained, write_logs
 from bbbench.training.recipes import (
     MARL_TRAINABLE,
@@ -189,7 +190,10 @@ def train(
     began = time.perf_counter()
     env = training_env(plan, tasks, n_envs, mode, seed)
     model = build_model(plan, env, seed)
-    with tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch:
+    with (
+        trainings_beside() as beside,
+        tempfile.TemporaryDirectory(dir=log_dir, prefix=".training-") as scratch,
+    ):
         best = Path(scratch) / "best.zip"
         callback = TrainingEvaluation(tasks, mode, eval_freq, best, began, on_progress, budget)
         model.learn(total_timesteps=budget, callback=callback)
@@ -215,6 +219,7 @@ def train(
         "evaluation_seeds": {task_id: evaluation_seeds(task_id) for task_id in tasks},
         "best": max(callback.curve, key=lambda point: point["mean"]),
         "wall_time_s": round(seconds, 1),
+        "trainings_beside": beside.record(),
         "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
         "recipe": plan.record(),
         **({"statistics": str(statistics)} if statistics is not None else {}),
