@@ -80,7 +80,7 @@ def _checked(args: argparse.Namespace):
     episode is played."""
     from bbbench import evaluation  # lazy: bbbench.evaluation
     from bbbench.evaluation.backends import (  # lazy: bbbench.evaluation.backends
-        check_ray_address,
+        check_ray,
         default_workers,
     )
     from bbbench.evaluation.video import check_video_path  # lazy: bbbench.evaluation.video
@@ -104,7 +104,7 @@ def _checked(args: argparse.Namespace):
         if args.video is not None:
             check_video_path(args.video)
         if args.backend == "ray":
-            check_ray_address(args.address)
+            check_ray(args.address)
         policy = load_policy(
             args.policy,
             vecnormalize=args.vecnormalize,

@@ -117,7 +117,7 @@ def _add_parser_of_add(actions) -> None:
 
 def _options(args: argparse.Namespace) -> dict:
     """The options every leaderboard command that plays episodes shares, checked."""
-    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation.backends
+    from bbbench.evaluation.backends import check_ray  # lazy: bbbench.evaluation.backends
 
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
@@ -125,7 +125,7 @@ def _options(args: argparse.Namespace) -> dict:
         raise UsageError("--address names a Ray cluster: use it with --backend ray")
     if args.backend == "ray":
         try:
-            check_ray_address(args.address)
+            check_ray(args.address)
         except ValueError as error:
             raise UsageError(str(error)) from None
     return {"workers": args.workers, "backend": args.backend, "address": args.address}

@@ -114,7 +114,7 @@ def _checked(args: argparse.Namespace):
     """The policies, the axis, its values and the tasks, every pair checked before any
     episode is played."""
     from bbbench.evaluation import select_tasks  # lazy: bbbench.evaluation
-    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation.backends
+    from bbbench.evaluation.backends import check_ray  # lazy: bbbench.evaluation.backends
     from bbbench.evaluation.sweep import (  # lazy: bbbench.evaluation.sweep
         check_axis,
         parse_values,
@@ -136,7 +136,7 @@ def _checked(args: argparse.Namespace):
                     f"--plot {args.plot}: the figure is written as .svg or .png, by its name"
                 )
         if args.backend == "ray":
-            check_ray_address(args.address)
+            check_ray(args.address)
         check_distinct_policies(args.policy)
         policies = [load_policy(name) for name in args.policy]
         requested = args.task or _default_tasks(axis, policies)

@@ -11,7 +11,6 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from bbbench.cli.common import UsageError, check_seed, results_table
-from bbbench.files import check_output_path
 
 
 def add_parser(commands) -> None:
@@ -88,11 +87,6 @@ def run(args: argparse.Namespace) -> int:
     marl = args.algo in training.MARL_TRAINABLE
     if args.out is None:
         args.out = "policy.onnx" if marl else "policy.zip"
-    elif marl and not args.out.endswith(".onnx"):
-        raise UsageError(
-            f"--out {args.out}: {args.algo.upper()} writes an ONNX policy: give a name "
-            f"ending in .onnx"
-        )
     if args.seeds is not None:
         return _run_seeds(args)
     if args.backend != "local" or args.address is not None:
@@ -102,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
         check_seed(args.seed)
-        check_output_path(args.out, "--out")
+        training.check_policy_path(args.algo, args.out)
         plan = training.recipe(args.algo, key, args.recipe)
         training.statistics_path(args.out, plan)
         _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
@@ -183,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_seeds(args: argparse.Namespace) -> int:
     """`--seeds`: one training per seed, here or on Ray; a line as each finishes."""
     from bbbench import training  # lazy: bbbench.training
-    from bbbench.evaluation.backends import check_ray_address  # lazy: bbbench.evaluation
+    from bbbench.evaluation.backends import check_ray  # lazy: bbbench.evaluation
     from bbbench.training import fanout  # lazy: bbbench.training
 
     try:
@@ -197,7 +191,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
         tasks, key, _ = training.check_request(
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
-        check_output_path(args.out, "--out")  # its folder holds the seeds' folders
+        training.check_policy_path(args.algo, args.out)  # its folder holds the seeds' folders
         plan = training.recipe(args.algo, key, args.recipe)
         _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
         for seed in seeds:
@@ -206,7 +200,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
                 raise ValueError(f"--out {args.out}: seed {seed}'s folder {out.parent} is a file")
             training.statistics_path(out, plan)
         if args.backend == "ray":
-            check_ray_address(args.address)
+            check_ray(args.address)
     except ValueError as error:
         raise UsageError(str(error)) from None
     if note is not None:

@@ -212,10 +212,24 @@ def _next_job(stretches: list[deque], slot: int) -> tuple[int, TaskSpec, tuple[i
 RAY_CONNECT_TIMEOUT = 10.0  # s
 
 
-def check_ray_address(address: str | None) -> None:
-    """`ValueError` naming `address` unless it is a Ray address that answers: None or
-    "auto" (a local Ray), or HOST:PORT / ray://HOST:PORT with something listening there.
-    Ray itself retries an unreachable address for minutes."""
+def import_ray():
+    """The `ray` module; `ValueError` saying what to install if it is not."""
+    try:
+        import ray  # lazy: ray, optional (the ray extra)
+    except ImportError:
+        raise ValueError(
+            '--backend ray: Ray is not installed here: pip install "bbbench[ray]", or leave '
+            "--backend out to run on this machine"
+        ) from None
+    return ray
+
+
+def check_ray(address: str | None) -> None:
+    """`ValueError` saying what to install unless Ray is, and naming `address` unless it
+    is a Ray address that answers: None or "auto" (a local Ray), or HOST:PORT /
+    ray://HOST:PORT with something listening there. Ray itself retries an unreachable
+    address for minutes."""
+    import_ray()
     if address is None or address in ("auto", "local"):
         return
     expected = "expected HOST:PORT or ray://HOST:PORT (e.g. 10.0.0.5:6379), or auto"
@@ -236,8 +250,8 @@ def check_ray_address(address: str | None) -> None:
 def join_ray(address: str | None, cpus: int) -> bool:
     """Start a local Ray of `cpus` CPUs, or join the cluster at `address`, unless Ray is
     up already; whether this call started it (and should shut it down).
-    `ConnectionError` if Ray cannot start or be joined."""
-    import ray  # lazy: ray, optional (the ray extra)
+    `ConnectionError` if Ray cannot start or be joined, `ValueError` if it is not installed."""
+    ray = import_ray()
 
     if ray.is_initialized():
         return False
@@ -274,7 +288,7 @@ def run_ray(
 ) -> list[Results]:
     """Run `jobs` as tasks of `workers` Ray actors, on a local Ray or the cluster at
     `address`. Ray restarts a dead actor and retries its task once."""
-    import ray  # lazy: ray, optional (the ray extra)
+    ray = import_ray()
     from ray.exceptions import RayActorError  # lazy: ray
 
     started = join_ray(address, workers)

@@ -275,6 +275,11 @@ def _check_task(where: str, task_id: str, keywords: dict[str, Any]) -> None:
             raise ValueError(
                 f"{where}, task: unknown keyword {field!r}; the task takes {', '.join(defaults)}"
             )
+    try:  # the env's own checks of its keywords' values (it builds no world until reset)
+        env_kwargs = {key: value for key, value in keywords.items() if key != "workers"}
+        bbbench.make_parallel(task_id, **env_kwargs).close()
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{where}, task: {error}") from None
 
 
 def _check_model(where: str, section: dict[str, Any]) -> None:

@@ -54,6 +54,7 @@ from bbbench.training.beside import trainings_beside
 from bbbench.training.logs import Trained, curve_point, write_logs
 from bbbench.training.recipes import check_collection
 from bbbench.training.seeds import evaluation_seeds
+from bbbench.training.trainer import check_policy_path
 
 ACTION_MODE = "discrete"
 CHECKPOINT_RULE = "last"  # the policy written: the last one, never a lucky best
@@ -200,7 +201,7 @@ def train_marl(
     plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
     budget, batch, _ = check_collection(plan, [task_id], n_envs, workers, steps)
     n_envs = n_envs or plan.n_envs
-    out = check_output_path(out, "--out")
+    out = check_policy_path(algorithm, out)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")

@@ -19,6 +19,7 @@ from bbbench.training.recipes import (
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
     build_model,
+    check_policy_path,
     check_request,
     reproducible_zip,
     statistics_path,
@@ -35,6 +36,7 @@ __all__ = [
     "Trained",
     "build_model",
     "check_collection",
+    "check_policy_path",
     "check_request",
     "evaluation_seeds",
     "recipe",

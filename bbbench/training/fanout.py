@@ -22,7 +22,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from bbbench.evaluation.backends import default_workers, join_ray
+from bbbench.evaluation.backends import default_workers, import_ray, join_ray
 from bbbench.files import write_all_atomic
 from bbbench.training.trainer import train
 
@@ -87,8 +87,7 @@ def train_seeds(
                 if on_done is not None:
                     on_done(done[-1])
         return done
-    import ray  # lazy: ray, optional (the ray extra)
-
+    ray = import_ray()
     started = join_ray(address, min(len(jobs), default_workers()))
     try:
         # A fresh worker process for every seed (max_calls=1), as for the local backend.

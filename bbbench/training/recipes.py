@@ -116,6 +116,7 @@ def recipe(algorithm: str, key: str, file: str | Path | None = None):
             f"{algorithm}.yml, {key}: env_wrapper is refused: a recipe learns from the task's "
             f"own reward (normalizing observations or rewards in the algorithm is fine)"
         )
+    _check_keys(algorithm, f"{Path(file).name if file else f'{algorithm}.yml'}, {key}", entry)
     noise_type = entry.get("noise_type")
     if noise_type not in (None, "normal"):
         raise ValueError(f"{algorithm}.yml, {key}: noise_type {noise_type!r}: only 'normal'")
@@ -130,6 +131,20 @@ def recipe(algorithm: str, key: str, file: str | Path | None = None):
         noise_std=float(entry["noise_std"]) if noise_type else None,
         normalize=parse_normalize(entry.get("normalize", False), f"{algorithm}.yml, {key}"),
     )
+
+
+# What bbbench passes the algorithm's class itself: a recipe cannot set them.
+_SET_BY_BBBENCH = ("env", "seed", "device", "verbose", "action_noise", "_init_setup_model")
+
+
+def _check_keys(algorithm: str, where: str, entry: dict[str, Any]) -> None:
+    """`ValueError` naming a key of the recipe that neither rl-zoo3's format nor the
+    algorithm's class takes (a misspelt `learning_rte`), with the keys there are."""
+    parameters = inspect.signature(by_key(algorithm).model_class()).parameters
+    known = tuple(sorted({*_ZOO_KEYS, *parameters} - set(_SET_BY_BBBENCH)))
+    for name in entry:
+        if name not in known:
+            raise ValueError(f"{where}: {unknown('key', name, known)}")
 
 
 def marl_recipe(algorithm: str, key: str, file: str | Path | None = None):

@@ -109,6 +109,22 @@ def check_request(
     return tasks, key, mode
 
 
+def check_policy_path(algorithm: str, out: str | Path) -> Path:
+    """`out` as the policy file `algorithm` writes: a name ending in .zip
+    (stable-baselines3) or .onnx (IPPO, MAPPO), in a folder it can write, so that it is
+    never taken for one of the logs written beside it (curve.json, train.json ...);
+    `ValueError` saying what to give."""
+    suffix, written = (
+        (".onnx", "an ONNX policy") if algorithm in MARL_TRAINABLE else (".zip", "a zip policy")
+    )
+    if Path(str(out)).suffix != suffix:
+        raise ValueError(
+            f"--out {out}: {algorithm.upper()} writes {written}: give a file name ending in "
+            f"{suffix} (curve.json, curve.png, train.json and results.json go beside it)"
+        )
+    return check_output_path(out, "--out")
+
+
 def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[list[str], str, str]:
     name = algorithm.upper()
     if len(tasks) > 1:
@@ -179,7 +195,7 @@ def train(
     plan = recipe(algorithm, key, recipe_file)
     budget, batch, _ = check_collection(plan, tasks, n_envs, workers, steps)
     n_envs = n_envs or plan.n_envs
-    out = check_output_path(out, "--out")
+    out = check_policy_path(algorithm, out)
     statistics = statistics_path(out, plan)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,83 @@
+"""The defects a new-user audit of the newer surfaces found (issue 51's table), each
+held by a test: one line and exit code 2, with nothing written, or the right record."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+import yaml
+
+from bbbench.training.recipe_files import recipe_file
+from conftest import FLAT, one_line_exit_2
+
+LATEST_FLAT = "bbbench/FlatBalance-v1"  # a task with recipes
+
+BEAM = "bbbench/BeamCarry-v0"
+
+
+@pytest.mark.parametrize("name", ["curve.json", "train.json", "results.json"])
+def test_1_a_policy_named_as_a_log_is_refused_before_training(tmp_path, capsys, name):
+    out = tmp_path / name
+    err = one_line_exit_2(capsys, "train", LATEST_FLAT, "--algo", "ppo", "--out", str(out))
+    assert f"--out {out}: PPO writes a zip policy: give a file name ending in .zip" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_7_a_zip_policy_named_onnx_is_refused_before_training(tmp_path, capsys):
+    out = tmp_path / "ppo.onnx"
+    err = one_line_exit_2(
+        capsys, "train", LATEST_FLAT, "--algo", "ppo", "--seeds", "0,1", "--out", str(out)
+    )
+    assert "give a file name ending in .zip" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["eval", "pd", "--task", FLAT],
+        ["sweep", "pd", "--task", FLAT, "--axis", "payload_mass", "--values", "0,1"],
+        ["train", LATEST_FLAT, "--algo", "ppo", "--seeds", "0,1"],
+    ],
+)
+def test_8_ray_not_installed_is_one_line_naming_the_extra(tmp_path, capsys, monkeypatch, argv):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails, as without the extra
+    monkeypatch.chdir(tmp_path)
+    err = one_line_exit_2(capsys, *argv, "--backend", "ray")
+    assert 'pip install "bbbench[ray]"' in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def _recipe(tmp_path, algorithm: str, task_id: str, **changes) -> str:
+    entry = yaml.safe_load(recipe_file(algorithm).read_text())[task_id]
+    for section, value in changes.items():
+        entry[section] = value
+    path = tmp_path / "recipe.yml"
+    path.write_text(yaml.safe_dump({task_id: entry}))
+    return str(path)
+
+
+def test_9_a_misspelt_recipe_key_is_one_line_with_the_keys_there_are(tmp_path, capsys):
+    entry = yaml.safe_load(recipe_file("ppo").read_text())[LATEST_FLAT]
+    entry["learning_rte"] = entry.pop("learning_rate")
+    (tmp_path / "recipe.yml").write_text(yaml.safe_dump({LATEST_FLAT: entry}))
+    out = tmp_path / "policy.zip"
+    argv = ["train", LATEST_FLAT, "--algo", "ppo", "--recipe", str(tmp_path / "recipe.yml")]
+    err = one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert "unknown key 'learning_rte'. Did you mean 'learning_rate'?" in err
+    assert "n_steps" in err  # the keys PPO's recipes take
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(("task_id", "bots"), [(BEAM, 9), ("bbbench/MultiBalance-v1", 99)])
+def test_10_a_marl_recipe_with_bots_the_task_refuses_is_one_line(tmp_path, capsys, task_id, bots):
+    pytest.importorskip("benchmarl")
+    plan = _recipe(tmp_path, "ippo", task_id, task={"n_bots": bots, "workers": 1})
+    out = tmp_path / "policy.onnx"
+    err = one_line_exit_2(
+        capsys, "train", task_id, "--algo", "ippo", "--recipe", plan, "--out", str(out)
+    )
+    assert f"recipe.yml, {task_id}, task:" in err
+    assert f"got {bots}" in err
+    assert not out.exists()
