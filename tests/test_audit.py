@@ -81,3 +81,10 @@ def test_10_a_marl_recipe_with_bots_the_task_refuses_is_one_line(tmp_path, capsy
     assert f"recipe.yml, {task_id}, task:" in err
     assert f"got {bots}" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("policy", "task_id"), [("team", BEAM), ("pd", LATEST_FLAT)])
+def test_5_a_controller_asked_to_sample_is_refused_not_labelled_sampled(capsys, policy, task_id):
+    err = one_line_exit_2(capsys, "eval", policy, "--task", task_id, "--stochastic")
+    assert f"{policy}: it acts deterministically only" in err
+    assert "drop --stochastic" in err

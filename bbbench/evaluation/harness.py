@@ -205,7 +205,7 @@ def _player(policy: Policy, task_ids: Iterable[str], stochastic: bool = False) -
     `stochastic`)."""
     return LockstepPlayer(
         actors={
-            task_id: policy.actor(task_id, deterministic=not stochastic) for task_id in task_ids
+            task_id: policy.acting(task_id, stochastic) for task_id in task_ids
         },
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,

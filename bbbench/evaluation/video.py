@@ -48,7 +48,7 @@ def record_episode(
 
     path = check_video_path(path)
     task = spec(task_id)
-    act = policy.actor(task_id, deterministic=not stochastic)
+    act = policy.acting(task_id, stochastic)
     rng = action_generator(seed) if stochastic or policy.random_actions else None
     frames = []
     _play(task, policy, act, rng, seed, frames)

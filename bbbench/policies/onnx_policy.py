@@ -31,6 +31,8 @@ class OnnxPolicy(FilePolicy):
     """An ONNX policy file. `observation` and `action_space`: its contract, given on the
     command line for a file whose metadata carries none."""
 
+    deterministic_only = "its graph gives no sampling distribution"
+
     def __init__(
         self,
         path: str | Path | OnnxModel,
@@ -55,11 +57,6 @@ class OnnxPolicy(FilePolicy):
         self._actor = _actor(model, contract)
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        if not deterministic:
-            raise PolicyError(
-                f"{self.name}: an ONNX policy acts deterministically only (its graph gives no "
-                f"sampling distribution): drop --stochastic"
-            )
         return self._actor
 
     def record(self) -> dict[str, Any]:

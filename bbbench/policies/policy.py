@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from bbbench.policies.errors import PolicyError
 from bbbench.policies.vecnormalize import ObservationNormalization
 from bbbench.robots import ROBOTS
 
@@ -41,6 +42,8 @@ class Policy(abc.ABC):
     action_mode: str  # the env action mode it plays: "discrete" or "continuous"
     sha256: str | None = None  # of the policy file; None for a built-in without one
     random_actions = False  # True: acts from the episode's generator even when deterministic
+    # Why it cannot sample actions (`--stochastic`); None: it has a distribution to sample.
+    deterministic_only: str | None = "a classical controller has no distribution to sample"
     normalization_source: str | None = None  # where load_policy found statistics on its own
     height_scan = False  # True: observes the ground ahead too (tasks played with height_scan)
     robot: str | None = None  # the robot whose tasks it plays (`bbbench.robots`); None: any
@@ -52,6 +55,17 @@ class Policy(abc.ABC):
     @abc.abstractmethod
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         """A picklable actor for one bot of `task_id`."""
+
+    def acting(self, task_id: str, stochastic: bool = False) -> Actor:
+        """`actor`, sampling the policy's distribution if `stochastic`: `PolicyError` for
+        a policy that has none (its episodes would be labelled sampled, yet be the
+        deterministic ones)."""
+        if stochastic and not self.random_actions and self.deterministic_only is not None:
+            raise PolicyError(
+                f"{self.name}: it acts deterministically only ({self.deterministic_only}): "
+                f"drop --stochastic"
+            )
+        return self.actor(task_id, deterministic=not stochastic)
 
     def env_options(self) -> dict[str, Any]:
         """Keywords for a single-bot env to observe what the policy expects."""

@@ -26,6 +26,8 @@ class SB3ZipPolicy(FilePolicy):
     (`bbbench.policies.vecnormalize`), applied to every observation first.
     """
 
+    deterministic_only = None  # its action distribution, sampled with `--stochastic`
+
     def __init__(
         self,
         path: str | Path,
