@@ -204,9 +204,7 @@ def _player(policy: Policy, task_ids: Iterable[str], stochastic: bool = False) -
     """The runner of `policy`'s episodes on `task_ids` (deterministic actions unless
     `stochastic`)."""
     return LockstepPlayer(
-        actors={
-            task_id: policy.acting(task_id, stochastic) for task_id in task_ids
-        },
+        actors={task_id: policy.acting(task_id, stochastic) for task_id in task_ids},
         action_mode=policy.action_mode,
         sampled=stochastic or policy.random_actions,
         height_scan=policy.height_scan,
