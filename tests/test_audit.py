@@ -3,17 +3,22 @@ held by a test: one line and exit code 2, with nothing written, or the right rec
 
 from __future__ import annotations
 
+import shutil
 import sys
+from importlib import resources
 
 import pytest
 import yaml
 
+from bbbench.cli import main
+from bbbench.cli.sweep import distinct_labels
 from bbbench.training.recipe_files import recipe_file
 from conftest import FLAT, one_line_exit_2
 
 LATEST_FLAT = "bbbench/FlatBalance-v1"  # a task with recipes
 
 BEAM = "bbbench/BeamCarry-v0"
+REFERENCE_ZIP = resources.files("bbbench.policies") / "reference.zip"
 
 
 @pytest.mark.parametrize("name", ["curve.json", "train.json", "results.json"])
@@ -88,3 +93,23 @@ def test_5_a_controller_asked_to_sample_is_refused_not_labelled_sampled(capsys, 
     err = one_line_exit_2(capsys, "eval", policy, "--task", task_id, "--stochastic")
     assert f"{policy}: it acts deterministically only" in err
     assert "drop --stochastic" in err
+
+
+def test_3_two_policies_with_one_file_name_are_told_apart_by_their_folders(tmp_path, capsys):
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        shutil.copyfile(REFERENCE_ZIP, tmp_path / folder / "policy.zip")
+    given = [str(tmp_path / "a" / "policy.zip"), str(tmp_path / "b" / "policy.zip")]
+    plot = tmp_path / "sweep.svg"
+    argv = ["sweep", *given, "--axis", "payload_mass", "--values", "0,1", "--episodes", "1"]
+    assert main([*argv, "--workers", "1", "--plot", str(plot)]) == 0
+    stdout = capsys.readouterr().out
+    figure = plot.read_text()  # text kept as text (svg.fonttype none)
+    for label in ("a/policy.zip", "b/policy.zip"):
+        assert f"{label} (PPO)" in stdout
+        assert label in figure
+    assert distinct_labels(["pd", "x/y/policy.zip", "z/y/policy.zip"]) == [
+        "pd",
+        "x/y/policy.zip",
+        "z/y/policy.zip",
+    ]

@@ -88,14 +88,15 @@ def run(args: argparse.Namespace) -> int:
         except ConnectionError as error:
             raise UsageError(f"--address {args.address}: {error}") from None
     out = Console() if Console().is_terminal else Console(width=120)
-    for entry in document["policies"]:
-        out.print(_table(document, entry))
+    labels = distinct_labels(args.policy)
+    for entry, label in zip(document["policies"], labels, strict=True):
+        out.print(_table(document, entry, label))
     if args.json is not None:
         write_atomic(args.json, dumps(document).encode())
         args.written.append(args.json)
         print(f"wrote {args.json}")
     if args.plot is not None:
-        write_atomic(args.plot, _plot(document, Path(args.plot).suffix.lower()))
+        write_atomic(args.plot, _plot(document, labels, Path(args.plot).suffix.lower()))
         args.written.append(args.plot)
         print(f"wrote {args.plot}")
     missing = sum(
@@ -182,10 +183,10 @@ def _default_tasks(axis: str, policies) -> list[str]:
     return fits
 
 
-def _table(document: dict, entry: dict) -> Table:
+def _table(document: dict, entry: dict, label: str) -> Table:
     policy = entry["policy"]
     title = (
-        f"{policy['name']} ({policy['algorithm']}): normalized score [95% CI] by "
+        f"{label} ({policy['algorithm']}): normalized score [95% CI] by "
         f"{document['axis']} ({document['unit']})"
     )
     table = Table(title=title, title_justify="left", min_width=len(title))
@@ -218,18 +219,18 @@ def _table(document: dict, entry: dict) -> Table:
     return table
 
 
-def _plot(document: dict, suffix: str) -> bytes:
+def _plot(document: dict, labels: list[str], suffix: str) -> bytes:
     from bbbench.leaderboard.plots import png_bytes, score_curves, svg_text  # lazy: matplotlib
 
     panels = []
     for i, task_id in enumerate(t["task"] for t in document["policies"][0]["tasks"]):
         lines = []
-        for entry in document["policies"]:
+        for entry, label in zip(document["policies"], labels, strict=True):
             points = entry["tasks"][i]["points"]
             scored = [p for p in points if p["aggregate"].get("normalized_score") is not None]
             lines.append(
                 (
-                    entry["policy"]["name"],
+                    label,
                     [p["value"] for p in scored],
                     [p["aggregate"]["normalized_score"] for p in scored],
                     [p["aggregate"]["normalized_ci"][0] for p in scored],
@@ -245,6 +246,18 @@ def _plot(document: dict, suffix: str) -> bytes:
         )
     figure = score_curves(panels)
     return svg_text(figure).encode() if suffix == ".svg" else png_bytes(figure)
+
+
+def distinct_labels(given: list[str]) -> list[str]:
+    """The policies as given (built-in names, paths), each by as few of its path's last
+    parts as tell it from the others: `a/policy.zip` and `b/policy.zip`, not `policy.zip`
+    twice (every board entry's file is `policy.*`)."""
+    parts = [Path(name).parts or (name,) for name in given]
+    for count in range(1, max(map(len, parts), default=1) + 1):
+        labels = [str(Path(*p[-count:])) for p in parts]
+        if len(set(labels)) == len(labels):
+            return labels
+    return list(given)
 
 
 def check_distinct_policies(names: list[str]) -> None:
