@@ -55,6 +55,15 @@ def declared(dims, raw: bytes) -> bytes:
     return model_bytes(layer_graph(initializers=[weight, tensor("b", np.zeros(9))]))
 
 
+def declared_unused() -> bytes:
+    """A valid graph beside a tensor nothing reads that declares 10^10 values."""
+    unused = TensorProto(
+        name="unused", data_type=TensorProto.FLOAT, dims=[100_000, 100_000], raw_data=b"\0" * 16
+    )
+    weights = [tensor("w", np.full((5, 9), 0.1)), tensor("b", np.zeros(9)), unused]
+    return model_bytes(layer_graph(initializers=weights))
+
+
 def op(op_type: str, **attributes) -> bytes:
     node = helper.make_node(op_type, ["obs"], ["scores"], **attributes)
     return model_bytes(layer_graph(nodes=[node]))
@@ -227,6 +236,7 @@ CORPUS: list[tuple[str, Callable[[], bytes], str]] = [
     ("external-absolute", lambda: external("/etc/passwd"), "external_data=False"),
     ("external-traversal", lambda: external("../../secret.bin"), "external_data=False"),
     ("declared-1e10", lambda: declared([100_000, 100_000], b"\0" * 16), "10,000,000"),
+    ("declared-1e10-unused", declared_unused, "10,000,000"),
     ("shape-lies", lambda: declared([5, 9], b"\0" * 4), "declares shape [5, 9]"),
     ("typed-field-lies", typed_field_lies, "declares shape [5, 9]"),
     ("unknown-operator", lambda: op("FooBar"), "'FooBar' is not in bbbench's operator set"),
@@ -278,6 +288,21 @@ CORPUS: list[tuple[str, Callable[[], bytes], str]] = [
         "unknown-key",
         lambda: model_bytes(props={**CONTRACT, "bbbench.exec": "import os"}),
         "unknown metadata key",
+    ),
+    (
+        "task-unknown",
+        lambda: model_bytes(props={**CONTRACT, "bbbench.task": "bbbench/Nope-v0"}),
+        "unknown task 'bbbench/Nope-v0'",
+    ),
+    (
+        "task-it-cannot-play",
+        lambda: model_bytes(props={**CONTRACT, "bbbench.task": "bbbench/BeamCarry-v0"}),
+        "trained on bbbench/BeamCarry-v0, which it cannot play",
+    ),
+    (
+        "steps-1e40",
+        lambda: model_bytes(props={**CONTRACT, "bbbench.training_steps": "9" * 40}),
+        "must be a whole number from 0 to 10,000,000,000,000",
     ),
     (
         "contract-width-0",
@@ -349,3 +374,32 @@ def test_external_data_is_never_opened(tmp_path, capsys, monkeypatch):
     assert main(["eval", str(path), "--task", FLAT, "--episodes", "1"]) == 2
     assert str(secret) not in opened
     assert Path(path).exists()
+
+
+@pytest.mark.parametrize(
+    ("name", "make", "fragment"),
+    [c for c in CORPUS if c[0] in ("declared-1e10-unused", "external-traversal", "function")],
+    ids=lambda value: value if isinstance(value, str) else "",
+)
+def test_export_refuses_what_eval_refuses_even_where_it_would_drop_it(
+    tmp_path, capsys, name, make, fragment
+):
+    path = tmp_path / f"{name}.onnx"
+    path.write_bytes(make())
+    code = main(["export", str(path), "--out", str(tmp_path / "out.onnx")])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert fragment in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
+
+
+def test_export_refuses_a_task_the_policy_cannot_play(tmp_path, capsys):
+    path = tmp_path / "mlp5.onnx"
+    path.write_bytes(valid())
+    out = tmp_path / "out.onnx"
+    code = main(["export", str(path), "--out", str(out), "--task", "bbbench/BeamCarry-v0"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "trained on bbbench/BeamCarry-v0, which it cannot play" in err
+    assert not out.exists()

@@ -33,6 +33,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError
+from bbbench.tasks.suite import spec
 
 PREFIX = "bbbench."
 OBSERVATION, ACTION_SPACE = "bbbench.observation", "bbbench.action_space"
@@ -41,6 +42,8 @@ TRAINING_SEED = "bbbench.training_seed"
 KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK, TRAINING_SEED)
 MAX_OBSERVATION = 1024  # wider than any layout of the suite
 MAX_ACTIONS = 64
+MAX_TRAINING_STEPS = 10**13  # far beyond any training; the board shows the count as given
+MAX_SEED = 2**63 - 1
 FLAGS = "--observation N (the observation width: 5, 16, 17, 19 ...) and --action-space SPACE"
 
 _DISCRETE = re.compile(r"Discrete\((\d+)\)")
@@ -168,9 +171,9 @@ def read_contract(
         observation=_width(width, f"{where}: {OBSERVATION}"),
         action_space=parse_action_space(props[ACTION_SPACE], f"{where}: {ACTION_SPACE}"),
         algorithm=props.get(ALGORITHM, "ONNX policy").strip()[:60] or "ONNX policy",
-        training_steps=_whole(where, TRAINING_STEPS, props.get(TRAINING_STEPS)),
-        task=props.get(TASK),
-        training_seed=_whole(where, TRAINING_SEED, props.get(TRAINING_SEED)),
+        training_steps=_whole(where, TRAINING_STEPS, props.get(TRAINING_STEPS), MAX_TRAINING_STEPS),
+        task=_task(where, props.get(TASK)),
+        training_seed=_whole(where, TRAINING_SEED, props.get(TRAINING_SEED), MAX_SEED),
     )
     if given:
         on_command_line = (observation, action_space)
@@ -192,13 +195,26 @@ def _width(value: int, what: str) -> int:
     return value
 
 
-def _whole(where: str, key: str, text: str | None) -> int | None:
+def _whole(where: str, key: str, text: str | None, most: int) -> int | None:
     if text is None:
         return None
     try:
-        value = int(text)
+        value = int(text) if len(text) <= 32 else -1
     except ValueError:
         value = -1
-    if value < 0:
-        raise PolicyError(f"{where}: {key} must be a whole number, got {text!r}")
+    if not 0 <= value <= most:
+        shown = text if len(text) <= 32 else f"{text[:29]}..."
+        raise PolicyError(
+            f"{where}: {key} must be a whole number from 0 to {most:,}, got {shown!r}"
+        )
     return value
+
+
+def _task(where: str, task_id: str | None) -> str | None:
+    """The task the metadata names: one of the suite's IDs, or `PolicyError`."""
+    if task_id is None:
+        return None
+    try:
+        return spec(task_id).id
+    except ValueError as error:
+        raise PolicyError(f"{where}: {TASK} {task_id[:80]!r}: {error}") from None

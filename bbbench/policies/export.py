@@ -28,7 +28,7 @@ from bbbench.files import write_atomic
 from bbbench.policies.archive import read_file
 from bbbench.policies.contract import Contract, describe_action_space, read_contract
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.onnx_file import MAX_FILE_BYTES, parse_onnx, parse_proto
+from bbbench.policies.onnx_file import MAX_FILE_BYTES, check_safety, parse_onnx, parse_proto
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.policies.policy import NormalizedActor, Policy
 from bbbench.policies.registry import fitting_tasks
@@ -160,6 +160,7 @@ def export_foreign(
     (RLlib's `state_ins`, and its `state_outs`)."""
     source = Path(source)
     model = parse_proto(read_file(source, MAX_FILE_BYTES, "an ONNX model (.onnx)"), str(source))
+    check_safety(model, str(source))  # refused as `bbbench eval` refuses it, used or not
     props = {p.key: p.value for p in model.metadata_props}
     given = read_contract(source.name, props, observation, action_space)
     contract = dataclasses.replace(

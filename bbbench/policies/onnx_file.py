@@ -54,6 +54,41 @@ _SUBGRAPH_OPERATORS = ("Loop", "If", "Scan")
 EXPORT_HINT = "export it again with external_data=False (torch.onnx.export's keyword)"
 
 
+def check_safety(model, where: str) -> int:
+    """What bbbench refuses in any ONNX file it reads, a policy or one `bbbench export`
+    converts, before a value is decoded: other operator domains, functions, subgraphs,
+    sparse or external tensors, too many nodes, and tensors that declare more values
+    than `MAX_PARAMETERS` all together (used or not). Its opset; `RefusedForSafety` (or
+    `PolicyError`) if refused."""
+    opset = _opset(where, model)
+    if model.functions:
+        raise RefusedForSafety(
+            f"{where}: it defines functions ({model.functions[0].name}); bbbench runs plain "
+            f"graphs only"
+        )
+    graph = model.graph
+    if graph.sparse_initializer:
+        raise PolicyError(f"{where}: sparse initializers; bbbench reads dense float32 weights")
+    if len(graph.node) > MAX_NODES:
+        raise RefusedForSafety(
+            f"{where}: {len(graph.node)} nodes, more than the {MAX_NODES} bbbench runs"
+        )
+    tensors = [(t.name or "(unnamed)", t) for t in graph.initializer]
+    declared = 0
+    for node in graph.node:
+        _check_node(where, node)
+        tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
+        declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
+    for tensor_name, tensor in tensors:  # every size and location before any value is decoded
+        declared += _check_tensor(where, tensor_name, tensor)
+        if declared > MAX_PARAMETERS:
+            raise RefusedForSafety(
+                f"{where}: its tensors declare more than {MAX_PARAMETERS:,} values (at "
+                f"{tensor_name!r}, shape {list(tensor.dims)}); bbbench evaluates smaller networks"
+            )
+    return opset
+
+
 @dataclasses.dataclass(frozen=True)
 class Node:
     """One operator of the graph: its type, input and output names, plain attributes."""
@@ -115,34 +150,12 @@ def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
     """The bytes of an ONNX policy, checked and decoded (`where` names them in errors,
     `name` is the policy's name); `PolicyError` (or `RefusedForSafety`) if not one."""
     model = parse_proto(content, where)
-    opset = _opset(where, model)
-    if model.functions:
-        raise RefusedForSafety(
-            f"{where}: it defines functions ({model.functions[0].name}); bbbench runs plain "
-            f"graphs only"
-        )
+    opset = check_safety(model, where)
     if model.training_info:
         raise PolicyError(f"{where}: it holds training info; export the inference graph only")
     graph = model.graph
-    if graph.sparse_initializer:
-        raise PolicyError(f"{where}: sparse initializers; bbbench reads dense float32 weights")
-    if len(graph.node) > MAX_NODES:
-        raise RefusedForSafety(
-            f"{where}: {len(graph.node)} nodes, more than the {MAX_NODES} bbbench runs"
-        )
-    tensors = [(t.name or "(unnamed)", t) for t in graph.initializer]
-    declared = 0
     for node in graph.node:
-        _check_node(where, node)
-        tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
-        declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
-    for tensor_name, tensor in tensors:  # every size and location before any value is decoded
-        declared += _check_tensor(where, tensor_name, tensor)
-        if declared > MAX_PARAMETERS:
-            raise RefusedForSafety(
-                f"{where}: its tensors declare more than {MAX_PARAMETERS:,} values (at "
-                f"{tensor_name!r}, shape {list(tensor.dims)}); bbbench evaluates smaller networks"
-            )
+        _check_operator(where, node)
     constants = {t.name: decode(where, t.name, t) for t in graph.initializer}
     nodes = tuple(_node(where, node) for node in graph.node)
     inputs = [i for i in graph.input if i.name not in constants]
@@ -218,6 +231,12 @@ def _check_node(path: Path, node) -> None:
             f"{path}: operator {node.op_type} holds a subgraph; bbbench runs plain graphs "
             f"(no Loop, If or Scan)"
         )
+    if not node.output:
+        raise PolicyError(f"{path}: operator {node.op_type} with no output")
+
+
+def _check_operator(path: Path, node) -> None:
+    """A node of a policy's graph: an operator of bbbench's set, with one output."""
     if node.op_type not in OPERATORS:
         raise PolicyError(
             f"{path}: operator {node.op_type!r} is not in bbbench's operator set "

@@ -54,6 +54,11 @@ class OnnxPolicy(FilePolicy):
             "discrete" if isinstance(self.action_space, spaces.Discrete) else "continuous"
         )
         self._set_layout()
+        if contract.task is not None and self.mismatch(contract.task) is not None:
+            raise PolicyError(
+                f"{self.name}: its metadata says it was trained on {contract.task}, which it "
+                f"cannot play ({self.spaces_text()}): {self.mismatch(contract.task)}"
+            )
         self._actor = _actor(model, contract)
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
