@@ -113,3 +113,39 @@ def test_3_two_policies_with_one_file_name_are_told_apart_by_their_folders(tmp_p
         "x/y/policy.zip",
         "z/y/policy.zip",
     ]
+
+
+# -- confusing, mended -------------------------------------------------------------------
+
+
+def test_export_names_the_input_file_for_its_faults(tmp_path, capsys):
+    from onnx import TensorProto, helper
+
+    node = helper.make_node("Softmax", ["obs"], ["scores"])
+    graph = helper.make_graph(
+        [node],
+        "g",
+        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, ["batch", 5])],
+        [helper.make_tensor_value_info("scores", TensorProto.FLOAT, ["batch", 5])],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    path = tmp_path / "softmax.onnx"
+    path.write_bytes(model.SerializeToString())
+    argv = ["--observation", "5", "--action-space", "Discrete(5)"]
+    err = one_line_exit_2(capsys, "export", str(path), "--out", str(tmp_path / "o.onnx"), *argv)
+    assert err.startswith(f"bbbench: error: {path}: operator 'Softmax'")
+    assert "exported graph" not in err
+
+
+def test_a_team_task_offers_the_keywords_it_takes_and_says_where_its_payload_goes():
+    import bbbench
+    from bbbench.evaluation.sweep import unit
+
+    with pytest.raises(TypeError) as refused:
+        bbbench.make_parallel(BEAM, foo=1)
+    offered = str(refused.value)
+    assert "payload_mass" in offered
+    assert "com_offset" not in offered and "sensor_noise" not in offered
+    assert unit("payload_mass", [BEAM]) == "kg at the beam's centre"
+    assert unit("payload_mass", [LATEST_FLAT]) == "kg on the torso"
+    assert unit("payload_mass", [LATEST_FLAT, BEAM]) == "kg on the torso or kg at the beam's centre"

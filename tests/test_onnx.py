@@ -197,6 +197,8 @@ def test_the_matmul_add_pair_is_one_layer_as_gemm_is(tmp_path):
         ("Box(-1.0, 1.0, (1,), float32)", "Box(-1.0, 1.0, (1,), float32)"),
         ("Box(-1.0, 1.0, (6,), float32)", "Box(-1.0, 1.0, (6,), float32)"),
         ("Box([-1. -1.], [1. 1.], (2,), float32)", "Box(-1.0, 1.0, (2,), float32)"),
+        ("Box(-1.0, 1.0, (1,))", "Box(-1.0, 1.0, (1,), float32)"),  # as bbbench's errors print it
+        ("Box(-1, 1, (1,))", "Box(-1.0, 1.0, (1,), float32)"),  # as the README writes it
     ],
 )
 def test_action_spaces_are_read_as_gymnasium_prints_them(space, expected):

@@ -394,7 +394,7 @@ def configure(
     robot = task.robot_model
     accepted = [f"action_mode={robot.action_modes}", f"render_mode={(None, *render_modes)}"]
     accepted += [name for name in options if name != "difficulty" or terrain]
-    accepted += list(PERTURBATIONS)
+    accepted += [keyword for keyword in PERTURBATIONS if refusal(keyword, task) is None]
     perturbations = {k: unknown.pop(k) for k in list(unknown) if k in PERTURBATIONS}
     wrong = sorted(unknown)
     if options.get("difficulty") is not None and not terrain:

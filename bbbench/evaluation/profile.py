@@ -30,7 +30,7 @@ from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
 from bbbench.evaluation.sweep import robustness, variant
 from bbbench.policies.policy import Policy
-from bbbench.tasks.perturbations import PERTURBATIONS, refusal
+from bbbench.tasks.perturbations import PERTURBATIONS, refusal, unit
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import spec
 from bbbench.tasks.tracks import TRACKS
@@ -138,7 +138,7 @@ def profile_document(
             }
         )
     blocks = [
-        {"axis": axis, "unit": PERTURBATIONS[axis].unit, "points": rows, **robustness(rows)}
+        {"axis": axis, "unit": unit(axis, spec(task_id)), "points": rows, **robustness(rows)}
         for axis, rows in axes.items()
     ]
     return {

@@ -33,6 +33,7 @@ from bbbench.evaluation.results import HARNESS_VERSION, aggregate
 from bbbench.policies.policy import Policy
 from bbbench.tasks.group import MAX_BOTS, MIN_BOTS
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
+from bbbench.tasks.perturbations import unit as perturbation_unit
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 
@@ -61,12 +62,14 @@ def standard_grid(axis: str) -> tuple[float, ...]:
     return PERTURBATIONS[check_axis(axis)].grid
 
 
-def unit(axis: str) -> str:
+def unit(axis: str, task_ids: Sequence[str] = ()) -> str:
+    """The unit of `axis`'s values on the tasks `task_ids` (both, where they differ)."""
     if axis == "difficulty":
         return "terrain difficulty, 0 to 1"
     if axis == "n_bots":
         return "bots in the world"
-    return PERTURBATIONS[axis].unit
+    units = [perturbation_unit(axis, spec(task_id)) for task_id in task_ids]
+    return " or ".join(dict.fromkeys(units)) or PERTURBATIONS[axis].unit
 
 
 def whole(axis: str) -> bool:
@@ -186,7 +189,7 @@ def sweep(
         "bbbench_version": bbbench.__version__,
         "harness_version": HARNESS_VERSION,
         "axis": axis,
-        "unit": unit(axis),
+        "unit": unit(axis, task_ids),
         "values": values,
         "standard_grid": tuple(values) == tuple(standard_grid(axis)),
         "deterministic": True,

@@ -227,7 +227,7 @@ def _stored_profile(
             old["schema"] != PROFILE_SCHEMA
             or old["harness_version"] != HARNESS_VERSION
             or old["bbbench_version"] != bbbench.__version__
-            or old["policy"] != policy.record()
+            or not same_policy(old["policy"], policy.record())
             or old["protocol"] != protocol.record(task_id)
         ):
             return None
@@ -240,7 +240,7 @@ def _stored_profile(
         ):
             return None
         records = stored_records(old)
-        return profile_document(old["policy"], task_id, policy.height_scan, records, protocol)
+        return profile_document(policy.record(), task_id, policy.height_scan, records, protocol)
     except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
         return None
 
@@ -262,7 +262,7 @@ def _stored_episodes(
             old["schema"] != RESULTS_SCHEMA
             or old["harness_version"] != HARNESS_VERSION
             or old["bbbench_version"] != bbbench.__version__
-            or old["policy"] != policy.record()
+            or not same_policy(old["policy"], policy.record())
             or old["deterministic"] != (not policy.random_actions)
         ):
             return {}
@@ -281,6 +281,13 @@ def _stored_episodes(
         return reusable
     except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
         return {}
+
+
+def same_policy(recorded: dict[str, Any], today: dict[str, Any]) -> bool:
+    """Whether a stored record's policy plays as `today`'s: the same record but for its
+    `name`, a label that plays no part (documents made again from stored episodes take
+    today's name)."""
+    return {**recorded, "name": None} == {**today, "name": None}
 
 
 def seeds_hash(seeds: Sequence[int]) -> str:

@@ -49,7 +49,10 @@ FLAGS = "--observation N (the observation width: 5, 16, 17, 19 ...) and --action
 _DISCRETE = re.compile(r"Discrete\((\d+)\)")
 # Gymnasium's repr of a Box: Box(low, high, shape, dtype); low and high a number or a
 # numpy array's print ("[-1. -1.]").
-_BOX = re.compile(r"Box\((?P<low>.+?), (?P<high>.+?), \((?P<shape>[\d, ]*)\), (?P<dtype>\w+)\)")
+# The dtype may be left out (float32), as bbbench's errors and README print a Box.
+_BOX = re.compile(
+    r"Box\((?P<low>.+?), (?P<high>.+?), \((?P<shape>[\d, ]*)\)(?:, (?P<dtype>\w+))?\)"
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,7 +115,7 @@ def parse_action_space(text: str, where: str) -> spaces.Discrete | spaces.Box:
         raise PolicyError(
             f"{where}: {text!r} is not an action space as Gymnasium prints it ({example})"
         )
-    if match["dtype"] != "float32":
+    if match["dtype"] not in (None, "float32"):
         raise PolicyError(f"{where}: {text}: bbbench's Box actions are float32")
     try:
         shape = tuple(int(n) for n in match["shape"].replace(" ", "").split(",") if n)

@@ -140,7 +140,7 @@ def onnx_bytes(
                 **keywords,
             )
         content = raw.read_bytes()
-    return _with_contract(parse_proto(content, "torch's export"), contract)
+    return _with_contract(parse_proto(content, "torch's export"), contract, "torch's export")
 
 
 def export_foreign(
@@ -190,12 +190,12 @@ def export_foreign(
         kept = [value for value in field if keep_it(value)]
         del field[:]
         field.extend(kept)
-    return write_atomic(out, _with_contract(model, contract))
+    return write_atomic(out, _with_contract(model, contract, str(source)))
 
 
-def _with_contract(model, contract: Contract) -> bytes:
+def _with_contract(model, contract: Contract, where: str) -> bytes:
     """The `ModelProto`'s bytes with the contract in its metadata_props, checked by
-    bbbench's reader."""
+    bbbench's reader (`where`: what the graph came from, named in its errors)."""
     import onnx  # lazy: onnx, for ONNX files only
 
     kept = [p for p in model.metadata_props if not p.key.startswith("bbbench.")]
@@ -203,13 +203,13 @@ def _with_contract(model, contract: Contract) -> bytes:
     model.metadata_props.extend(kept)
     onnx.helper.set_model_props(model, {**{p.key: p.value for p in kept}, **contract.metadata()})
     content = model.SerializeToString()
-    _read_back(content)
+    _read_back(content, where)
     return content
 
 
-def _read_back(content: bytes) -> OnnxPolicy:
+def _read_back(content: bytes, where: str = "the exported graph") -> OnnxPolicy:
     """The exported bytes as bbbench's reader takes a file: every check, then the actor."""
-    return OnnxPolicy(parse_onnx(content, "the exported graph", "exported.onnx"))
+    return OnnxPolicy(parse_onnx(content, where, "exported.onnx"))
 
 
 def _check_parity(content: bytes, policy: Policy, task_id: str, actor) -> None:

@@ -261,6 +261,13 @@ def refusal(keyword: str, task: Any) -> str | None:
     return None
 
 
+def unit(keyword: str, task: Any = None) -> str:
+    """The unit of `keyword`'s values, on `task` if given (its scenario may apply it
+    elsewhere: BeamCarry's `payload_mass` loads the beam, not the torsos)."""
+    own = task.scenario_class.units.get(keyword) if task is not None else None
+    return own or PERTURBATIONS[keyword].unit
+
+
 def axes_markdown() -> str:
     """The table of the axes, and why each grid: the README and `BalanceEnv`'s docstring
     hold it verbatim (tests/test_perturbations.py)."""

@@ -18,7 +18,7 @@ from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.coupling import Beam, Tether
-from bbbench.tasks.group import Group
+from bbbench.tasks.group import MIN_BOTS, Group
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
 from bbbench.tasks.scenarios import SCENARIOS, Scenario
@@ -228,6 +228,16 @@ class TaskSpec:
         """The same multi-bot task with another number of bots (a different fingerprint)."""
         if self.group is None:
             raise TypeError(f"{self.id} has one bot: it takes no n_bots")
+        most = self.scenario_class.most_bots
+        try:
+            count = operator.index(n_bots)
+        except TypeError:
+            count = None
+        if most is not None and (count is None or not MIN_BOTS <= count <= most):
+            raise ValueError(  # the scenario's range, narrower than any group's
+                f"{self.id}: n_bots must be from {MIN_BOTS} to {most} for the "
+                f"{self.scenario_class.name!r} scenario, got {n_bots!r}"
+            )
         return dataclasses.replace(self, group=dataclasses.replace(self.group, n_bots=n_bots))
 
     def with_height_scan(self, height_scan: bool = True) -> TaskSpec:

@@ -58,6 +58,8 @@ class Scenario:
         perturbations: the env keywords of the perturbations
             (`bbbench.tasks.perturbations`) it takes; None for all.
         most_bots: the most bots it plays; None for as many as a `Group` holds.
+        units: a perturbation's unit where the scenario applies it elsewhere than the
+            perturbation says (BeamCarry's payload is the beam's).
     """
 
     name: ClassVar[str]
@@ -68,6 +70,7 @@ class Scenario:
     team: ClassVar[bool] = False
     perturbations: ClassVar[tuple[str, ...] | None] = None
     most_bots: ClassVar[int | None] = None
+    units: ClassVar[dict[str, str]] = {}
 
     def __init__(self, task: Task) -> None:
         self.task = task

@@ -216,6 +216,7 @@ class BeamCarry(Column):
     summary = "a column of bots carrying one beam hinged to every torso, led by the front bot"
     coupling_type = Beam
     perturbations = ("payload_mass", "friction", "motor_strength", "action_delay", "push")
+    units: ClassVar[dict[str, str]] = {"payload_mass": "kg at the beam's centre"}
     coupling_layout = (
         ObservationField(
             "hinge_force_along",
