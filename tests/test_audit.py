@@ -145,7 +145,19 @@ def test_a_team_task_offers_the_keywords_it_takes_and_says_where_its_payload_goe
         bbbench.make_parallel(BEAM, foo=1)
     offered = str(refused.value)
     assert "payload_mass" in offered
-    assert "com_offset" not in offered and "sensor_noise" not in offered
+    assert "com_offset" not in offered
+    assert "sensor_noise" not in offered
     assert unit("payload_mass", [BEAM]) == "kg at the beam's centre"
     assert unit("payload_mass", [LATEST_FLAT]) == "kg on the torso"
     assert unit("payload_mass", [LATEST_FLAT, BEAM]) == "kg on the torso or kg at the beam's centre"
+
+
+def test_an_empty_track_draws_its_figures_without_warnings():
+    import warnings
+
+    from bbbench.leaderboard.plots import per_task_scores, performance_profiles
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert "<svg" in performance_profiles([])
+        assert "<svg" in per_task_scores([], ["bbbench/FlatBalance-v1"])

@@ -223,6 +223,7 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
     assert record["recipe"]["trainer"] == "BenchMARL"
     assert policy.contract.task == TASK
     assert policy.contract.training_steps == record["kept"]["bot_steps"]
+    assert policy.contract.training_steps == record["bot_steps"]  # the board's count: one count
     assert policy.contract.training_seed == 0
 
     # The file scores as train's results document says.
@@ -263,3 +264,28 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     assert mean.shape == std.shape == (17,)
     assert std[0] < 0.1  # pitch, rad
     assert (std > 0).all()
+
+
+def test_a_training_command_ends_without_warnings_of_leaked_semaphores(tmp_path):
+    # `bbbench` leaves by os._exit: TorchRL's and tqdm's multiprocessing locks must be
+    # gone by then, or the resource tracker warns of them.
+    out = tmp_path / "policy.onnx"
+    argv = [
+        "train",
+        "bbbench/MultiBalance-v1",
+        "--algo",
+        "ippo",
+        "--steps",
+        "10",
+        "--out",
+        str(out),
+    ]
+    done = subprocess.run(
+        [sys.executable, "-m", "bbbench", *argv, "--eval-episodes", "1"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "leaked" not in done.stderr, done.stderr
+    assert out.exists()

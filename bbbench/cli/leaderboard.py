@@ -79,7 +79,12 @@ def _add_parser_of_add(actions) -> None:
             help="add a submission: check the policy, score it, write its folder and the board",
         )
     )
-    adding.add_argument("policy", metavar="POLICY", help="a policy .zip, or a built-in's name")
+    adding.add_argument(
+        "policy",
+        metavar="POLICY",
+        help="a stable-baselines3 .zip, an ONNX file with its contract (bbbench export), or a "
+        "built-in's name",
+    )
     adding.add_argument("--slug", required=True, help="the entry's folder name, e.g. my-ppo")
     adding.add_argument("--name", required=True, help="display name")
     adding.add_argument("--algorithm", required=True, help="e.g. PPO")

@@ -20,6 +20,7 @@ from bbbench.cli.common import (
 )
 from bbbench.files import check_distinct_outputs, check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
+from bbbench.policies.errors import NoContract
 
 PLOT_FORMATS = (".svg", ".png")
 
@@ -40,7 +41,11 @@ def add_parser(commands) -> None:
         "policies fit).",
     )
     sweep.add_argument(
-        "policy", nargs="+", metavar="POLICY", help="a .zip or a built-in, several to overlay"
+        "policy",
+        nargs="+",
+        metavar="POLICY",
+        help="a .zip, an ONNX file with its contract (bbbench export), or a built-in; several "
+        "to overlay",
     )
     sweep.add_argument("--axis", required=True, help="the parameter to vary")
     sweep.add_argument(
@@ -144,6 +149,8 @@ def _checked(args: argparse.Namespace):
         for policy in policies:  # each fits every task, and every pair can be made
             task_ids = select_tasks(policy, requested)
             sweep_tasks(task_ids, axis, values, policy.height_scan)
+    except NoContract as error:
+        raise UsageError(error.for_file_only()) from None
     except (PolicyError, ValueError) as error:
         raise UsageError(str(error)) from None
     for policy in policies:

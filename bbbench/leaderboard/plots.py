@@ -87,7 +87,8 @@ def performance_profiles(profiles: Sequence[tuple[str, np.ndarray]]) -> str:
         axes.set_ylabel("fraction of episodes > \N{GREEK SMALL LETTER TAU}")
         axes.set_ylim(-0.02, 1.02)
         axes.grid(alpha=0.3)
-        axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+        if profiles:  # an empty track draws empty axes, without matplotlib's warning
+            axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
         return _svg(figure)
 
 
@@ -121,7 +122,8 @@ def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) 
         axes.set_ylabel("normalized score (95% CI)")
         axes.axhline(0.0, color="black", linewidth=0.6)
         axes.grid(axis="y", alpha=0.3)
-        axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+        if entries:  # an empty track draws empty axes, without matplotlib's warning
+            axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
         return _svg(figure)
 
 

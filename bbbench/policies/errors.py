@@ -14,3 +14,21 @@ class RefusedForSafety(PolicyError):
 
     def __init__(self, message: str) -> None:
         super().__init__(f"refused for safety: {message}")
+
+
+class NoContract(PolicyError):
+    """An ONNX file whose metadata carries no bbbench contract, none being given either.
+    `eval` and `export` take it from the command line; `sweep` and the board read it from
+    the file only."""
+
+    def __init__(self, message: str, file: str) -> None:
+        super().__init__(message)
+        self.file = file
+
+    def for_file_only(self) -> str:
+        """The message for a command that reads the contract from the file alone."""
+        return (
+            f"{self.file}: its metadata_props carry no bbbench contract, and this command "
+            f"reads it from the file: write it in with `bbbench export {self.file} --out "
+            f"OUT.onnx --observation N --action-space SPACE` and give OUT.onnx"
+        )
