@@ -287,16 +287,39 @@ def test_rollout_shows_the_team_return_its_error_and_what_ended_it(capsys):
     assert all(row.endswith(("time limit", "fell", "a tether broke")) for row in rows)
 
 
-def test_ending_names_the_fallen_bots_and_a_broken_tether():
+def test_the_outcome_names_the_fallen_bots_and_a_broken_tether():
     env = bbbench.make_parallel(TEAM_TASKS[2])
     env.reset(seed=2**31)
     scenario = env.scene.scenario
+    agents = list(env.agents)
     states = [bot.read() for bot in env.scene.bots]
-    assert scenario.ending(states) == ""
+    targets = [0.0] * len(agents)
+    outcome = scenario.outcome(agents, states, targets, 0)
+    assert (outcome.over, outcome.cause, outcome.fell) == (False, "", [False] * 3)
     fallen = [state._replace(tilt=1.2) if i == 1 else state for i, state in enumerate(states)]
-    assert scenario.ending(fallen) == "bot_1 fell"
+    outcome = scenario.outcome(agents, fallen, targets, 0)
+    assert (outcome.over, outcome.cause, outcome.fell) == (True, "bot_1 fell", [False, True, False])
     scenario._tethers[0] = (scenario._tethers[0][0], 0.5, 0.0)  # stretched past 0.4 m
-    assert scenario.ending(fallen) == "bot_1 fell; a tether broke"
+    outcome = scenario.outcome(agents, fallen, targets, 0)
+    assert outcome.cause == "bot_1 fell; a tether broke"
+    assert sum(outcome.fell) == 1  # the results count the bots that fell: one
+
+
+def test_a_team_episode_records_its_cause_and_the_bots_that_fell(tmp_path):
+    from bbbench.evaluation import evaluate
+    from bbbench.policies import load_policy
+
+    document = evaluate(load_policy("pd"), [TEAM_TASKS[2]], episodes=6, workers=1).document
+    episodes = document["tasks"][0]["episodes"]
+    causes = {episode["cause"] for episode in episodes}
+    assert causes <= {"time limit", "a tether broke"} | {
+        c for c in causes if c.endswith(("fell", "fell; a tether broke"))
+    }
+    for episode in episodes:
+        named = episode["cause"].split(" fell")[0].split(", ") if "fell" in episode["cause"] else []
+        assert episode["falls"] == len(named)  # the bots that fell, not the team's size
+        assert episode["success"] is (episode["cause"] == "time limit")
+    assert any(episode["cause"] != "time limit" for episode in episodes)
 
 
 def test_a_rendered_convoy_shows_its_tethers_and_plays_as_an_unrendered_one():

@@ -76,8 +76,8 @@ class Ball(Crossing):
         (x, y, _), _ = self._client.getBasePositionAndOrientation(self.ball)
         return complex(x, y)
 
-    def observe(self, states, commands, targets):
-        rows = super().observe(states, commands, targets)
+    def observe(self, scene, states, commands, targets, step):
+        rows = super().observe(scene, states, commands, targets, step)
         ball = self._ball()
         extra = []
         for state in states:
@@ -88,11 +88,11 @@ class Ball(Crossing):
         return np.hstack([rows, np.array(extra, dtype=np.float32)])
 
     def outcome(self, agents, states, targets, seed):
-        rewards, terminations, infos = super().outcome(agents, states, targets, seed)
+        outcome = super().outcome(agents, states, targets, seed)
         ball = self._ball()
-        for agent, state in zip(agents, states, strict=True):
-            infos[agent]["ball_distance"] = abs(ball - complex(*state.position[:2]))
-        return rewards, terminations, infos
+        for info, state in zip(outcome.infos, states, strict=True):
+            info["ball_distance"] = abs(ball - complex(*state.position[:2]))
+        return outcome
 
 
 @pytest.fixture

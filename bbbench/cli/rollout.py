@@ -156,5 +156,4 @@ def _bots_row(env, episode, result) -> str:
 
 
 def _team_row(env, result) -> str:
-    ended = result.failure or env.scene.scenario.ending([bot.read() for bot in env.scene.bots])
-    return f"{result.metrics['velocity_error']:>9.3f}  {ended or 'time limit'}"
+    return f"{result.metrics['velocity_error']:>9.3f}  {result.failure or result.cause}"

@@ -19,6 +19,7 @@ _CAMERA_DISTANCE = 2.2  # m from the bot
 # ground ahead of it in depth.
 _CAMERA_YAW_FROM_SIDE = 50.0
 _CAMERA_PITCH = -25.0  # deg
+_AGENT = ["bot_0"]  # the one bot, named as a multi-bot env names its agents
 
 
 class BalanceEnv(Env):
@@ -273,7 +274,7 @@ class BalanceEnv(Env):
         self.observation_space = scenario.observation_space()
         self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per step
         # The task's rules, bound once: the step's hot path calls them.
-        self._observe, self._outcome = scenario.observe_one, scenario.outcome_one
+        self._observe, self._outcome = scenario.observe, scenario.outcome
         self._last_frame_time = 0.0
 
     @property
@@ -293,8 +294,9 @@ class BalanceEnv(Env):
         # from np_random.
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if seed is None else seed
         scene = self._scene
-        (state,) = scene.reset(episode_seed)
-        observation = self._observe(scene, state, scene.bots[0].wheel_command, scene.target(0), 0)
+        states = scene.reset(episode_seed)
+        commands, targets = [scene.bots[0].wheel_command], [scene.target(0)]
+        observation = self._observe(scene, states, commands, targets, 0)[0]
         if self._human:
             self._render_human()
         return observation, {"episode_seed": episode_seed}
@@ -302,11 +304,12 @@ class BalanceEnv(Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         scene = self._scene
         command, state, target = scene.step_one(action)
-        reward, fell, info = self._outcome(state, target)
+        states, targets = (state,), (target,)
+        outcome = self._outcome(_AGENT, states, targets, 0)
         if self._human:
             self._render_human()
-        observation = self._observe(scene, state, command, target, scene.steps)
-        return observation, reward, fell, False, info
+        observation = self._observe(scene, states, (command,), targets, scene.steps)[0]
+        return observation, outcome.rewards[0], outcome.over, False, outcome.infos[0]
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):

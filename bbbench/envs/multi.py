@@ -12,6 +12,7 @@ from pettingzoo import ParallelEnv
 
 from bbbench.envs.scene import ActionError, Scene, configure, render_ready
 from bbbench.robots import BotState
+from bbbench.tasks.scenarios.base import Outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import SUITE, spec
 
@@ -226,6 +227,9 @@ class MultiBalanceEnv(ParallelEnv):
         self._np_random: np.random.Generator | None = None
         self._episode_seed = -1
         self.ended_at: dict[str, int] = {}  # agent -> step its episode ended
+        # The scenario's `Outcome` of the last reset or step, for the live bots then: which
+        # fell, and why bots' episodes ended (what results record on team tasks).
+        self.outcome: Outcome | None = None
         self._states: list[BotState] = []  # of the live bots, in order
         self._warned_options = False
 
@@ -279,10 +283,12 @@ class MultiBalanceEnv(ParallelEnv):
         self.agents = agents = self.possible_agents[:]
         self.ended_at = {}
         targets = scene.live_targets(0)
-        observations = self._observe(states, targets)
+        observations = self._observe(states, targets, 0)
         # The same keys as every step's: what the starting states would earn.
-        _, _, infos = self._scenario.outcome(agents, states, targets, episode_seed)
-        return dict(zip(agents, observations, strict=True)), infos
+        self.outcome = outcome = self._scenario.outcome(agents, states, targets, episode_seed)
+        return dict(zip(agents, observations, strict=True)), dict(
+            zip(agents, outcome.infos, strict=True)
+        )
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         agents, scene = self.agents, self._scene
@@ -303,17 +309,18 @@ class MultiBalanceEnv(ParallelEnv):
         self._states = states = scene.advance_live()
         steps = scene.steps
         targets = scene.live_targets(steps)
-        observations = self._observe(states, targets)
-        scenario = self._scenario
-        rewards, terminations, infos = scenario.outcome(agents, states, targets, self._episode_seed)
-        if scenario.team and any(terminations.values()):  # a fall ends the team's episode
-            terminations = dict.fromkeys(agents, True)
+        observations = self._observe(states, targets, steps)
+        self.outcome = outcome = self._scenario.outcome(agents, states, targets, self._episode_seed)
+        ends = [True] * len(agents) if outcome.over else outcome.fell
+        terminations = dict(zip(agents, ends, strict=True))
         truncated = steps >= self._time_limit
         truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
         ended = agents if truncated else [agent for agent in agents if terminations[agent]]
         if ended:
             self._end(ended, steps)
+        rewards = dict(zip(agents, outcome.rewards, strict=True))
+        infos = dict(zip(agents, outcome.infos, strict=True))
         return returned, rewards, terminations, truncations, infos
 
     def _end(self, ended: list[str], steps: int) -> None:
@@ -327,9 +334,9 @@ class MultiBalanceEnv(ParallelEnv):
         self.agents = [self.agents[k] for k in kept]
         self._states = [self._states[k] for k in kept] or self._states
 
-    def _observe(self, states: list[BotState], targets: list[float]) -> np.ndarray:
+    def _observe(self, states: list[BotState], targets: list[float], step: int) -> np.ndarray:
         commands = [bot.wheel_command for bot in self._scene.live_bots]
-        return self._scenario.observe(states, commands, targets)
+        return self._scenario.observe(self._scene, states, commands, targets, step)
 
     def render(self, mode: str | None = None) -> np.ndarray | None:
         """A frame of the whole group in the env's render mode. `mode` is for callers

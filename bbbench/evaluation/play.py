@@ -40,14 +40,18 @@ class PlayedEpisode:
     # of its info key per bot-step (`velocity_error`: |forward velocity - target|, m/s).
     metrics: dict[str, float]
     failure: str | None = None  # why the episode stopped early: NaN action, ...
+    # What ended a team's episode (`Outcome.cause`: "bot_1 fell", "a tether broke"), or
+    # "time limit"; None on the other tasks, whose bots end alone.
+    cause: str | None = None
 
     @property
     def success(self) -> bool:
         """Every bot reached the time limit."""
-        return self.falls == 0 and self.failure is None
+        return self.falls == 0 and self.failure is None and self.cause in (None, TIME_LIMIT)
 
     def record(self) -> dict[str, Any]:
-        """As the results JSON writes it: the metrics between `success` and `failure`."""
+        """As the results JSON writes it: the metrics between `success` and `failure`,
+        then the cause of a team's end."""
         return {
             "seed": self.seed,
             "return": self.episode_return,
@@ -56,6 +60,7 @@ class PlayedEpisode:
             "success": self.success,
             **self.metrics,
             "failure": self.failure,
+            **({"cause": self.cause} if self.cause is not None else {}),
         }
 
     @classmethod
@@ -68,10 +73,12 @@ class PlayedEpisode:
             falls=record["falls"],
             metrics={key: value for key, value in record.items() if key not in _RECORD_FIELDS},
             failure=record["failure"],
+            cause=record.get("cause"),
         )
 
 
-_RECORD_FIELDS = frozenset(("seed", "return", "length", "falls", "success", "failure"))
+_RECORD_FIELDS = frozenset(("seed", "return", "length", "falls", "success", "failure", "cause"))
+TIME_LIMIT = "time limit"  # the cause of a team's episode played to its end
 
 
 def metric_names(env: Any) -> tuple[str, ...]:
@@ -212,6 +219,8 @@ class MultiEpisode:
         sums = [0.0] * len(names)
         bot_steps = steps = falls = 0
         failure = None
+        team = env.task.scenario_class.team
+        cause = TIME_LIMIT if team else None
         while env.agents:
             agents = env.agents
             batch = np.stack([observations[agent] for agent in agents])
@@ -220,7 +229,7 @@ class MultiEpisode:
                 failure = f"step {steps}: {_NAN}"
                 break
             try:
-                observations, rewards, terminations, _, infos = env.step(
+                observations, rewards, _, _, infos = env.step(
                     dict(zip(agents, actions, strict=True))
                 )
             except ValueError as problem:
@@ -233,10 +242,13 @@ class MultiEpisode:
                 for k, name in enumerate(names):
                     sums[k] += info[name]
             bot_steps += len(rewards)
-            for agent, terminated in terminations.items():
-                if terminated:
+            outcome = env.outcome  # which of `agents` fell, and why episodes ended
+            for agent, down in zip(agents, outcome.fell, strict=True):
+                if down:
                     fell[agent] = steps
-            falls += sum(terminations.values())
+            falls += sum(outcome.fell)
+            if team and outcome.over:
+                cause = outcome.cause
             yield MultiStep(steps, observations, rewards)
         self.result = PlayedEpisode(
             self.seed,
@@ -245,6 +257,7 @@ class MultiEpisode:
             falls,
             _means(names, sums, bot_steps),
             failure,
+            None if failure is not None else cause,
         )
 
     def play(self) -> PlayedEpisode:

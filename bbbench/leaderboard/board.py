@@ -33,6 +33,7 @@ from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
+from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 from bbbench.tasks.tracks import TRACKS, Track, track_of
 
@@ -240,6 +241,8 @@ def _stored_profile(
         ):
             return None
         records = stored_records(old)
+        if not all(records_current(spec(task_id), point) for point in records):
+            return None
         return profile_document(policy.record(), task_id, policy.height_scan, records, protocol)
     except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
         return None
@@ -276,11 +279,21 @@ def _stored_episodes(
                 and block["fingerprint"] == task.fingerprint
                 and block["seeds"] == seeds
                 and [episode.seed for episode in episodes] == seeds
+                and records_current(task, block["episodes"])
             ):
                 reusable[task.id] = episodes
         return reusable
     except (OSError, ValueError, KeyError, TypeError):  # absent or not ours: play again
         return {}
+
+
+def records_current(task: TaskSpec, records: list[dict[str, Any]]) -> bool:
+    """Whether stored episode records hold what today's do: on a team task, each
+    episode's cause (or its failure); records made before causes were recorded are
+    played again."""
+    if not task.scenario_class.team:
+        return True
+    return all("cause" in record or record["failure"] is not None for record in records)
 
 
 def same_policy(recorded: dict[str, Any], today: dict[str, Any]) -> bool:

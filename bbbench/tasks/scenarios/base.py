@@ -11,12 +11,18 @@ stepping, reading); the scenario owns:
 |-------------------------------------|----------------------------------------------------|
 | extra bodies and constraints        | `build(client, bots)`                              |
 | the starting poses                  | `starts(rng)`; its bodies: `move_clear`, `place`   |
-| the observation and its space       | `observation_space()`, `observe` / `observe_one`   |
-| each step's outcome                 | `outcome` / `outcome_one`; `team`: a fall ends all |
+| the observation and its space       | `observation_space()`, `observe`                   |
+| each step's outcome                 | `outcome`: an `Outcome` (rewards, falls, its end)  |
 | the per-episode metrics             | `metrics`: info keys averaged per bot-step         |
 | what becomes of a bot that has ended | `leave(scene, indices)`                           |
 | where `payload_mass` goes            | `set_payload(scene, kg)`: each torso by default    |
 | what a frame shows beyond the bodies | `draw(scene)` (a tether), before each frame        |
+
+Both envs, and every tool that plays them, read the scenario through `observe` and
+`outcome` alone: the live bots' rows, and an `Outcome` that says each bot's reward,
+which bots fell, whether the episode is over for all of them, and why. The env maps
+the outcome to its API (Gymnasium's `terminated`, PettingZoo's dicts) and decides
+nothing itself. A single-bot task is the case of one bot.
 
 A scenario is made per scene (`Scenario(task)`): it may keep what it built in the
 world (a beam's body id, its constraints, the world's client) on itself; a pickled
@@ -26,6 +32,9 @@ docs/architecture.md, "How to add a scenario", walks through writing one.
 
 from __future__ import annotations
 
+import abc
+import dataclasses
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -40,7 +49,35 @@ Task = Any  # a `bbbench.tasks.spec.TaskSpec`
 Pose = tuple[tuple[float, float], float]  # (x, y) m and yaw rad; yaw 0 faces +y
 
 
-class Scenario:
+@dataclasses.dataclass(slots=True)  # not frozen: made at every step, and frozen costs 3x
+class Outcome:
+    """What a reset or a step came to, for the live bots in their order.
+
+    `rewards` and `fell`: each bot's reward and whether it fell (at a reset, what the
+    starting states would earn, and no fall). `over`: the episode is over for every
+    bot, fallen or not (a team's end). `cause`: why bots' episodes end at this step,
+    naming them as the agents are named ("bot_1 fell", "bot_0, bot_2 fell", "a tether
+    broke", "bot_1 fell; a tether broke"), or "" if none does; the time limit is the
+    env's, not the scenario's. `infos`: each bot's info, the same keys at every step.
+    """
+
+    rewards: Sequence[float]
+    fell: Sequence[bool]
+    over: bool
+    cause: str
+    infos: Sequence[dict[str, Any]]
+
+
+def fell_cause(agents: list[str], fell: list[bool]) -> str:
+    """The cause that names the bots that fell: "bot_1 fell", "bot_0, bot_2 fell", or ""
+    if none did."""
+    if True not in fell:  # most steps: no fall
+        return ""
+    fallen = [agent for agent, down in zip(agents, fell, strict=True) if down]
+    return f"{', '.join(fallen)} fell" if fallen else ""
+
+
+class Scenario(abc.ABC):
     """What makes a task itself; subclasses are registered in `SCENARIOS` by `name`.
 
     Class attributes:
@@ -53,8 +90,8 @@ class Scenario:
             agent's step, and an episode's value is its mean over the episode's
             bot-steps (`bbbench.evaluation.play`). The results document writes them in
             this order.
-        team: a fall ends every bot's episode (coupled bots: multiwalker's
-            `terminate_on_fall`), not just the fallen bot's.
+        team: the bots end together (coupled bots: multiwalker's `terminate_on_fall`);
+            its `outcome` says when (`over`), and results record each episode's cause.
         perturbations: the env keywords of the perturbations
             (`bbbench.tasks.perturbations`) it takes; None for all.
         most_bots: the most bots it plays; None for as many as a `Group` holds.
@@ -114,10 +151,10 @@ class Scenario:
 
     # -- the episode's start ----------------------------------------------------
 
+    @abc.abstractmethod
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         """Each bot's starting pose and initial lean (rad), drawn from the episode's start
         stream."""
-        raise NotImplementedError
 
     def move_clear(self, scene: Any) -> None:
         """At reset, before the bots are placed: move the scenario's own bodies clear of
@@ -151,13 +188,36 @@ class Scenario:
 
     # -- observations -------------------------------------------------------------
 
+    @abc.abstractmethod
     def observation_space(self) -> spaces.Box:
         """One agent's observation space (the same object every call).
 
         `observe` runs once after every reset and every step, before `outcome`: a
         scenario reads its own bodies there, once a step, and keeps what `outcome` and
         `before_step` need."""
-        raise NotImplementedError
+
+    @abc.abstractmethod
+    def observe(
+        self,
+        scene: Any,
+        states: list[Any],
+        commands: list[float],
+        targets: list[float],
+        step: int,
+    ) -> np.ndarray | list[np.ndarray]:
+        """The live bots' observations, one row each (float32, `observation_space()`'s
+        width: an array of rows, or a list of them), from their `states`, wheel
+        `commands` and `targets`, at `step` of the episode (0 after reset); `scene`
+        gives the task's sensors and ground."""
+
+    @abc.abstractmethod
+    def outcome(
+        self, agents: list[str], states: list[Any], targets: list[float], seed: int
+    ) -> Outcome:
+        """The `Outcome` of the live bots (`agents`, their `states` and `targets`) in the
+        episode of `seed`, after a reset or a step."""
+
+    # -- pickling ---------------------------------------------------------------------
 
     def __getstate__(self) -> dict[str, Any]:
         # A pickled scene carries no world (cloudpickle copies of an env must not share

@@ -16,7 +16,7 @@ from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationFiel
 from bbbench.tasks.coupling import MAX_TEAM, Beam, Tether
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
 from bbbench.tasks.reward import has_fallen
-from bbbench.tasks.scenarios.base import Pose, Scenario
+from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, fell_cause
 
 NEIGHBOUR_REACH = 5.0  # m: offsets to a neighbour saturate here
 HINGE_FORCE_RANGE = 50.0  # N: the hinge force a bot observes saturates here
@@ -120,7 +120,11 @@ class Column(Scenario):
     def observation_space(self) -> spaces.Box:
         return self._space
 
-    def observe(self, states: list[Any], commands: list[float], targets: list[float]):
+    def observe(
+        self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
+    ) -> np.ndarray:
+        """Each bot's row: its robot's values (the front bot's target; 0 for the others),
+        what it observes of the coupling, and its neighbours ahead and behind."""
         self.read(states)
         values = self.robot.values
         n = len(states)
@@ -152,34 +156,35 @@ class Column(Scenario):
         """Whether the coupling itself ended the episode (from `read`)."""
         return False
 
-    def ending(self, states: list[Any]) -> str:
-        """What ended the team's episode, from every bot's last state: the bots that fell
-        and a broken coupling, or "" (the time limit)."""
-        fallen = [f"bot_{i}" for i, state in enumerate(states) if has_fallen(state)]
-        causes = [f"{', '.join(fallen)} fell"] if fallen else []
-        return "; ".join(causes + (["a tether broke"] if self.broken() else []))
+    broken_cause: ClassVar[str] = "the coupling broke"  # an Outcome's cause when it does
 
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
-    ) -> tuple[dict[str, float], dict[str, bool], dict[str, dict[str, Any]]]:
-        """The team's reward, computed once, for every agent; every agent ends at a fall
-        of any bot or when the coupling breaks."""
+    ) -> Outcome:
+        """The team's reward, computed once, for every bot; the episode is over for all
+        of them at a fall of any bot or when the coupling breaks, and the cause names
+        the bots that fell and a broken coupling."""
         pitch = max((state.pitch for state in states), key=abs)
         velocity_error = abs(self.team_velocity(states) - targets[0])
         upright, velocity = self.reward.terms(pitch, velocity_error)
-        ended = self.broken() or any(has_fallen(state) for state in states)
-        rewards = dict.fromkeys(agents, upright + velocity)
-        terminations = dict.fromkeys(agents, ended)
-        infos = {
-            agent: {
-                "reward_upright": upright,
-                "reward_velocity": velocity,
-                "velocity_error": velocity_error,
-                "episode_seed": seed,
-            }
-            for agent in agents
+        fell = [has_fallen(state) for state in states]
+        broken = self.broken()
+        cause = "; ".join(
+            [c for c in (fell_cause(agents, fell), self.broken_cause if broken else "") if c]
+        )
+        info = {
+            "reward_upright": upright,
+            "reward_velocity": velocity,
+            "velocity_error": velocity_error,
+            "episode_seed": seed,
         }
-        return rewards, terminations, infos
+        return Outcome(
+            [upright + velocity] * len(agents),
+            fell,
+            broken or any(fell),
+            cause,
+            [dict(info) for _ in agents],
+        )
 
 
 _ABSENT = [0.0] * 5
@@ -458,6 +463,8 @@ class Convoy(Column):
                     bodies[k], -1, push, positions[k], pybullet.WORLD_FRAME,
                     physicsClientId=client_id,
                 )  # fmt: skip
+
+    broken_cause = "a tether broke"
 
     def broken(self) -> bool:
         limit = self.coupling.breaking_stretch

@@ -11,7 +11,7 @@ from gymnasium import spaces
 from bbbench.tasks.group import spawn_poses
 from bbbench.tasks.observation import agent_observation_space, group_observations
 from bbbench.tasks.reward import step_outcome
-from bbbench.tasks.scenarios.base import Pose, Scenario
+from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, fell_cause
 
 
 class Crossing(Scenario):
@@ -39,22 +39,27 @@ class Crossing(Scenario):
     def observation_space(self) -> spaces.Box:
         return self._space
 
-    def observe(self, states: list[Any], commands: list[float], targets: list[float]):
+    def observe(
+        self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
+    ) -> np.ndarray:
         """The live bots' observations, one row each (`group_observations`)."""
         return group_observations(self.robot, states, commands, targets, self.group, self._size)
 
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
-    ) -> tuple[dict[str, float], dict[str, bool], dict[str, dict[str, Any]]]:
-        """Each live agent's reward, whether it fell, and its info: the reward's two terms,
-        `velocity_error` and `episode_seed` (the same keys at reset and at every step)."""
-        rewards, terminations, infos = {}, {}, {}
+    ) -> Outcome:
+        """Each live bot's reward and whether it fell (a fall ends that bot's episode
+        alone), and its info: the reward's two terms, `velocity_error` and
+        `episode_seed` (the same keys at reset and at every step)."""
+        rewards, fell, infos = [], [], []
         reward = self.reward
-        for agent, state, target in zip(agents, states, targets, strict=True):
-            rewards[agent], terminations[agent], info = step_outcome(state, target, reward)
+        for state, target in zip(states, targets, strict=True):
+            earned, down, info = step_outcome(state, target, reward)
             info["episode_seed"] = seed
-            infos[agent] = info
-        return rewards, terminations, infos
+            rewards.append(earned)
+            fell.append(down)
+            infos.append(info)
+        return Outcome(rewards, fell, False, fell_cause(agents, fell), infos)
 
     def leave(self, scene: Any, indices: list[int]) -> None:
         """Out of the world: set aside, far away, colliding with nothing."""

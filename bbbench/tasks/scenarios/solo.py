@@ -9,7 +9,7 @@ from gymnasium import spaces
 
 from bbbench.robots.layout import SCAN_OFFSETS, observe
 from bbbench.tasks.reward import step_outcome
-from bbbench.tasks.scenarios.base import Pose, Scenario
+from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario
 
 
 class Solo(Scenario):
@@ -32,20 +32,26 @@ class Solo(Scenario):
     def observation_space(self) -> spaces.Box:
         return self._space
 
-    def observe_one(
-        self, scene: Any, state: Any, command: float, target: float, step: int
-    ) -> np.ndarray:
-        """The bot's observation: its reading through the task's sensors, then what its
-        robot adds; with the height scan, then the ground heights ahead of the axle."""
+    def observe(
+        self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
+    ) -> list[np.ndarray]:
+        """The bot's observation, as the one row of a list: its reading through the
+        task's sensors, then what its robot adds; with the height scan, then the ground
+        heights ahead of the axle."""
+        state, command, target = states[0], commands[0], targets[0]
         if scene.plain:  # perfect sensors, the shared five alone: the hot path
-            return observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)
+            return [observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)]
         reading = scene.reading(state, step)
         scan = None
         if self.task.height_scan:
             x, y, axle_height = state.axle
             scan = scene.ground.heights_along(x, y, state.heading, SCAN_OFFSETS, axle_height)
-        return self.robot.observe(reading, command, target, state, scan)
+        return [self.robot.observe(reading, command, target, state, scan)]
 
-    def outcome_one(self, state: Any, target: float) -> tuple[float, bool, dict[str, Any]]:
-        """The step's reward, whether the bot fell, and its info (`step_outcome`)."""
-        return self._reward_of(state, target, self.reward)
+    def outcome(
+        self, agents: list[str], states: list[Any], targets: list[float], seed: int
+    ) -> Outcome:
+        """The step's reward, whether the bot fell (which ends its episode), and its
+        info (`step_outcome`)."""
+        reward, fell, info = self._reward_of(states[0], targets[0], self.reward)
+        return Outcome((reward,), (fell,), fell, f"{agents[0]} fell" if fell else "", (info,))
