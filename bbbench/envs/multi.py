@@ -265,18 +265,10 @@ class MultiBalanceEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        if options and not self._warned_options:
-            # No options are defined, and PettingZoo's API test passes some and expects
-            # no error: they are ignored, with a word, once.
+        if options and not self._warned_options:  # ignored, with a word, once
             self._warned_options = True
             warnings.warn(_ignored(options, self.task.id), stacklevel=2)
-        if seed is not None:
-            self._np_random, _ = seeding.np_random(seed)
-            episode_seed = int(seed)
-        else:
-            if self._np_random is None:
-                self._np_random, _ = seeding.np_random()
-            episode_seed = int(self._np_random.integers(TRAINING_SEEDS.stop))
+        episode_seed = self._episode_seed_for(seed)
         scene = self._scene
         self._states = states = scene.reset(episode_seed)
         self._episode_seed = episode_seed
@@ -286,19 +278,25 @@ class MultiBalanceEnv(ParallelEnv):
         observations = self._observe(states, targets, 0)
         # The same keys as every step's: what the starting states would earn.
         self.outcome = outcome = self._scenario.outcome(agents, states, targets, episode_seed)
-        return dict(zip(agents, observations, strict=True)), dict(
-            zip(agents, outcome.infos, strict=True)
-        )
+        infos = dict(zip(agents, outcome.infos, strict=True))
+        return dict(zip(agents, observations, strict=True)), infos
+
+    def _episode_seed_for(self, seed: int | None) -> int:
+        """The episode's seed: `seed`, or a training seed drawn from the env's generator
+        (seeded by the last seed given, as Gymnasium's `np_random`)."""
+        if seed is not None:
+            self._np_random, _ = seeding.np_random(seed)
+            return int(seed)
+        if self._np_random is None:
+            self._np_random, _ = seeding.np_random()
+        return int(self._np_random.integers(TRAINING_SEEDS.stop))
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         agents, scene = self.agents, self._scene
-        if not isinstance(actions, dict):
-            raise TypeError(
-                f"step() takes a dict of actions, one for each agent in env.agents, got "
-                f"{type(actions).__name__} {actions!r:.60}"
-            )
-        if len(actions) != len(agents) or not all(agent in actions for agent in agents):
+        if not isinstance(actions, dict) or len(actions) != len(agents):
             check_actions(actions, self)  # a clear error, or actions of ended agents: ignored
+        elif not all(agent in actions for agent in agents):
+            check_actions(actions, self)
         if not agents:
             return {}, {}, {}, {}, {}
         try:
@@ -347,14 +345,7 @@ class MultiBalanceEnv(ParallelEnv):
                 f"render({mode!r}): this env renders in its own render_mode "
                 f"{self.render_mode!r}; make it with render_mode={mode!r} instead"
             )
-        if not render_ready(self):
-            return None
-        self._scene.ground.paint()
-        self._scenario.draw(self._scene)
-        target, distance = self.camera()
-        return self._scene.world.camera_image(
-            target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
-        )
+        return group_frame(self._scene, self._states) if render_ready(self) else None
 
     def camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks, and from how far, to frame every bot."""
@@ -367,6 +358,17 @@ class MultiBalanceEnv(ParallelEnv):
     def __getstate__(self) -> dict[str, Any]:
         # A copy has no world (the scene pickles without one) and no episode.
         return {**self.__dict__, "agents": [], "_states": []}
+
+
+def group_frame(scene: Scene, states: list[BotState]) -> np.ndarray:
+    """A frame of the whole group: the ground painted, what the scenario draws, and
+    every bot of `states` in view."""
+    scene.ground.paint()
+    scene.scenario.draw(scene)
+    target, distance = framing(states)
+    return scene.world.camera_image(
+        target, distance, CAMERA_YAW, CAMERA_PITCH, (RENDER_WIDTH, RENDER_HEIGHT)
+    )
 
 
 def framing(states: list[BotState]) -> tuple[tuple[float, float, float], float]:
@@ -383,6 +385,11 @@ def check_actions(actions: dict[str, Any], env: MultiBalanceEnv) -> None:
     `env.agents`: an unknown name, or a live agent without an action, is refused with one
     line that says what was given and what was expected. Actions for agents whose episode
     has ended are ignored (TorchRL and others send one for every possible agent)."""
+    if not isinstance(actions, dict):
+        raise TypeError(
+            f"step() takes a dict of actions, one for each agent in env.agents, got "
+            f"{type(actions).__name__} {actions!r:.60}"
+        )
     unknown = [agent for agent in actions if agent not in env.agent_index]
     if unknown:
         raise ValueError(
