@@ -299,7 +299,15 @@ def test_the_outcome_names_the_fallen_bots_and_a_broken_tether():
     fallen = [state._replace(tilt=1.2) if i == 1 else state for i, state in enumerate(states)]
     outcome = scenario.outcome(agents, fallen, targets, 0)
     assert (outcome.over, outcome.cause, outcome.fell) == (True, "bot_1 fell", [False, True, False])
-    scenario._tethers[0] = (scenario._tethers[0][0], 0.5, 0.0)  # stretched past 0.4 m
+    # bot_0 moved 0.5 m ahead of where it starts: its tether stretched past 0.4 m
+    front = env.scene.bots[0]
+    x, y, _ = states[0].axle
+    front.reset(xy=(x, y + 0.5))
+    moved = [bot.read() for bot in env.scene.bots]
+    commands = [bot.wheel_command for bot in env.scene.bots]
+    scenario.observe(env.scene, moved, commands, targets, 0)  # reads the tethers
+    assert scenario.tethers[0][1] > 0.4
+    fallen = [state._replace(tilt=1.2) if i == 1 else state for i, state in enumerate(moved)]
     outcome = scenario.outcome(agents, fallen, targets, 0)
     assert outcome.cause == "bot_1 fell; a tether broke"
     assert sum(outcome.fell) == 1  # the results count the bots that fell: one
@@ -341,8 +349,8 @@ def test_a_rendered_convoy_shows_its_tethers_and_plays_as_an_unrendered_one():
     env.render()
     scenario, client = env.scene.scenario, env.scene.world.client
     centres = [np.array(client.getBasePositionAndOrientation(b.body)[0]) for b in env.scene.bots]
-    assert len(scenario._beads) == 2
-    for j, beads in enumerate(scenario._beads):  # each tether's beads on the line between
+    assert len(scenario.beads) == 2
+    for j, beads in enumerate(scenario.beads):  # each tether's beads on the line between
         for body in beads:
             point = np.array(client.getBasePositionAndOrientation(body)[0])
             a, b = centres[j], centres[j + 1]

@@ -433,6 +433,18 @@ class Convoy(Column):
             tethers.append((direction, length - rest, rate))
         self._tethers = tethers
 
+    @property
+    def tethers(self) -> tuple[tuple[np.ndarray, float, float], ...]:
+        """Each tether's reading, front to back, as of the last `observe`: its direction
+        (from bot j to bot j + 1), its stretch past the rest length (m) and its rate
+        (m/s)."""
+        return tuple(self._tethers)
+
+    @property
+    def beads(self) -> tuple[tuple[int, ...], ...]:
+        """Per tether, the bodies `draw` shows it with (none before the first frame)."""
+        return tuple(map(tuple, self._beads))
+
     def coupling_terms(self, index: int) -> list[float]:
         terms = []
         for j in (index - 1, index):  # the tether ahead joins bot index - 1 and index
