@@ -2,7 +2,7 @@
 leaderboard with `bbbench leaderboard add` as it finishes.
 
     python scripts/train_baselines.py [--parallel 2] [--only ppo-flatbalance-v1-s0 ...] [--list]
-                                      [--train-only] [--add-trained] [--table]
+                                      [--train-only] [--add-trained] [--table [legged]]
     python scripts/train_baselines.py --campaign [--only ippo-multibalance-v1-3m ...]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
@@ -174,9 +174,10 @@ def _asked(side_by_side: int | str) -> str:
     return f"{side_by_side} trainings side by side" if side_by_side != 1 else "one training"
 
 
-def table(root: Path, board: Path) -> str:
+def table(root: Path, board: Path, which: str = "all") -> str:
     """The Markdown table of the runs on the board: steps, each seed's training wall
-    time and its normalized score on its task's evaluation seeds, and PD's."""
+    time and its normalized score on its task's evaluation seeds, and PD's (`which`:
+    "all", or "legged" for the wheel-legged robot's rows alone)."""
     stored = [p for p in sorted((board / "results").glob("*.json")) if ".profile" not in p.name]
     results = {path.stem: json.loads(path.read_text()) for path in stored}
 
@@ -191,10 +192,12 @@ def table(root: Path, board: Path) -> str:
         "|---|---:|---:|---|---:|",
     ]
     plan = runs()
-    rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist"]
-    rows += [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
+    legged = [f"{task} {algo}" for algo in ("ppo", "sac") for task in LEGGED]
+    rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist", *legged]
     rows += [f"{task} sac" for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
     rows += [f"{task} {algo}" for algo in MARL for task in (*LATEST_MULTI, *TEAMS)]
+    if which == "legged":
+        rows = legged
     for row in rows:
         task_id, _, algo = row.partition(" ")
         done = [
@@ -247,7 +250,12 @@ def main() -> None:
         help="add the runs --train-only left in baselines/ to the board, one by one",
     )
     parser.add_argument(
-        "--table", action="store_true", help="print the Markdown table of the runs on the board"
+        "--table",
+        nargs="?",
+        const="all",
+        choices=("all", "legged"),
+        help="print the Markdown table of the runs on the board (legged: the wheel-legged "
+        "robot's rows)",
     )
     parser.add_argument(
         "--campaign",
@@ -274,7 +282,7 @@ def main() -> None:
     missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
     args.plan = missing
     if args.table:
-        print(table(args.root, args.board))
+        print(table(args.root, args.board, args.table))
         return
     if args.list:
         for run in plan:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import gymnasium as gym
 import pytest
@@ -95,3 +96,17 @@ def test_every_task_has_its_own_class_and_docstring_with_version_history(task_id
     newest = max(t for t in bbbench.list_tasks() if t.split("/")[1].rsplit("-", 1)[0] == name)
     assert cls().task.id == newest
     assert doc.lstrip().startswith(f"`{newest}`")
+
+
+def test_the_baselines_tables_are_what_their_scripts_print_from_the_files(monkeypatch):
+    from conftest import load_script
+
+    check = load_script("check_docs")
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    text = Path("docs/baselines.md").read_text()
+    found = check.blocks(text)
+    assert [m["name"] for m in found] == ["baselines table", "marl table", "legged table"]
+    for match in found:
+        assert check.printed(match["command"]) == match["body"], match["name"]
+    tampered = found[1]["body"].replace("0.", "9.", 1)  # one figure of the MARL table
+    assert tampered != check.printed(found[1]["command"])
