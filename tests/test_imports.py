@@ -103,7 +103,7 @@ def test_spec_and_suite_import_no_env_code():
     graph = import_graph()
     envs = {name for name in graph if name.startswith("bbbench.envs")}
     envs.add("bbbench.dev.golden")
-    assert "bbbench.envs.tasks" in envs
+    assert "bbbench.envs.task_envs" in envs
 
     def reachable(start: str) -> set[str]:
         seen, todo = set(), [start]

@@ -224,7 +224,7 @@ def test_the_legged_tasks_are_the_two_wheel_rows_with_the_other_robot():
 
 
 def test_every_legged_task_documents_the_robots_spaces_and_docs_carry_the_tables():
-    from bbbench.envs import tasks
+    from bbbench.envs import task_envs as tasks
 
     for task_id in LEGGED_TASKS:
         name = task_id.removeprefix("bbbench/").removesuffix("-v0")

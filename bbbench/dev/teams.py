@@ -1,6 +1,6 @@
 """Candidate column tasks, before they are rows of the suite: MultiBalance-v1's row with a
 column scenario (`bbbench.tasks.scenarios.column`) and a coupling. The calibration
-(scripts/calibrate_teams.py), the bench (bench/bench_teams.py) and the tests play them."""
+(scripts/calibrate_teams.py), the bench (benchmarks/bench_teams.py) and the tests play them."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The environments: a task's episode (`Scene`) under the Gymnasium API (`BalanceEnv`, and
-a class per single-bot task in `bbbench.envs.tasks`) and the PettingZoo API
+a class per single-bot task in `bbbench.envs.task_envs`) and the PettingZoo API
 (`MultiBalanceEnv`), and many worlds of it as arrays (`BatchedEnv`); `make`,
 `make_parallel` and `make_batched` build them by task ID."""
 

@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import Env
 
-from bbbench.envs.scene import Scene, configure, render_ready
+from bbbench.envs.scene import Scene, render_ready, requested_task
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import spec
 
@@ -35,7 +35,7 @@ class BalanceEnv(Env):
     commanded wheel speed, driving the wheels under the torso.
 
     Every single-bot task of bbbench is this class (a subclass per task, in
-    `bbbench.envs.tasks`, made from the task's row, documents each) and shares its robot,
+    `bbbench.envs.task_envs`, made from the task's row, documents each) and shares its robot,
     action table, observation layout and reward; a task is a `TaskSpec` (see
     `bbbench.spec(id)`), and differs only in its ground, its command schedule
     and its sensors:
@@ -52,7 +52,7 @@ class BalanceEnv(Env):
     The wheel-legged robot's tasks (LeggedFlatBalance-, LeggedVelocityTracking-,
     LeggedBumps- and LeggedObstacles-v0) play this class too, with the robot their row
     names (`TaskSpec.robot`): the reward, starting state, episode end and arguments below
-    are theirs as well, and their own classes (`bbbench.envs.tasks.LeggedBumpsEnv`, ...)
+    are theirs as well, and their own classes (`bbbench.envs.task_envs.LeggedBumpsEnv`, ...)
     document the robot's actions and observations (docs/robots.md).
 
     These are the latest versions, on the reward in which staying up never costs
@@ -237,7 +237,7 @@ class BalanceEnv(Env):
     ## Version History
 
     Each task's own class, made from its row of the suite, documents it
-    (`help(env.unwrapped)`, or `bbbench list TASK`): `bbbench.envs.tasks.FlatBalanceEnv`,
+    (`help(env.unwrapped)`, or `bbbench list TASK`): `bbbench.envs.task_envs.FlatBalanceEnv`,
     `VelocityTrackingEnv`, `NoisySensorsEnv`, `BumpsEnv`, `ObstaclesEnv`, `SlopesEnv`,
     `PushRecoveryEnv`.
     """
@@ -255,7 +255,7 @@ class BalanceEnv(Env):
     ) -> None:
         task = task if isinstance(task, TaskSpec) else spec(task)
         action_mode = action_mode or task.robot_model.default_action_mode
-        task = configure(
+        task = requested_task(
             task,
             unknown,
             {"height_scan": height_scan, "difficulty": difficulty},

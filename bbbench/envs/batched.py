@@ -100,7 +100,7 @@ def _shared(context):
 
 
 class WorldSlice:
-    """Worlds `start` to `stop - 1` of a batch, played in one process: each a
+    """EnvCache `start` to `stop - 1` of a batch, played in one process: each a
     `MultiBalanceEnv`, read from and written to its rows of `buffers`."""
 
     def __init__(

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from bbbench.envs.scene import ActionError, Scene, configure, render_ready
+from bbbench.envs.scene import ActionError, Scene, render_ready, requested_task
 from bbbench.robots import BotState
 from bbbench.tasks.scenarios.base import Outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
@@ -205,7 +205,9 @@ class MultiBalanceEnv(ParallelEnv):
         options["difficulty"] = difficulty
         task = task if isinstance(task, TaskSpec) else spec(task)
         modes = self.metadata["render_modes"]
-        task = configure(task, unknown, options, action_mode, render_mode, modes, several_bots=True)
+        task = requested_task(
+            task, unknown, options, action_mode, render_mode, modes, several_bots=True
+        )
         self.task = task
         self.group = group = task.group
         self.action_mode = action_mode

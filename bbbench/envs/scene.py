@@ -11,7 +11,7 @@ two: they hand observations, outcomes and ended bots to the scenario and turn wh
 gives into the dicts their API wants.
 
 Also here, written once for both envs: the keyword checks of their
-constructors (`configure`) and the start of their `render()`.
+constructors (`requested_task`) and the start of their `render()`.
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ class Scene:
         self.scenario = scenario = task.scenario_class(task)
         self.n_bots = scenario.n_bots
         self.action_mode = action_mode = action_mode or self.robot.default_action_mode
-        self.change = self.robot.action_decoder(action_mode)  # checks the mode
+        self.decode_action = self.robot.action_decoder(action_mode)  # checks the mode
         self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
         self.steps = 0  # world steps since the last reset
         self.live: list[int] = []  # indices of the bots still in the episode, in order
@@ -115,7 +115,7 @@ class Scene:
         )
         # And the shared five values alone, without the height scan: the observation is
         # built straight from the true state (the single-bot hot path).
-        self.plain = (
+        self.true_five_only = (
             self.perfect_sensors and not task.height_scan and self.robot.observes_shared_only
         )
         # Called before every multi-bot world step only by scenarios that couple bots.
@@ -219,10 +219,10 @@ class Scene:
 
     def act_live(self, actions) -> None:
         """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
-        change = self.change
+        decode = self.decode_action
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
             try:
-                bot.act(change(action))
+                bot.act(decode(action))
             except ValueError as error:
                 raise ActionError(k, error) from None
 
@@ -230,14 +230,14 @@ class Scene:
         """A single-bot task's step: apply `action` to the bot, step the world, read the
         bot; return its wheel command, its state and its target velocity now.
 
-        One call for the whole hot path of `BalanceEnv.step` (bench/bench_core.py).
+        One call for the whole hot path of `BalanceEnv.step` (benchmarks/bench_core.py).
         """
         bot = self._first
         if bot is None:
             raise RuntimeError(
                 f"{self.task.id}: call reset() before step() (a new or unpickled env has no world)"
             )
-        command = bot.act(self.change(action))
+        command = bot.act(self.decode_action(action))
         if self.steps == self._next_push:
             self._push()
         self._world_step()
@@ -369,7 +369,7 @@ _DERIVE = {
 }
 
 
-def configure(
+def requested_task(
     task: TaskSpec,
     unknown: dict[str, Any],
     options: dict[str, Any],

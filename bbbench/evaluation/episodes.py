@@ -26,7 +26,7 @@ def action_generator(seed: int) -> np.random.Generator:
     return np.random.default_rng([_ACTION_STREAM, seed])
 
 
-class Worlds:
+class EnvCache:
     """The envs a worker keeps between jobs: those of the last key asked for (an action
     mode and the task, or the tasks side by side). Asking for another key closes them:
     each world holds some 30 MB, and jobs come task by task."""
@@ -58,7 +58,7 @@ class Worlds:
 @dataclasses.dataclass
 class LockstepPlayer:
     """Plays episodes of several tasks with one policy, keeping the envs of the task
-    it plays between episodes (`Worlds`: those of one task at a time).
+    it plays between episodes (`EnvCache`: those of one task at a time).
 
     `play(task_id, seeds)` plays a group of single-bot episodes in lockstep, one
     env each, so the policy's network runs once per step for the whole group;
@@ -71,7 +71,7 @@ class LockstepPlayer:
     action_mode: str
     sampled: bool  # act from the episode's generator (stochastic or random policies)
     height_scan: bool = False  # a task given by ID is observed with the ground ahead
-    store: Worlds = dataclasses.field(default_factory=Worlds, repr=False, compare=False)
+    store: EnvCache = dataclasses.field(default_factory=EnvCache, repr=False, compare=False)
 
     def play(
         self, task: str | TaskSpec | tuple[TaskSpec, ...], seeds: Sequence[int]
@@ -117,13 +117,13 @@ class LockstepPlayer:
         self.store.close()
 
     def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "store": Worlds()}
+        return {**self.__dict__, "store": EnvCache()}
 
 
 @dataclasses.dataclass
 class Players:
     """Several policies' `LockstepPlayer`s as one runner, for one pool of workers: job
-    `(k, task)` is played by the k-th. They share one `Worlds`, so that jobs of several
+    `(k, task)` is played by the k-th. They share one `EnvCache`, so that jobs of several
     policies on the same tasks, one after another, play in the same envs (an episode
     depends on its task and seed alone, not on the env's history)."""
 
@@ -133,7 +133,7 @@ class Players:
         self._share()
 
     def _share(self) -> None:
-        store = Worlds()
+        store = EnvCache()
         for player in self.players:
             player.store = store
 

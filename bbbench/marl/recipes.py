@@ -26,8 +26,8 @@ from benchmarl.utils import _read_yaml_config
 
 import bbbench
 from bbbench.marl.algorithms import MaskedIppoConfig, MaskedMappoConfig
+from bbbench.marl.family import BbbenchTask
 from bbbench.marl.models import NeighbourEncoderConfig
-from bbbench.marl.tasks import BbbenchTask
 from bbbench.policies.algorithms import unknown
 from bbbench.training.recipe_files import read_recipe_file
 
@@ -86,7 +86,7 @@ class MarlRecipe:
 
     @property
     def n_envs(self) -> int:
-        """Worlds collected at once (one batched env of them)."""
+        """EnvCache collected at once (one batched env of them)."""
         return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
 
     def batch(self) -> int:

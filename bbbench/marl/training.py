@@ -51,9 +51,8 @@ from bbbench.policies.onnx_file import parse_onnx
 from bbbench.policies.onnx_policy import OnnxPolicy
 from bbbench.training.beside import trainings_beside
 from bbbench.training.logs import Trained, curve_point, write_logs
-from bbbench.training.recipes import check_collection
+from bbbench.training.recipes import check_collection, check_policy_path
 from bbbench.training.seeds import evaluation_seeds
-from bbbench.training.trainer import check_policy_path
 
 ACTION_MODE = "discrete"
 CHECKPOINT_RULE = "last"  # the policy written: the last one, never a lucky best

@@ -7,7 +7,7 @@ CPU). A greedy argmax policy (PPO, A2C, DQN acting deterministically) takes a
 shortcut to the same actions: a float64 pass with a bound on its distance to that
 network decides every step where the best output wins by more than the bound
 (`MlpActor.estimate`; the rare closer call goes the long way). Its actions match
-torch's to within 1e-6 (tests/test_policies.py); bench/bench_eval.py times both
+torch's to within 1e-6 (tests/test_policies.py); benchmarks/bench_eval.py times both
 (docs/performance.md).
 `MlpActor` holds only numpy arrays: it pickles into worker processes and Ray
 tasks without torch.

@@ -108,7 +108,7 @@ def observe(
     `wheel_command` and `target` are within bounds by construction (the bot
     clamps its command; specs bound their targets).
     """
-    # fromiter with a known count skips numpy's type and shape discovery (bench/).
+    # fromiter with a known count skips numpy's type and shape discovery (benchmarks/).
     return np.fromiter(
         (
             _PI if pitch > _PI else max(pitch, -_PI),
@@ -148,7 +148,7 @@ def observe_scanned(
     scan: list[float],
 ) -> np.ndarray:
     """`observe`'s vector followed by the height scan (m), clipped to +-SCAN_RANGE: one array,
-    built in one call (it runs every step of a height-scan task; bench/bench_suite.py)."""
+    built in one call (it runs every step of a height-scan task; benchmarks/bench_suite.py)."""
     return np.fromiter(
         chain(sensed(pitch, pitch_rate, wheel_speed), (wheel_command, target), clipped_scan(scan)),
         OBSERVATION_DTYPE,

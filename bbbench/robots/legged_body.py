@@ -259,7 +259,7 @@ class WheelLeggedBot(Body):
         commanded speeds (rad/s; clamped to the limit): `decoded` is the four targets
         then the two changes. NaN raises ValueError.
 
-        Written out, value by value: it runs every step (bench/bench_robots.py)."""
+        Written out, value by value: it runs every step (benchmarks/bench_robots.py)."""
         t0, t1, t2, t3, change_left, change_right = decoded
         if not (t0 == t0 and t1 == t1 and t2 == t2 and t3 == t3):
             raise ValueError("a leg target is NaN; expected numbers of rad")

@@ -33,7 +33,7 @@ def group_observations(
     frame (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
-    outweigh its arithmetic (bench/bench_multi.py).
+    outweigh its arithmetic (benchmarks/bench_multi.py).
     """
     k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
     fill = [0.0] * size

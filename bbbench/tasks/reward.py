@@ -91,7 +91,7 @@ class StayUpReward:
         for name in ("upright_share", "tail_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
-        # Read once per step: one attribute, not six (bench/bench_core.py times the cost).
+        # Read once per step: one attribute, not six (benchmarks/bench_core.py times the cost).
         constants = (
             self.scale,
             self.upright_share,

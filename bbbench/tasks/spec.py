@@ -121,7 +121,7 @@ class TaskSpec:
     id: str
     summary: str  # one line: `bbbench list`, and the first line of the task's docstring
     # What the task adds to what every task shares (Markdown): its env's docstring
-    # (`bbbench.envs.tasks`) and `bbbench list TASK`.
+    # (`bbbench.envs.task_envs`) and `bbbench list TASK`.
     description: str = ""
     terrain: FlatGround | HeightfieldTerrain = field(default_factory=FlatGround)
     command: CommandSchedule = field(default_factory=ConstantVelocity)

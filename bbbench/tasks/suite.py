@@ -491,11 +491,11 @@ SUITE[_BEAM_BUMPS.id] = _BEAM_BUMPS
 
 
 def entry_point(task_id: str) -> str:
-    """What plays a task: `bbbench.envs.tasks.make` every single-bot task (as the class made
-    from its row), `MultiBalanceEnv` every multi-bot task."""
+    """What plays a task: `bbbench.envs.task_envs.entry_point` every single-bot task (as
+    the class made from its row), `MultiBalanceEnv` every multi-bot task."""
     if SUITE[task_id].multi_agent:
         return "bbbench.envs.multi:MultiBalanceEnv"
-    return "bbbench.envs.tasks:make"
+    return "bbbench.envs.task_envs:entry_point"
 
 
 def register_suite() -> None:

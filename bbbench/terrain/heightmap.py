@@ -64,7 +64,7 @@ class Heightmap:
 
         Plain Python over a flat list: it runs every step of a height-scan task, where
         numpy's per-call cost on a few points would dominate, and the nearest node costs
-        half of a bilinear blend of four (bench/bench_suite.py --height-scan).
+        half of a bilinear blend of four (benchmarks/bench_suite.py --height-scan).
         """
         flat, columns, last_row, last_column, scale, x0, y0, period = self._lookup
         # +0.5: int() of the shifted grid coordinate is the nearest node, for u, v >= 0.

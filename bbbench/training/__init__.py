@@ -14,12 +14,12 @@ from bbbench.training.recipes import (
     TRAINABLE,
     Recipe,
     check_collection,
+    check_policy_path,
     recipe,
 )
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
 from bbbench.training.trainer import (
     build_model,
-    check_policy_path,
     check_request,
     reproducible_zip,
     statistics_path,

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from bbbench.files import check_output_path
 from bbbench.policies.algorithms import ALGORITHMS, by_key, unknown
 from bbbench.tasks.suite import SUITE, latest_version, spec
 from bbbench.training.recipe_files import read_recipe_file, recipe_file
@@ -145,6 +146,22 @@ def _check_keys(algorithm: str, where: str, entry: dict[str, Any]) -> None:
     for name in entry:
         if name not in known:
             raise ValueError(f"{where}: {unknown('key', name, known)}")
+
+
+def check_policy_path(algorithm: str, out: str | Path) -> Path:
+    """`out` as the policy file `algorithm` writes: a name ending in .zip
+    (stable-baselines3) or .onnx (IPPO, MAPPO), in a folder it can write, so that it is
+    never taken for one of the logs written beside it (curve.json, train.json ...);
+    `ValueError` saying what to give."""
+    suffix, written = (
+        (".onnx", "an ONNX policy") if algorithm in MARL_TRAINABLE else (".zip", "a zip policy")
+    )
+    if Path(str(out)).suffix != suffix:
+        raise ValueError(
+            f"--out {out}: {algorithm.upper()} writes {written}: give a file name ending in "
+            f"{suffix} (curve.json, curve.png, train.json and results.json go beside it)"
+        )
+    return check_output_path(out, "--out")
 
 
 def marl_recipe(algorithm: str, key: str, file: str | Path | None = None):

@@ -45,6 +45,7 @@ from bbbench.training.recipes import (
     TRAINABLE,
     Recipe,
     check_collection,
+    check_policy_path,
     recipe,
 )
 from bbbench.training.seeds import evaluation_seeds
@@ -107,22 +108,6 @@ def check_request(
     key = MIX if len(tasks) > 1 else tasks[0]
     recipe(algorithm, key, recipe_file)  # a task without a recipe (an older version) is refused
     return tasks, key, mode
-
-
-def check_policy_path(algorithm: str, out: str | Path) -> Path:
-    """`out` as the policy file `algorithm` writes: a name ending in .zip
-    (stable-baselines3) or .onnx (IPPO, MAPPO), in a folder it can write, so that it is
-    never taken for one of the logs written beside it (curve.json, train.json ...);
-    `ValueError` saying what to give."""
-    suffix, written = (
-        (".onnx", "an ONNX policy") if algorithm in MARL_TRAINABLE else (".zip", "a zip policy")
-    )
-    if Path(str(out)).suffix != suffix:
-        raise ValueError(
-            f"--out {out}: {algorithm.upper()} writes {written}: give a file name ending in "
-            f"{suffix} (curve.json, curve.png, train.json and results.json go beside it)"
-        )
-    return check_output_path(out, "--out")
 
 
 def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[list[str], str, str]:

@@ -39,7 +39,7 @@ class Solo(Scenario):
         task's sensors, then what its robot adds; with the height scan, then the ground
         heights ahead of the axle."""
         state, command, target = states[0], commands[0], targets[0]
-        if scene.plain:  # perfect sensors, the shared five alone: the hot path
+        if scene.true_five_only:  # perfect sensors, the shared five alone: the hot path
             return [observe(state.pitch, state.pitch_rate, state.wheel_speed, command, target)]
         reading = scene.reading(state, step)
         scan = None

@@ -1,6 +1,6 @@
 """Robot benchmark: the wheel-legged robot's step and reset against the two-wheel bot's.
 
-    python bench/bench_robots.py [--steps 20000] [--chunk 250] [--resets 60]
+    python benchmarks/bench_robots.py [--steps 20000] [--chunk 250] [--resets 60]
 
 Each wheel-legged task is timed beside the same spec played by the two-wheel bot (its
 row with `robot="two-wheel"`: the same ground, seeds and targets), each robot under its

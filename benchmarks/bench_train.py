@@ -1,7 +1,7 @@
 """Training speed: the tutorial's DQN recipe against bbbench's FlatBalance-v0 recipe, until
 the bot stands.
 
-    python bench/bench_train.py [--seeds 0 1 2] [--check-every 5000]
+    python benchmarks/bench_train.py [--seeds 0 1 2] [--check-every 5000]
 
 The tutorial trains SB3's DQN on its balancing robot and says it stands "after around
 2 minutes". Here, in one run on one machine, for each seed:

@@ -1,6 +1,6 @@
 """Suite benchmark: every single-bot task's step rate against FlatBalance-v0's.
 
-    python bench/bench_suite.py [--steps 30000] [--chunk 250] [--tasks ID ...] [--height-scan]
+    python benchmarks/bench_suite.py [--steps 30000] [--chunk 250] [--tasks ID ...] [--height-scan]
                                 [--policy pd|random]
 
 Each task is driven by the same policy on its evaluation seeds, resetting when an

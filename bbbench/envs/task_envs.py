@@ -1,11 +1,11 @@
 """Each single-bot task's own class, generated from its row of the suite.
 
-A task is a row of `bbbench.tasks.suite`, not a class: `make` is the entry point
+A task is a row of `bbbench.tasks.suite`, not a class: `entry_point` is what
 gymnasium registers for every single-bot task, and it plays the row with a subclass
 of `BalanceEnv` named after the task (`BumpsEnv` for `bbbench/Bumps-v2`), made once
 from the row of the task's newest version. Its docstring is that row's summary and
 description with the task's Version History, so `help(env.unwrapped)` (and
-`help(bbbench.envs.tasks.BumpsEnv)`) says what the task adds to what `BalanceEnv`
+`help(bbbench.envs.task_envs.BumpsEnv)`) says what the task adds to what `BalanceEnv`
 documents for all of them. Made without a task, the class plays its newest version.
 """
 
@@ -67,16 +67,16 @@ def task_class(name: str) -> type[TaskEnv]:
     )
 
 
-def make(task: str, **kwargs: Any) -> TaskEnv:
+def entry_point(task: str, **kwargs: Any) -> TaskEnv:
     """The env of a single-bot task: the entry point gymnasium registers for each."""
     return task_class(spec(task).name)(task=task, **kwargs)
 
 
-make.metadata = BalanceEnv.metadata  # what gymnasium.make reads of an entry point's modes
+entry_point.metadata = BalanceEnv.metadata  # what gymnasium.make reads of an entry point's modes
 
 
 def __getattr__(attribute: str) -> type[TaskEnv]:
-    """`bbbench.envs.tasks.BumpsEnv` and the like: each task's class, by name (and so a
+    """`bbbench.envs.task_envs.BumpsEnv` and the like: each task's class, by name (and so a
     pickled env finds its class)."""
     if attribute.endswith("Env"):
         try:

@@ -1,6 +1,6 @@
 """Evaluation benchmark: `bbbench eval` against the bare env, and 2 workers against 1.
 
-    python bench/bench_eval.py [--episodes 100] [--rounds 3]
+    python benchmarks/bench_eval.py [--episodes 100] [--rounds 3]
 
 1. The network: the reference policy's MLP per call, in numpy (`MlpActor`) and in
    torch (stable-baselines3's own module and `predict`), for one observation and

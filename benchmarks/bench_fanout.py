@@ -1,6 +1,6 @@
 """Ray fan-out: two trainings as Ray tasks on this machine against one training alone.
 
-    python bench/bench_fanout.py [--steps 30000] [--rounds 2]
+    python benchmarks/bench_fanout.py [--steps 30000] [--rounds 2]
 
 One training: `bbbench train bbbench/FlatBalance-v1 --algo ppo --steps N --seed 0`, the
 whole command timed. Fan-out: `--seeds 0,1 --backend ray`, the whole command (Ray's

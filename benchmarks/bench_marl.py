@@ -1,7 +1,7 @@
 """Whole trainings on MultiBalance-v1 (4 bots) against the bare env, in bot-steps per
 second: BenchMARL's IPPO with its shipped recipe, and the SB3 shared-PPO route.
 
-    python bench/bench_marl.py [--batches 4] [--rounds 2] [--recipe FILE]
+    python benchmarks/bench_marl.py [--batches 4] [--rounds 2] [--recipe FILE]
 
 - **bare env**: `bbbench.make_parallel` under PD, one world at a time, one core
   (`bench_batched.bare`), the yardstick;

@@ -1,6 +1,6 @@
 """How long `bbbench leaderboard check` takes on a board of 100 entries, made from the real ones.
 
-    python bench/bench_check.py [--entries 100] [--root /tmp/bbbench-synthetic] [--full]
+    python benchmarks/bench_check.py [--entries 100] [--root /tmp/bbbench-synthetic] [--full]
 
 Copies the repository board's submissions, their results and their profiles under new
 slugs until the board has `--entries` entries (copies of one policy score the same, so

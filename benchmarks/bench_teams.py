@@ -1,7 +1,7 @@
 """Coupled teams (issue 39): a 3-bot team step against a 3-bot MultiBalance-v1 step, and
 a new-terrain reset of BeamCarryBumps-v0 against one of MultiBumps-v1.
 
-    python bench/bench_teams.py [--steps 30000] [--chunk 250] [--resets 200]
+    python benchmarks/bench_teams.py [--steps 30000] [--chunk 250] [--resets 200]
 
 Steps: three worlds of 3 bots, MultiBalance-v1 under PD on every bot, BeamCarry-v0 and
 Convoy-v0 under the team controller (the same PD, a few more Python operations an

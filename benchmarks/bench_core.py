@@ -1,6 +1,6 @@
 """Core benchmark: FlatBalance-v0 against a raw pybullet loop doing the same physics.
 
-    python bench/bench_core.py [--steps 100000] [--chunk 250]
+    python benchmarks/bench_core.py [--steps 100000] [--chunk 250]
 
 Prints ratios measured in one run (the machine is shared and noisy; only
 ratios between loops measured side by side mean anything):

@@ -1,7 +1,7 @@
 """Multi-bot benchmark: bot-steps per second in one world against FlatBalance-v0's steps.
 
-    python bench/bench_multi.py [--bots 8] [--steps 6000] [--chunk 250] [--adapters] [--ceiling]
-                                [--vectorized]
+    python benchmarks/bench_multi.py [--bots 8] [--steps 6000] [--chunk 250] [--adapters]
+                                     [--ceiling] [--vectorized]
 
 Every bot is driven by the PD baseline (on its first five observations) on the
 tasks' evaluation seeds, a world resetting when its episode ends. Only the

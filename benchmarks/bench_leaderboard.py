@@ -1,7 +1,7 @@
 """Leaderboard benchmark: `bbbench leaderboard build` against `bbbench eval` on the same
 episodes, and the time of `bbbench leaderboard check`.
 
-    python bench/bench_leaderboard.py [--root leaderboards] [--rounds 2]
+    python benchmarks/bench_leaderboard.py [--root leaderboards] [--rounds 2]
 
 1. build: `bbbench leaderboard build --no-cache` of the board's submissions (a copy of
    `submissions/` in a temporary folder), timed from start to exit: every entry on
@@ -11,7 +11,7 @@ episodes, and the time of `bbbench leaderboard check`.
    exit; summed over the entries. The bench checks that each writes the very
    results document the build wrote.
 3. check: `bbbench leaderboard check --full` on the copy (a rebuild from scratch,
-   compared); `bench/bench_check.py` times the default check.
+   compared); `benchmarks/bench_check.py` times the default check.
 
 Since issue 27 the build also plays each entry's robustness profile, which `bbbench
 eval` does not: the throughput ratio is build's episodes per second over eval's (the

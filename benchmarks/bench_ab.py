@@ -2,7 +2,7 @@
 change of the env layer could slow.
 
     git worktree add /tmp/bbbench-base <revision>     # the revision to compare against
-    python bench/bench_ab.py --base /tmp/bbbench-base [--rounds 7]
+    python benchmarks/bench_ab.py --base /tmp/bbbench-base [--rounds 7]
 
 Three workloads, each run in a fresh process per measurement with the checkout's
 `bbbench` first on the path, the two checkouts taking turns (A B A B ...) so they

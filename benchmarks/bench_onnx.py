@@ -1,7 +1,7 @@
 """ONNX policies: an exported MLP scored from ONNX against its zip, and a neighbour
 encoder's act cost per bot-step.
 
-    python bench/bench_onnx.py [--episodes 10] [--rounds 3]
+    python benchmarks/bench_onnx.py [--episodes 10] [--rounds 3]
 
 1. Throughput: `evaluate(policy, tasks, episodes=N, workers=1)` in this process for
    a zip and the same policy exported by `bbbench export`: the reference PPO (a plain

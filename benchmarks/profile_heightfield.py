@@ -1,6 +1,6 @@
 """Where a terrain reset's heightfield upload goes: replace Bumps-v0's heights, many times.
 
-    perf record -g -o /tmp/perf.data python bench/profile_heightfield.py
+    perf record -g -o /tmp/perf.data python benchmarks/profile_heightfield.py
     perf report -i /tmp/perf.data --no-children --sort symbol
 
 Each round draws the next episode's terrain once (outside the timed part), then

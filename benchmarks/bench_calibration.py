@@ -1,6 +1,6 @@
 """Terrain calibration: the PD baseline on each terrain task across its difficulties.
 
-    python bench/bench_calibration.py [--episodes 100] [--workers 2] [--tasks ID ...]
+    python benchmarks/bench_calibration.py [--episodes 100] [--workers 2] [--tasks ID ...]
 
 For each terrain task (default: the -v1 ones) and difficulty 0, 0.25, 0.5, 0.75,
 1 and the task's default, the PD baseline plays the first `--episodes` evaluation

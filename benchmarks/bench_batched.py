@@ -1,6 +1,6 @@
 """Collection through the batched env, with the policy in the loop, against the bare env.
 
-    python bench/bench_batched.py [--worlds 16] [--world-steps 16000] [--rounds 2]
+    python benchmarks/bench_batched.py [--worlds 16] [--world-steps 16000] [--rounds 2]
 
 MultiBalance-v1 (4 bots), every bot driven by the PD baseline (its law in one numpy pass
 over the rows, for every route), so that every route plays the same kind of episodes

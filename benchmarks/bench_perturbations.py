@@ -1,6 +1,6 @@
 """What the perturbations that act during an episode cost a step: `push` and `action_delay`.
 
-    python bench/bench_perturbations.py [--steps 200000] [--chunk 250]
+    python benchmarks/bench_perturbations.py [--steps 200000] [--chunk 250]
 
 FlatBalance-v1 driven by PD (so the bot stays up and the steps are the same kind of
 work), through `gym.make`, resets included, against the same task with `push=0.5`

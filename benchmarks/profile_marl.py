@@ -1,6 +1,6 @@
 """Where a BenchMARL training iteration's wall time goes, on one multi-bot task.
 
-    python bench/profile_marl.py [--task bbbench/MultiBalance-v1] [--algo ippo]
+    python benchmarks/profile_marl.py [--task bbbench/MultiBalance-v1] [--algo ippo]
                                  [--batches 4] [--recipe FILE]
 
 Runs `--batches` training iterations of the shipped recipe (`bbbench/training/recipes/
@@ -122,7 +122,10 @@ def _batched_env_class():
 
 
 def _torchrl_faces() -> list[type]:
-    from bbbench.marl import tasks
+    try:
+        from bbbench.marl import family as tasks
+    except ImportError:  # before the house (issue 51): bbbench.marl.tasks
+        from bbbench.marl import tasks
 
     return [
         value

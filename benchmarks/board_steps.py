@@ -3,7 +3,7 @@ played): episodes and bot-steps by task and by entry. A check's time is close to
 proportional to its bot-steps (the harness's cost per step is the same for every entry),
 so this shows where the time goes and compares two boards without timing either.
 
-    python bench/board_steps.py [--root leaderboards] [--vs OTHER_ROOT] [--top 10]
+    python benchmarks/board_steps.py [--root leaderboards] [--vs OTHER_ROOT] [--top 10]
 """
 
 from __future__ import annotations
