@@ -99,3 +99,50 @@ def test_an_ippo_seed_on_ray_with_worker_processes_is_the_local_runs_bytes(tmp_p
     assert main(["train", TASK, *tiny, *argv, "--out", str(there / "policy.onnx")]) == 0
     for name in ("policy.onnx", "results.json"):
         assert (there / "policy-s1" / name).read_bytes() == (here / name).read_bytes(), name
+
+
+TWO_IN_ONE = """
+import hashlib, sys
+from pathlib import Path
+from bbbench.training import train
+
+def bytes_of(task, algorithm, seed, folder, **keywords):
+    out = Path(folder) / ("policy.onnx" if algorithm in ("ippo", "mappo") else "policy.zip")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    train([task], algorithm, out=out, seed=seed, final_episodes=1, **keywords)
+    return hashlib.sha256(out.read_bytes()).hexdigest()
+"""
+
+
+@pytest.mark.parametrize(
+    ("task_id", "algorithm", "keywords"),
+    [
+        ("bbbench/FlatBalance-v1", "ppo", {"steps": 2048, "eval_freq": 1024}),
+        ("bbbench/MultiBalance-v1", "ippo", {"steps": 10, "n_envs": 2, "workers": 1}),
+    ],
+)
+def test_two_trainings_in_one_process_give_each_its_own_bytes(
+    tmp_path, task_id, algorithm, keywords
+):
+    # Another training first in this process (MAPPO or PPO, another seed), then seed 1;
+    # against seed 1 alone in a fresh process.
+    first = "mappo" if algorithm == "ippo" else "ppo"
+    script = TWO_IN_ONE + (
+        f"print(bytes_of({task_id!r}, {first!r}, 0, sys.argv[1] + '/a', **{keywords!r}))\n"
+        f"print(bytes_of({task_id!r}, {algorithm!r}, 1, sys.argv[1] + '/b', **{keywords!r}))\n"
+    )
+    alone = TWO_IN_ONE + (
+        f"print(bytes_of({task_id!r}, {algorithm!r}, 1, sys.argv[1] + '/c', **{keywords!r}))\n"
+    )
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", code, str(tmp_path)],
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=600,
+        ).stdout.split()
+        for code in (script, alone)
+    ]
+    (_, second), (only,) = runs
+    assert second == only

@@ -4,7 +4,11 @@
 into `runs/policy-s<s>/` (the zip, its statistics where rl-zoo3 puts them, and
 curve.json, curve.png, train.json, results.json), each as reproducible as a
 single `--seed s` run: the same bytes. Every seed trains in a fresh process (a
-spawned one here, a fresh Ray worker there), as a `--seed` run does.
+spawned one here, a fresh Ray worker there), as a `--seed` run does. Not for the
+bytes: two trainings in one process give each its own (tests/test_train_fanout.py).
+For what a training leaves in its process: torch's and BenchMARL's memory, pybullet
+connections, a worker stuck after a crash. A fresh process per seed gives each seed a
+clean machine, and frees all of it when the seed ends.
 
 With `--backend ray [--address HOST:PORT]` every seed is a Ray task (one CPU
 each) on a local Ray or a cluster. The task trains in a folder of its own on
@@ -79,7 +83,7 @@ def train_seeds(
     done: list[SeedRun] = []
     if backend == "local":
         # Each seed in a fresh process, as a `--seed` run is: what one training leaves in
-        # a process (the envs' shared spaces, among others) can change the next.
+        # its process (memory, connections) is freed with it (the module's docstring).
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(1, mp_context=context, max_tasks_per_child=1) as pool:
             for job in jobs:
