@@ -57,8 +57,8 @@ def main() -> None:
     convoy = bbbench.make_parallel("bbbench/Convoy-v0")
     loops = {
         "MultiBalance-v1 x3": Loop(plain, lambda observation: pd(observation[:5])),
-        "BeamCarry-v0 x3": Loop(beam, TeamController(_layout(beam))),
-        "Convoy-v0 x3": Loop(convoy, TeamController(_layout(convoy))),
+        "BeamCarry-v0 x3": Loop(beam, TeamController.for_scenario(beam.scene.scenario)),
+        "Convoy-v0 x3": Loop(convoy, TeamController.for_scenario(convoy.scene.scenario)),
     }
     for _ in range(0, args.steps, args.chunk):
         for loop in loops.values():
@@ -84,10 +84,6 @@ def main() -> None:
 
 
 _BUMPS = "bbbench/BeamCarryBumps-v0"
-
-
-def _layout(env: MultiBalanceEnv) -> list[str]:
-    return [field.name for field in env.scene.scenario.layout]
 
 
 if __name__ == "__main__":

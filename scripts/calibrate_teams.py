@@ -97,7 +97,7 @@ def play(job: tuple[str, str, int]) -> tuple[int, float]:
     name, policy, seed = job
     env = MultiBalanceEnv(CANDIDATES[name])
     pd = PDController()
-    team = TeamController([f.name for f in env.scene.scenario.layout])
+    team = TeamController.for_scenario(env.scene.scenario)
     rng = np.random.default_rng([0x5EED, seed])
     controls = {
         "random": lambda observation: int(rng.integers(9)),

@@ -59,7 +59,7 @@ def main() -> None:
 def team_frames() -> None:
     for task_id in TEAM_TASKS:
         env = bbbench.make_parallel(task_id, render_mode="rgb_array")
-        team = TeamController([field.name for field in env.scene.scenario.layout])
+        team = TeamController.for_scenario(env.scene.scenario)
         observations, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
         for _ in range(150):
             observations, *_ = env.step({a: team(observations[a]) for a in env.agents})

@@ -175,7 +175,7 @@ def test_the_team_controller_beats_bots_that_ignore_each_other(coupling):
     """The coupling matters: followers under PD alone hold the 0 they observe and are
     dragged, or drag, where the team controller's follow the bot ahead and the pull."""
     env = MultiBalanceEnv(team_task(coupling))
-    team = TeamController([f.name for f in env.scene.scenario.layout])
+    team = TeamController.for_scenario(env.scene.scenario)
     seeds = [2**31 + k for k in range(6)]
     naive = [play_team(env, seed, lambda observation: PD(observation[:5])) for seed in seeds]
     led = [play_team(env, seed, team) for seed in seeds]
@@ -185,8 +185,10 @@ def test_the_team_controller_beats_bots_that_ignore_each_other(coupling):
 
 
 def test_the_team_controller_refuses_a_task_without_a_column():
+    crossing = bbbench.spec("bbbench/MultiBalance-v1")
+    layout = crossing.robot_model.layout()  # the shared five: no coupling, no neighbours
     with pytest.raises(ValueError, match=r"the team controller plays the column tasks"):
-        TeamController(["pitch", "pitch_rate", "wheel_speed", "wheel_command", "target_velocity"])
+        TeamController(list(layout), "hinge_force_along")
 
 
 # -- the suite's rows --------------------------------------------------------------------
@@ -333,7 +335,7 @@ def test_a_team_episode_records_its_cause_and_the_bots_that_fell(tmp_path):
 def test_a_rendered_convoy_shows_its_tethers_and_plays_as_an_unrendered_one():
     def play(render_mode):
         env = bbbench.make_parallel(TEAM_TASKS[2], render_mode=render_mode)
-        team = TeamController([f.name for f in env.scene.scenario.layout])
+        team = TeamController.for_scenario(env.scene.scenario)
         observations, _ = env.reset(seed=2**31)
         rows = []
         for step in range(120):

@@ -1,12 +1,12 @@
 """The neighbour encoder as a BenchMARL model, for a decentralised actor (or critic).
 
-`NeighbourEncoderConfig.for_task(task_id)` lays it over the task's observation: on
-the team tasks, 9 own values and 2 slots of 5 (the bot ahead, the bot behind), each
-slot's presence bit first, mean-pooled over the present ones; on the crossing tasks
-(MultiBalance, MultiBumps), 5 own values and 3 slots of 4, with no presence bit
-(an empty slot is zeros). Every bot shares its parameters. The network is
-`bbbench.policies.encoder.neighbour_encoder`, which `export_onnx` writes for the
-board (`model.net`).
+`NeighbourEncoderConfig.for_task(task_id)` lays it over the task's observation as its
+scenario says (`Scenario.slots`): on the team tasks, 9 own values and 2 slots of 5 (the
+bot ahead, the bot behind), each slot's presence bit first, mean-pooled over the
+present ones; on the crossing tasks (MultiBalance, MultiBumps), 5 own values and 3
+slots of 4, with no presence bit (an empty slot is zeros). Every bot shares its
+parameters. The network is `bbbench.policies.encoder.neighbour_encoder`, which
+`export_onnx` writes for the board (`model.net`).
 """
 
 from __future__ import annotations
@@ -20,10 +20,6 @@ from tensordict import TensorDictBase
 
 import bbbench
 from bbbench.policies.encoder import neighbour_encoder
-
-# (own values, slots, values a slot, the presence bit's index in a slot or None)
-TEAM_LAYOUT = (9, 2, 5, 0)
-CROSSING_LAYOUT = (5, 3, 4, None)
 
 
 class NeighbourEncoderModel(Model):
@@ -87,7 +83,5 @@ class NeighbourEncoderConfig(ModelConfig):
         task = bbbench.spec(task_id)
         if not task.multi_agent:
             raise ValueError(f"{task_id} is a single-bot task: it has no neighbours to encode")
-        own, slots, slot_width, presence = (
-            TEAM_LAYOUT if task.scenario_class.team else CROSSING_LAYOUT
-        )
+        own, slots, slot_width, presence = task.scenario_class(task).slots()
         return cls(own=own, slots=slots, slot_width=slot_width, presence=presence, **changes)

@@ -92,8 +92,7 @@ class TeamPolicy(TwoWheelPolicy):
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         task = spec(task_id)
-        layout = [field.name for field in task.scenario_class(task).layout]
-        return PDActor(TeamController(layout, self.action_mode))
+        return PDActor(TeamController.for_scenario(task.scenario_class(task), self.action_mode))
 
 
 def _is_team(task_id: str) -> bool:

@@ -18,48 +18,57 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench.policies.pd import PDController
-from bbbench.robots.layout import INDEX
+from bbbench.robots.layout import INDEX, ObservationField
 
-# Each coupling's reading of the pull forward, and the gain the controller gives it.
-PULLS = {"hinge_force_along": 0.2, "stretch_ahead": 3.0}  # (m/s)/N and (m/s)/m
+# The gain the law gives the coupling's pull forward, by the unit it is read in.
+PULL_GAINS = {"N": 0.2, "m": 3.0}  # (m/s)/N (a beam's hinges), (m/s)/m (a tether's stretch)
 
 
 class TeamController:
     """The team law over `PDController`, for one bot of a column task.
 
     Args:
-        layout: the names of the task's observation values, in order (the scenario's
-            `layout`).
+        layout: the task's observation fields, in order (the scenario's `layout`).
+        pull: the field that reads the coupling's pull forward (the scenario's
+            `pull_forward`).
         action_mode: "discrete" or "continuous".
         accel: m/s^2, how fast the front bot's own target may pull away from its velocity.
         horizon: s, over which `accel` applies.
-        pull_gain: (m/s) per unit of the coupling's pull; None: `PULLS`'s for it.
+        pull_gain: (m/s) per unit of the pull; None: `PULL_GAINS`'s for its unit.
     """
 
     def __init__(
         self,
-        layout: list[str],
+        layout: list[ObservationField],
+        pull: str,
         action_mode: str = "discrete",
         accel: float = 2.0,
         horizon: float = 0.25,
         pull_gain: float | None = None,
     ) -> None:
         self.pd = PDController(action_mode)
-        index = {name: i for i, name in enumerate(layout)}
+        index = {field.name: i for i, field in enumerate(layout)}
         missing = [
-            name for name in ("ahead_present", "ahead_forward_velocity") if name not in index
+            name for name in ("ahead_present", "ahead_forward_velocity", pull) if name not in index
         ]
-        pulls = [name for name in PULLS if name in index]
-        if missing or len(pulls) != 1:
+        if missing:
             raise ValueError(
-                "the team controller plays the column tasks (a beam or tethers, neighbours "
-                f"ahead and behind); this layout lacks {missing or list(PULLS)}"
+                "the team controller plays the column tasks (a coupling's pull, neighbours "
+                f"ahead and behind); this layout lacks {missing}"
             )
         self._ahead = index["ahead_present"]
         self._ahead_velocity = index["ahead_forward_velocity"]
-        self._pull = index[pulls[0]]
-        self.pull_gain = PULLS[pulls[0]] if pull_gain is None else pull_gain
+        self._pull = index[pull]
+        unit = layout[self._pull].unit
+        if pull_gain is None and unit not in PULL_GAINS:
+            raise ValueError(f"no gain for a pull read in {unit!r}: give pull_gain")
+        self.pull_gain = PULL_GAINS[unit] if pull_gain is None else pull_gain
         self.reach = accel * horizon  # m/s
+
+    @classmethod
+    def for_scenario(cls, scenario, action_mode: str = "discrete", **gains) -> TeamController:
+        """The law for a column scenario's bots: its layout and its pull."""
+        return cls(list(scenario.layout), scenario.pull_forward, action_mode, **gains)
 
     def target(self, observation: np.ndarray) -> float:
         """The velocity (m/s) this bot asks PD for."""

@@ -35,7 +35,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -75,6 +75,17 @@ def fell_cause(agents: list[str], fell: list[bool]) -> str:
         return ""
     fallen = [agent for agent, down in zip(agents, fell, strict=True) if down]
     return f"{', '.join(fallen)} fell" if fallen else ""
+
+
+class Slots(NamedTuple):
+    """How a multi-bot observation reads, for models that encode neighbours: the bot's
+    `own` values, then `count` slots of `width` values, one per neighbour; `presence`,
+    the index in a slot of its presence bit (None: every slot is a bot)."""
+
+    own: int
+    count: int
+    width: int
+    presence: int | None
 
 
 class Scenario(abc.ABC):
@@ -216,6 +227,10 @@ class Scenario(abc.ABC):
     ) -> Outcome:
         """The `Outcome` of the live bots (`agents`, their `states` and `targets`) in the
         episode of `seed`, after a reset or a step."""
+
+    def slots(self) -> Slots | None:
+        """How its observation lays out the neighbours (`Slots`); None for one bot."""
+        return None
 
     # -- pickling ---------------------------------------------------------------------
 

@@ -16,7 +16,7 @@ from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationFiel
 from bbbench.tasks.coupling import MAX_TEAM, Beam, Tether
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
 from bbbench.tasks.reward import has_fallen
-from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, fell_cause
+from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, Slots, fell_cause
 
 NEIGHBOUR_REACH = 5.0  # m: offsets to a neighbour saturate here
 HINGE_FORCE_RANGE = 50.0  # N: the hinge force a bot observes saturates here
@@ -65,6 +65,9 @@ class Column(Scenario):
     most_bots = MAX_TEAM
     coupling_type: ClassVar[type]
     coupling_layout: ClassVar[tuple[ObservationField, ...]]
+    # The coupling's value that reads its pull forward on a bot (what a follower's law
+    # may add to the speed of the bot ahead): a field of `coupling_layout`.
+    pull_forward: ClassVar[str]
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -119,6 +122,12 @@ class Column(Scenario):
 
     def observation_space(self) -> spaces.Box:
         return self._space
+
+    def slots(self) -> Slots:
+        """The robot's own values and the coupling's, then the bots ahead and behind,
+        each slot led by its presence bit."""
+        width = len(NEIGHBOUR_LAYOUT) // 2
+        return Slots(len(self.layout) - 2 * width, 2, width, 0)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
@@ -222,6 +231,7 @@ class BeamCarry(Column):
     coupling_type = Beam
     perturbations = ("payload_mass", "friction", "motor_strength", "action_delay", "push")
     units: ClassVar[dict[str, str]] = {"payload_mass": "kg at the beam's centre"}
+    pull_forward = "hinge_force_along"
     coupling_layout = (
         ObservationField(
             "hinge_force_along",
@@ -477,6 +487,7 @@ class Convoy(Column):
                 )  # fmt: skip
 
     broken_cause = "a tether broke"
+    pull_forward = "stretch_ahead"
 
     def broken(self) -> bool:
         limit = self.coupling.breaking_stretch

@@ -11,7 +11,7 @@ from gymnasium import spaces
 from bbbench.tasks.group import spawn_poses
 from bbbench.tasks.observation import agent_observation_space, group_observations
 from bbbench.tasks.reward import step_outcome
-from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, fell_cause
+from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, Slots, fell_cause
 
 
 class Crossing(Scenario):
@@ -38,6 +38,11 @@ class Crossing(Scenario):
 
     def observation_space(self) -> spaces.Box:
         return self._space
+
+    def slots(self) -> Slots:
+        """The robot's own values, then the K nearest neighbours' 4 values each."""
+        own = self.robot.observation_space().shape[0]
+        return Slots(own, self.group.neighbours, (self._size - own) // self.group.neighbours, None)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
