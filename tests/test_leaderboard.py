@@ -218,13 +218,24 @@ def test_a_board_built_before_profiles_were_per_track_reuses_its_profiles(board)
 
 
 def test_check_passes_on_a_fresh_build(board):
-    checked = leaderboard.check(board, BOARD, workers=1)
+    checked = leaderboard.check(board, BOARD, workers=1, spot=31)
     assert checked.problems == []
     assert checked.rescored == []
-    # One episode per (entry, task) and per (entry, profile point): pd and random play the
-    # five tasks, ppo three; each of the seven profiles has 2 x 5 points.
-    assert checked.spot_checked == checked.episodes == (5 + 5 + 3) + 7 * 10
+    # A budget of 31 episodes for the whole board, shared by its three entries: 10 each,
+    # and one more for an entry drawn at random.
+    assert checked.spot_checked == checked.episodes == 31
     assert checked.entries == 3
+    default = leaderboard.check(board, BOARD, workers=1)  # a budget above the board's size
+    assert (
+        default.spot_checked
+        == sum(
+            block["aggregate"]["episodes"]
+            for path in (board / "results").glob("*.json")
+            if ".profile" not in path.name
+            for block in json.loads(path.read_text())["tasks"]
+        )
+        + 7 * 10 * 2
+    )  # every record: tasks, and 7 profiles of 10 points of 2 episodes
     full = leaderboard.check(board, BOARD, workers=1, full=True)
     assert full.problems == []
     assert full.episodes == EPISODES
@@ -245,13 +256,15 @@ def forge(board: Path, slug: str, task_id: str, seed: int) -> None:
 def test_a_forged_episode_is_caught_when_the_spot_check_draws_it(board):
     task_id, seed = "bbbench/FlatBalance-v0", bbbench.spec("bbbench/FlatBalance-v0").eval_seeds[2]
     forge(board, "pd", task_id, seed)
-    every = leaderboard.check(board, BOARD, workers=1, spot=BOARD.episodes)  # draws them all
+    every = leaderboard.check(board, BOARD, workers=1, spot=10_000)  # draws them all
     assert len(every.problems) == 1
     assert every.problems[0].startswith(f"pd: {task_id} seed {seed}: recorded return ")
-    # Drawn at random: caught when its seed is drawn (1 in 4 here), and only then.
+    # Drawn at random: caught when its record is drawn (pd's 20 of its 80 here), and only
+    # then.
     caught = []
     for draw in range(12):
-        problems = leaderboard.check(board, BOARD, workers=1, rng=np.random.default_rng(draw))
+        rng = np.random.default_rng(draw)
+        problems = leaderboard.check(board, BOARD, workers=1, spot=60, rng=rng)
         caught.append(any(f"seed {seed}" in problem for problem in problems.problems))
     assert any(caught)
     assert not all(caught)

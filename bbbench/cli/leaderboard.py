@@ -42,8 +42,9 @@ def add_parser(commands) -> None:
             description="Compute every aggregate, rank and file of the board again from its "
             "per-episode records and compare them byte for byte; re-score in full every entry "
             "whose inputs changed (its files, the versions, the tasks, the robustness "
-            "protocol); replay one episode drawn at random from each task and each profile "
-            "point of the others. --full plays every episode again.",
+            "protocol); replay a fixed budget of episodes of the others, drawn at random "
+            "and shared evenly by the entries (bbbench.leaderboard.SPOT_BUDGET). --full "
+            "plays every episode again.",
         )
     )
     checking.add_argument(
@@ -234,8 +235,8 @@ def check(args: argparse.Namespace) -> int:
         rescored = ", ".join(checked.rescored) or "none"
         how = (
             f"every number recomputed from the records; re-scored in full (inputs changed): "
-            f"{rescored}; {checked.spot_checked} episodes of the others replayed at random, "
-            f"{leaderboard.SPOT_EPISODES} per task and per profile point"
+            f"{rescored}; {checked.spot_checked} episodes of the others replayed at random "
+            f"(a budget of {leaderboard.SPOT_BUDGET} shared by the entries)"
         )
     print(
         f"leaderboard check ok: {checked.entries} entries, {checked.tasks} tasks; {how}; "

@@ -22,7 +22,7 @@ random sample of the rest (`check(full=True)`: everything).
 """
 
 from bbbench.leaderboard.board import Board, BuildError
-from bbbench.leaderboard.checking import SPOT_EPISODES, Checked, check
+from bbbench.leaderboard.checking import SPOT_BUDGET, Checked, check
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, Built, build, generate, write
 from bbbench.leaderboard.submissions import MAX_POLICY_BYTES, SubmissionError
 from bbbench.leaderboard.submit import add
@@ -31,7 +31,7 @@ __all__ = [
     "DEFAULT_BOARD",
     "DOCUMENT",
     "MAX_POLICY_BYTES",
-    "SPOT_EPISODES",
+    "SPOT_BUDGET",
     "Board",
     "BuildError",
     "Built",

@@ -23,10 +23,15 @@ from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, read_su
 from bbbench.leaderboard.views import README_FIGURE
 from bbbench.tasks.suite import spec
 
-# Episodes replayed per (entry, task) and per (entry, profile point) by the default check,
-# drawn afresh at every run: a forged episode among a task's n recorded ones is caught with
-# probability SPOT_EPISODES / n at each run (1% of a task's 100, 5% of a point's 20).
-SPOT_EPISODES = 1
+# Episodes the default check replays of the unchanged entries, drawn afresh at every run:
+# a fixed budget for the whole board, whatever its size, shared evenly by the entries (by
+# a random one each when there are more entries than episodes) and drawn uniformly from
+# each entry's records (its tasks' and its profile points'). An entry whose records are
+# all forged is caught at every run while the board has at most SPOT_BUDGET entries (with
+# probability SPOT_BUDGET / entries beyond); one forged episode among an entry's n
+# records, with probability k / n for the entry's k draws (docs/performance.md gives the
+# figures for the repository's board).
+SPOT_BUDGET = 1000
 # The figures' bytes are the same for one matplotlib only: the version constraints.txt pins.
 PLOTTING_STACK = {"matplotlib": "3.11.2"}
 FIGURE_FILES = ("index.html", README_FIGURE)  # the board's files that hold figures
@@ -54,7 +59,7 @@ def check(
     address: str | None = None,
     on_episodes: Callable[[int], None] | None = None,
     full: bool = False,
-    spot: int = SPOT_EPISODES,
+    spot: int = SPOT_BUDGET,
     rng: np.random.Generator | None = None,
 ) -> Checked:
     """Check the board in `root` against its submissions.
@@ -67,7 +72,7 @@ def check(
       records and compared byte for byte (a tampered aggregate is always caught);
     - every entry whose inputs changed (`inputs_key`: its files, the versions, the tasks,
       the protocol) or that is new is re-scored in full, and compared the same way;
-    - `spot` episodes of every other entry per task and per profile point, drawn from
+    - `spot` episodes of the other entries in all, shared evenly by them and drawn from
       `rng` (default: fresh at every run), are replayed and compared with their records.
 
     With `full`, every episode of every entry is played again (the check before this
@@ -143,34 +148,36 @@ def _spot_check(
     on_episodes: Callable[[int], None] | None,
     play: dict[str, Any],
 ) -> tuple[list[str], int]:
-    """Replay `spot` episodes drawn from `rng` of each entry's every task and profile
-    point, all entries' on one pool of workers; the records that differ from the
-    replay, and how many were replayed."""
+    """Replay `spot` episodes of `entries` in all, drawn from `rng`, on one pool of
+    workers: each entry's share (`spot` split evenly; one each for `spot` entries drawn
+    at random when there are more), drawn uniformly from its records. The records that
+    differ from the replay, and how many were replayed."""
+    shares = _shares(len(entries), spot, rng)
     draws = []  # (policy, spec, seed, slug, the recorded episode)
-    for entry in entries:
+    for entry, share in zip(entries, shares, strict=True):
+        if share == 0:
+            continue
         policy = entry.submission.load_policy()
-        strata = [  # (spec, {seed: the recorded episode})
-            (
-                spec(block["task"]).with_height_scan(policy.height_scan),
-                {record["seed"]: record for record in block["episodes"]},
-            )
+        records = [  # (spec, the recorded episode), every task's and profile point's
+            (spec(block["task"]).with_height_scan(policy.height_scan), record)
             for block in entry.results["tasks"]
+            for record in block["episodes"]
         ]
         for document in entry.profiles.values():
             task_id = document["protocol"]["task"]
             points = [p for block in document["axes"] for p in block["points"]]
-            strata += [
-                (task, {record["seed"]: record for record in point["episodes"]})
+            records += [
+                (task, record)
                 for (_, _, task), point in zip(
                     board.profile.specs(task_id, policy.height_scan), points, strict=True
                 )
+                for record in point["episodes"]
             ]
-        for task, records in strata:
-            drawn = rng.choice(list(records), min(spot, len(records)), replace=False)
-            draws += [
-                (policy, task, seed, entry.submission.slug, records[seed])
-                for seed in sorted(int(s) for s in drawn)
-            ]
+        drawn = rng.choice(len(records), min(share, len(records)), replace=False)
+        draws += [
+            (policy, records[i][0], records[i][1]["seed"], entry.submission.slug, records[i][1])
+            for i in sorted(int(i) for i in drawn)
+        ]
     played = play_draws(
         [(policy, task, seed) for policy, task, seed, _, _ in draws],
         on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
@@ -185,6 +192,17 @@ def _spot_check(
                 f"replayed {_said(replay)}"
             )
     return problems, len(draws)
+
+
+def _shares(entries: int, budget: int, rng: np.random.Generator) -> list[int]:
+    """How many of `budget` episodes each of `entries` entries gets: an even split, the
+    remainder one each to entries drawn at random."""
+    if entries == 0:
+        return []
+    shares = [budget // entries] * entries
+    for i in rng.choice(entries, budget % entries, replace=False):
+        shares[int(i)] += 1
+    return shares
 
 
 def _stratum(task) -> str:
