@@ -333,7 +333,9 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         old = args.board / "submissions" / cell["replaces"][cell["seeds"].index(seed)]
         if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
             subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
-        seeded = [*argv[: argv.index("--seeds")], "--seed", str(seed), "--workers", "1"]
+        # The seed's own command: `_add` records all of it but its last two (the --out).
+        one = ["--seed", str(seed), "--workers", "1", "--out", "-"]
+        seeded = [*argv[: argv.index("--seeds")], *one]
         minutes = record["wall_time_s"] / 60
         print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
     (folder / "train.log").rename(args.root / f"{cell['cell']}.log")
