@@ -3,7 +3,11 @@ runs' own files: each run's `baselines/<slug>/results.json` (its policy on the t
 evaluation seeds, written by `bbbench train`) and `train.json` (bot-steps, wall time),
 and the classical controller's episodes on the board (`leaderboards/results/`).
 
-    python scripts/marl_tables.py [--root baselines] [--board leaderboards]
+    python scripts/marl_tables.py [--root baselines] [--board leaderboards] [--campaign]
+
+`--campaign`: the tables of the field's budget (issue 50), IPPO and MAPPO at 3M world
+steps on the five latest multi-bot and team tasks, against the classical controller
+and, on the crossing tasks, the crossing controller too.
 
 A row is one method on one task, its seeds side by side; a second table sets methods
 against each other, every trained seed's episodes pooled. "P(> classical)" is rliable's
@@ -48,6 +52,31 @@ ROWS = (
     ("bbbench/Convoy-v0", "IPPO, encoder", "ippo-convoy-v0"),
     ("bbbench/Convoy-v0", "MAPPO, encoder, lr 1e-4", "mappo-lr1e-4-convoy-v0"),
 )
+# The campaign at the field's budget: each task's IPPO and MAPPO cell.
+CAMPAIGN_TASKS = (
+    "bbbench/MultiBalance-v1",
+    "bbbench/MultiBumps-v1",
+    "bbbench/BeamCarry-v0",
+    "bbbench/BeamCarryBumps-v0",
+    "bbbench/Convoy-v0",
+)
+CAMPAIGN_ROWS = tuple(
+    (task_id, f"{algo.upper()}, 3M", f"{algo}-{task_id.removeprefix('bbbench/').lower()}-3m")
+    for task_id in CAMPAIGN_TASKS
+    for algo in ("ippo", "mappo")
+)
+CAMPAIGN_VERSUS = tuple(
+    (task_id, what, first.format(short), second.format(short))
+    for task_id in CAMPAIGN_TASKS
+    for short in [task_id.removeprefix("bbbench/").lower()]
+    for what, first, second in (
+        ("MAPPO against IPPO, 3M", "mappo-{}-3m", "ippo-{}-3m"),
+        ("IPPO, 3M against 300k", "ippo-{}-3m", "ippo-{}"),
+        ("MAPPO, 3M against 300k", "mappo-{}-3m", "mappo-{}"),
+    )
+)
+# The crossing tasks' own controller, which the learned methods are also set against.
+CROSSING = {"bbbench/MultiBalance-v1": "crossing", "bbbench/MultiBumps-v1": "crossing"}
 CLASSICAL = {
     "bbbench/MultiBalance-v1": "pd",
     "bbbench/MultiBumps-v1": "pd",
@@ -130,7 +159,18 @@ def versus(root: Path, task_id: str, compared: str, first: str, second: str) -> 
     )
 
 
-def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | None:
+def against(board: Path, controller: str, task_id: str, played: list[dict]) -> str:
+    """ "P [low, high] | the controller's mean normalized score" for `played` (the median
+    seed's episodes) against the controller's episodes on the board."""
+    document = json.loads((board / "results" / f"{controller}.json").read_text())
+    reference = scores(episodes(document, task_id), task_id)
+    point, (low, high) = stats.probability_of_improvement([scores(played, task_id)], [reference])
+    return f"{point:.2f} [{low:.2f}, {high:.2f}] | {reference.mean():.3f}"
+
+
+def row(
+    root: Path, board: Path, task_id: str, method: str, stem: str, crossing: bool = False
+) -> str | None:
     runs = seed_runs(root, task_id, stem)
     if not runs:
         return None
@@ -141,17 +181,18 @@ def row(root: Path, board: Path, task_id: str, method: str, stem: str) -> str | 
     walls = " / ".join(f"{minutes[s]:.1f}" if s in minutes else "-" for s in SEEDS)
     median_seed = sorted(score, key=score.get)[(len(score) - 1) // 2]
     played = [episode for episodes_, _ in runs.values() for episode in episodes_]
-    whole = np.mean([episode["falls"] == 0 for episode in played])
-    classical = json.loads((board / "results" / f"{CLASSICAL[task_id]}.json").read_text())
-    reference = scores(episodes(classical, task_id), task_id)
-    point, (low, high) = stats.probability_of_improvement(
-        [scores(runs[median_seed][0], task_id)], [reference]
-    )
+    whole = np.mean([episode["success"] for episode in played])
+    median_played = runs[median_seed][0]
+    columns = [against(board, CLASSICAL[task_id], task_id, median_played)]
+    if crossing:
+        known = task_id in CROSSING
+        columns.append(
+            against(board, CROSSING[task_id], task_id, median_played) if known else "- | -"
+        )
     median = statistics.median(score.values())
     return (
         f"| {task_id.removeprefix('bbbench/')} | {method} | {max(steps) / 1e6:.1f}M | {walls} min "
-        f"| {by_seed} | {median:.3f} | {whole:.0%} | {point:.2f} [{low:.2f}, {high:.2f}] "
-        f"| {reference.mean():.3f} |"
+        f"| {by_seed} | {median:.3f} | {whole:.0%} | {' | '.join(columns)} |"
     )
 
 
@@ -159,20 +200,28 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
+    parser.add_argument(
+        "--campaign", action="store_true", help="the tables of the 3M campaign (issue 50)"
+    )
     args = parser.parse_args()
-    print(
+    head = (
         "| task | method | bot-steps | wall time, by seed | normalized, by seed | median "
         "| no fall | P(median seed > classical) [95% CI] | classical |"
     )
-    print("|---|---|---:|---:|---|---:|---:|---|---:|")
-    for task_id, method, stem in ROWS:
-        line = row(args.root, args.board, task_id, method, stem)
+    rule = "|---|---|---:|---:|---|---:|---:|---|---:|"
+    if args.campaign:
+        head += " P(median seed > crossing) [95% CI] | crossing |"
+        rule += "---|---:|"
+    print(head)
+    print(rule)
+    for task_id, method, stem in CAMPAIGN_ROWS if args.campaign else ROWS:
+        line = row(args.root, args.board, task_id, method, stem, crossing=args.campaign)
         if line is not None:
             print(line)
     print()
     print("| task | compared | seeds | mean normalized, all seeds | P(first > second) [95% CI] |")
     print("|---|---|---:|---:|---|")
-    for task_id, compared, first, second in VERSUS:
+    for task_id, compared, first, second in CAMPAIGN_VERSUS if args.campaign else VERSUS:
         line = versus(args.root, task_id, compared, first, second)
         if line is not None:
             print(line)

@@ -200,10 +200,14 @@ def table(root: Path, board: Path, which: str = "all") -> str:
         rows = legged
     for row in rows:
         task_id, _, algo = row.partition(" ")
+        plan_here = [run for run in plan if _row(run) == task_id]
+        if algo in MARL:  # the campaign's cell at the field's budget, once it is on the board
+            cell = f"{algo}-{_short(task_id)}-{CAMPAIGN_BUDGET}"
+            campaign = [{"slug": f"{cell}-s{seed}", "algo": algo} for seed in SEEDS]
+            if any(run["slug"] in results for run in campaign):
+                plan_here = campaign
         done = [
-            run
-            for run in plan
-            if _row(run) == task_id and run["algo"] == (algo or "ppo") and run["slug"] in results
+            run for run in plan_here if run["algo"] == (algo or "ppo") and run["slug"] in results
         ]
         if not done:
             continue
