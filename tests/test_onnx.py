@@ -291,11 +291,11 @@ def test_a_neighbour_encoder_plays_a_team_task(encoder_policy):
 
 
 def test_sums_over_slots_are_in_slot_order_in_float64():
-    from bbbench.policies.interpreter import _reduce
+    from bbbench.policies.operators import reduce
 
     x = np.array([[[1e8], [1.0], [-1e8]]], dtype=np.float32)  # float32 sums lose the 1
     params = {"axes": (1,), "keepdims": 0, "noop": 0, "kind": "sum"}
-    assert _reduce(params, x)[0, 0] == np.float32(1.0)
+    assert reduce(params, x)[0, 0] == np.float32(1.0)
 
 
 # -- submissions -----------------------------------------------------------------
@@ -320,14 +320,14 @@ def test_the_board_takes_an_onnx_submission(tmp_path):
         read_submission(folder)
 
 
-def test_every_operator_of_the_set_has_its_function():
-    from bbbench.policies.interpreter import OPERATORS, RUN
+def test_every_operator_of_the_set_has_its_kernel_and_its_rule_in_one_entry():
+    from bbbench.policies.interpreter import KERNELS
+    from bbbench.policies.operators import OPERATORS, STRUCTURAL, TABLE
 
-    assert OPERATORS - {"Gemm", "MatMul", "Identity", "Constant"} <= set(RUN) | {
-        "ReduceSum",
-        "ReduceMean",
-        "ReduceMax",
-    }
+    assert set(TABLE) | STRUCTURAL == OPERATORS
+    for name, operator in TABLE.items():
+        assert KERNELS[name] is operator.run, name
+        assert operator.computes in ("float", "float32", "any"), name
     assert MlpActor  # the compiled chain's class
 
 

@@ -1,6 +1,7 @@
 """A small interpreter of ONNX policy graphs on portable arithmetic.
 
-It runs the operators a policy network needs and no others (`OPERATORS`):
+It runs the operators a policy network needs and no others (`bbbench.policies.operators`,
+each kernel beside its rule):
 
 - layers: `Gemm` (alpha = beta = 1, A not transposed) and `MatMul` by a constant
   matrix; a `MatMul` whose only use is an `Add` of a constant bias is one layer,
@@ -37,12 +38,11 @@ import numpy as np
 from bbbench import portable
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import MlpActor
+from bbbench.policies.operators import F4, F8, I8, TABLE, clip
 
-F4, F8, I8 = np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int64)
 # The most values any tensor may hold per observation (or in all, for a constant): a
 # policy for these tasks needs thousands.
 MAX_ROW_VALUES = 1_000_000
-_ONNX_TYPES = {1: F4, 11: F8}  # Cast's `to`: float32, float64
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -56,7 +56,7 @@ class Step:
     label: str  # the node, for error messages
 
 
-# -- the operators, as they run --------------------------------------------------
+# -- the two steps the compiler makes itself -------------------------------------------
 
 
 def _linear(params, x):
@@ -65,126 +65,20 @@ def _linear(params, x):
     return layer(flat).reshape(*x.shape[:-1], layer.weight.shape[1])
 
 
-def _variadic(function):
-    def run(params, first, *rest):
-        out = first
-        for other in rest:
-            out = function(out, other)
-        return out
-
-    return run
-
-
-def _elementwise(function):
-    return lambda params, *args: function(*args)
-
-
-def _leaky_relu(params, x):
-    return np.where(x >= 0.0, x, x * params["alpha"])
-
-
-def _elu(params, x):
-    negative = portable.expm1(x)
-    if params["alpha"] != 1.0:
-        negative = negative * params["alpha"]
-    return np.where(x > 0.0, x, negative)
-
-
-def _clip(params, x):
-    if params["low"] is None and params["high"] is None:
-        return x
-    return np.clip(x, params["low"], params["high"])
-
-
-def _reshape(params, x, computed=None):
-    shape = list(params["shape"] if computed is None else computed.tolist())
-    for i, size in enumerate(shape):
-        if size == 0 and not params["allowzero"]:
-            shape[i] = x.shape[i]
-    return x.reshape(shape)
-
-
-def _flatten(params, x):
-    axis = params["axis"] % (x.ndim + 1) if params["axis"] < 0 else params["axis"]
-    return x.reshape(int(np.prod(x.shape[:axis], dtype=np.int64)), -1)
-
-
-def _slice(params, x):
-    index = [slice(None)] * x.ndim
-    for start, end, axis, step in params["slices"]:
-        index[axis] = slice(start, end, step)
-    return x[tuple(index)]
-
-
-def _reduce(params, x):
-    axes = params["axes"]
-    if axes is None:
-        if params["noop"]:
-            return x
-        axes = tuple(range(x.ndim))
-    axes = tuple(sorted(a % x.ndim for a in axes))
-    if params["kind"] == "max":
-        return np.max(x, axis=axes, keepdims=bool(params["keepdims"]))
-    # Summed in float64, one slot after another: the same order on every CPU.
-    moved = np.moveaxis(x, axes, tuple(range(len(axes))))
-    parts = moved.reshape(-1, *moved.shape[len(axes) :])
-    total = np.zeros(parts.shape[1:], dtype=np.float64)
-    for part in parts:
-        total += part
-    if params["kind"] == "mean":
-        total /= len(parts)
-    out = total.astype(x.dtype)
-    if params["keepdims"]:
-        out = np.expand_dims(out, axes)
-    return out
-
-
 def _normalize(params, x):
     """Cast to float64, Sub, Div, Clip, Cast to float32, in one: the same operations on
     the same values (numpy widens float32 to float64 exactly)."""
     scaled = (x - params["mean"]) / params["std"]
-    return _clip(params, scaled).astype(F4)
+    return clip(params, scaled).astype(F4)
 
 
-RUN: dict[str, Callable] = {
+# Each step's kernel: an ONNX operator's (`bbbench.policies.operators`), or a layer's, or
+# VecNormalize's arithmetic folded into one.
+KERNELS: dict[str, Callable] = {
+    **{name: operator.run for name, operator in TABLE.items()},
     "Linear": _linear,
     "Normalize": _normalize,
-    "Add": _variadic(np.add),
-    "Sub": _elementwise(np.subtract),
-    "Mul": _variadic(np.multiply),
-    "Div": _elementwise(np.divide),
-    "Max": _variadic(np.maximum),
-    "Min": _variadic(np.minimum),
-    "Neg": _elementwise(np.negative),
-    "Relu": lambda params, x: np.maximum(x, 0.0),
-    "LeakyRelu": _leaky_relu,
-    "Elu": _elu,
-    "Tanh": lambda params, x: portable.tanh(x),
-    "Sigmoid": lambda params, x: portable.sigmoid(x),
-    "Clip": _clip,
-    "Cast": lambda params, x: x.astype(params["to"]),
-    "Reshape": _reshape,
-    "Flatten": _flatten,
-    "Slice": _slice,
-    "Concat": lambda params, *xs: np.concatenate(xs, axis=params["axis"]),
-    "Squeeze": lambda params, x: (
-        np.squeeze(x) if params["axes"] is None else np.squeeze(x, axis=params["axes"])
-    ),
-    "Unsqueeze": lambda params, x: np.expand_dims(x, params["axes"]),
-    "Gather": lambda params, x: np.take(x, params["indices"], axis=params["axis"]),
-    "Shape": lambda params, x: np.array(x.shape[params["start"] : params["end"]], dtype=I8),
-    "Reduce": _reduce,
 }
-
-# The ONNX operators bbbench runs (the rest is refused by name when the file is read).
-OPERATORS = frozenset(
-    {"Gemm", "MatMul", "Identity", "Constant", "ReduceSum", "ReduceMean", "ReduceMax"}
-    | (set(RUN) - {"Linear", "Reduce", "Normalize"})
-)
-_FLOAT_ONLY = ("Tanh", "Sigmoid", "Elu")  # float32: portable's functions
-# Operators that move values without computing on them: they take the integer tensors of
-# shape arithmetic (a Shape, the dimensions gathered from it) as well as float ones.
-_INDEXING = ("Reshape", "Flatten", "Slice", "Concat", "Squeeze", "Unsqueeze", "Gather", "Shape")
 # ONNX activations that are an `MlpActor` activation (with their default attributes).
 _MLP_ACTIVATIONS = {"Tanh": "Tanh", "Relu": "ReLU", "Sigmoid": "Sigmoid"}
 
@@ -284,8 +178,7 @@ class _Compiler:
         return None
 
     def _node(self, node, fused_add) -> None:
-        op, attributes = node.op, node.attributes
-        output = node.outputs[0]
+        op, output = node.op, node.outputs[0]
         if op == "Constant":
             self.constants[output] = self._constant_value(node)
             return
@@ -298,80 +191,25 @@ class _Compiler:
         if op in ("Gemm", "MatMul"):
             self._layer(node, fused_add)
             return
+        operator = TABLE[op]
         inputs = [self.value(name) for name in node.inputs if name]
+        if operator.same_type:
+            inputs = self._same_type(node, inputs)
         params: dict[str, Any] = {}
-        run_op = op
-        if op in ("Add", "Sub", "Mul", "Div", "Max", "Min"):
-            inputs = self._same_type(node, inputs)
-        elif op == "LeakyRelu":
-            params["alpha"] = np.float32(attributes.get("alpha", 0.01))
-        elif op == "Elu":
-            params["alpha"] = np.float32(attributes.get("alpha", 1.0))
-        elif op == "Clip":
-            kind = self.dtype(inputs[0])
-            bounds = [self.constant(node, i, what, True) for i, what in ((1, "min"), (2, "max"))]
-            params["low"], params["high"] = (
-                None if b is None else np.asarray(b, dtype=kind).reshape(()) for b in bounds
-            )
-            inputs = inputs[:1]
-        elif op == "Cast":
-            to = attributes.get("to")
-            if to not in _ONNX_TYPES:
-                raise self.fail(
-                    node, f"casts to ONNX type {to}; bbbench computes in float32 or float64"
-                )
-            params["to"] = _ONNX_TYPES[to]
-        elif op == "Reshape":
-            params["allowzero"] = attributes.get("allowzero", 0)
-            shape = inputs[1] if len(inputs) > 1 else None
-            if isinstance(shape, np.ndarray):
-                params["shape"] = tuple(int(v) for v in shape.ravel())
-                inputs = inputs[:1]
-            elif shape is None or self.types[shape] != I8:
-                raise self.fail(node, "needs its shape, int64")
-        elif op == "Shape":
-            params["start"] = attributes.get("start", 0)
-            params["end"] = attributes.get("end")
-        elif op == "Flatten":
-            params["axis"] = attributes.get("axis", 1)
-        elif op == "Slice":
-            params["slices"] = self._slices(node)
-            inputs = inputs[:1]
-        elif op == "Concat":
-            if "axis" not in attributes:
-                raise self.fail(node, "needs its axis")
-            params["axis"] = attributes["axis"]
-            inputs = self._same_type(node, inputs)
-        elif op in ("Squeeze", "Unsqueeze"):
-            params["axes"] = self._axes(node, 13)
-            if op == "Unsqueeze" and params["axes"] is None:
-                raise self.fail(node, "needs its axes")
-            inputs = inputs[:1]
-        elif op == "Gather":
-            params["indices"] = self.constant(node, 1, "indices").astype(np.int64)
-            params["axis"] = attributes.get("axis", 0)
-            inputs = inputs[:1]
-        elif op.startswith("Reduce"):
-            run_op = "Reduce"
-            params["kind"] = op.removeprefix("Reduce").lower()
-            params["axes"] = self._axes(node, 13 if op == "ReduceSum" else 18)
-            params["keepdims"] = attributes.get("keepdims", 1)
-            params["noop"] = attributes.get("noop_with_empty_axes", 0)
-            inputs = inputs[:1]
+        if operator.bind is not None:
+            inputs, params = operator.bind(self, node, inputs)
         kinds = {self.dtype(x) for x in inputs}
-        if op not in _INDEXING and any(kind.kind != "f" for kind in kinds):
+        if operator.computes != "any" and any(kind.kind != "f" for kind in kinds):
             raise self.fail(node, "computes on integers; bbbench runs float arithmetic only")
-        if op in _FLOAT_ONLY and kinds != {F4}:
+        if operator.computes == "float32" and kinds != {F4}:
             raise self.fail(node, "runs on float32 only (portable arithmetic)")
-        step = Step(run_op, tuple(inputs), output, params, f"{op} ({output})")
+        step = Step(op, tuple(inputs), output, params, f"{op} ({output})")
         if all(isinstance(x, np.ndarray) for x in inputs):  # fold it now
             value = self.constants[output] = _run_step(step, {}, self.where)
             _check_size(self.where, step.label, value.size, 1)
             return
-        if op == "Cast":
-            self.types[output] = params["to"]
-        else:
-            self.types[output] = I8 if op == "Shape" else self.dtype(inputs[0])
+        first = self.dtype(inputs[0])
+        self.types[output] = first if operator.gives is None else operator.gives(params, first)
         self.steps.append(step)
 
     def _same_type(self, node, inputs: list) -> list:
@@ -443,26 +281,6 @@ class _Compiler:
                 return np.array(attributes[key], dtype=dtype)
         raise self.fail(node, "a Constant of a kind bbbench does not read")
 
-    def _axes(self, node, since: int):
-        if self.model.opset >= since:
-            axes = self.constant(node, 1, "axes", optional=True)
-            return None if axes is None or axes.size == 0 else tuple(int(a) for a in axes.ravel())
-        axes = node.attributes.get("axes")
-        return None if axes is None else tuple(axes)
-
-    def _slices(self, node) -> tuple:
-        starts, ends = (self.constant(node, i, w).ravel() for i, w in ((1, "starts"), (2, "ends")))
-        axes = self.constant(node, 3, "axes", optional=True)
-        steps = self.constant(node, 4, "steps", optional=True)
-        axes = range(len(starts)) if axes is None else axes.ravel()
-        steps = [1] * len(starts) if steps is None else steps.ravel()
-        if not len(starts) == len(ends) == len(axes) == len(steps) or 0 in list(steps):
-            raise self.fail(node, "starts, ends, axes and steps disagree (or a step is 0)")
-        return tuple(
-            (int(s), int(e), int(a), int(t))
-            for s, e, a, t in zip(starts, ends, axes, steps, strict=True)
-        )
-
 
 def _check_size(where: str, label: str, size: int, rows: int) -> None:
     if size > MAX_ROW_VALUES * rows:
@@ -475,7 +293,7 @@ def _check_size(where: str, label: str, size: int, rows: int) -> None:
 def _run_step(step: Step, env: dict, where: str):
     args = [env[x] if isinstance(x, str) else x for x in step.inputs]
     try:
-        return RUN[step.op](step.params, *args)
+        return KERNELS[step.op](step.params, *args)
     except (ValueError, IndexError, TypeError, np.exceptions.AxisError) as error:
         raise PolicyError(f"{where}: {step.label} fails: {str(error)[:200]}") from None
 
@@ -609,8 +427,8 @@ def _fuse_normalization(steps: list[Step], source: str) -> list[Step]:
     ops = [(step.op, step.params.get("to")) for step in steps[:5]]
     if ops != [("Cast", F8), ("Sub", None), ("Div", None), ("Clip", None), ("Cast", F4)]:
         return steps
-    cast, sub, div, clip, back = steps[:5]
-    chain = [source, cast.output, sub.output, div.output, clip.output]
+    cast, sub, div, bounds, back = steps[:5]
+    chain = [source, cast.output, sub.output, div.output, bounds.output]
     if [step.inputs[0] for step in steps[:5]] != chain or not all(
         isinstance(step.inputs[1], np.ndarray) for step in (sub, div)
     ):
@@ -621,8 +439,8 @@ def _fuse_normalization(steps: list[Step], source: str) -> list[Step]:
     params = {
         "mean": sub.inputs[1],
         "std": div.inputs[1],
-        "low": clip.params["low"],
-        "high": clip.params["high"],
+        "low": bounds.params["low"],
+        "high": bounds.params["high"],
     }
     fused = Step("Normalize", (source,), back.output, params, "VecNormalize's arithmetic")
     return [fused, *steps[5:]]

@@ -34,7 +34,7 @@ import numpy as np
 
 from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.interpreter import OPERATORS
+from bbbench.policies.operators import OPERATORS
 from bbbench.policies.weights import MAX_PARAMETERS
 
 MAX_FILE_BYTES = 64 * 2**20  # 10M float32 parameters are 40 MB
