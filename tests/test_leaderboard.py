@@ -459,7 +459,9 @@ def test_build_and_check_from_the_command(command_board, capsys):
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("leaderboard check ok: 3 entries, 5 tasks; every number recomputed")
-    assert "re-scored in full (inputs changed): none; 83 episodes of the others replayed" in out
+    # Every record of this small board (192): the budget, 1,000, is more.
+    assert "re-scored in full (inputs changed): none; 192 episodes of the others replayed" in out
+    assert "(a budget of 1000 shared by the entries)" in out
     assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
     assert f"{episodes} episodes played again" in capsys.readouterr().out
     (command_board / "README.md").write_text("edited\n")

@@ -19,8 +19,8 @@ from bbbench.evaluation.harness import play_draws
 from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
+from bbbench.leaderboard.page import README_FIGURE
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, read_submissions
-from bbbench.leaderboard.views import README_FIGURE
 from bbbench.tasks.suite import spec
 
 # Episodes the default check replays of the unchanged entries, drawn afresh at every run:

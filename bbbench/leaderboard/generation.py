@@ -12,14 +12,9 @@ from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
 from bbbench.files import write_all_atomic
 from bbbench.leaderboard.board import Board, Scored, leaderboard_document, profile_file, score
+from bbbench.leaderboard.page import README_FIGURE, page, readme_robustness_figure
 from bbbench.leaderboard.submissions import Submission, read_submissions
-from bbbench.leaderboard.views import (
-    README_FIGURE,
-    markdown,
-    page,
-    readme_robustness_figure,
-    with_baselines,
-)
+from bbbench.leaderboard.views import markdown, with_baselines
 
 DOCUMENT = "bbbench-v0.json"
 RESULTS = "results"

@@ -1,0 +1,305 @@
+"""The leaderboard's page, index.html: one self-contained HTML file (inline CSS, JS and
+SVG; no CDN), drawn from the leaderboard document and the entries' results documents
+(the score distributions). Every string a submission wrote is escaped; the cells are
+written as `bbbench.leaderboard.views` writes them for the Markdown page and the
+terminal."""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from bbbench.leaderboard import plots
+from bbbench.leaderboard.board import performance_profile
+from bbbench.leaderboard.views import (
+    HOW_TO_READ,
+    columns,
+    header_name,
+    is_ranked,
+    overall_cell,
+    robustness_cell,
+    steps_cell,
+    task_cell,
+    task_name,
+    versus_cell,
+)
+from bbbench.tasks.perturbations import PERTURBATIONS
+
+_CSS = """
+body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",sans-serif;margin:2em auto;max-width:80em;
+padding:0 1em;color:#1b1f24}
+h1{font-size:1.6em;margin-bottom:.2em}h2{margin-top:2em}p.meta{color:#57606a;margin-top:0}
+div.scroll{overflow-x:auto;margin:1em 0}table.board{border-collapse:collapse;width:100%}
+table.board th,table.board td{padding:.35em .6em;border-bottom:1px solid #d0d7de;text-align:right;
+white-space:nowrap}
+table.board th:nth-child(2),table.board td:nth-child(2),table.board th:nth-child(3),
+table.board td:nth-child(3){text-align:left}
+table.board th{cursor:pointer;user-select:none;background:#f6f8fa;position:sticky;top:0}
+table.board th.old{color:#57606a;font-weight:normal}
+table.board th[aria-sort=ascending]::after{content:" \\25B2"}
+table.board th[aria-sort=descending]::after{content:" \\25BC"}
+tr.entry{cursor:pointer}tr.entry:hover{background:#f6f8fa}
+td small{color:#57606a}tr.details td{text-align:left;background:#fbfcfd;white-space:normal}
+dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em;margin:.4em 0}
+dt{font-weight:600}dd{margin:0;overflow-wrap:anywhere}
+figure{margin:1.5em 0}figcaption{color:#57606a;margin-bottom:.4em}
+figure svg{max-width:100%;height:auto}
+"""
+
+_SCRIPT = """
+document.querySelectorAll("table.board").forEach(function (table) {
+  var body = table.tBodies[0];
+  function pairs() {
+    return Array.prototype.map.call(body.querySelectorAll("tr.entry"), function (row) {
+      return [row, row.nextElementSibling];
+    });
+  }
+  table.querySelectorAll("th").forEach(function (header, column) {
+    header.addEventListener("click", function () {
+      var ascending = header.getAttribute("aria-sort") !== "ascending";
+      table.querySelectorAll("th").forEach(function (h) { h.removeAttribute("aria-sort"); });
+      header.setAttribute("aria-sort", ascending ? "ascending" : "descending");
+      var numeric = header.dataset.type === "number";
+      var sorted = pairs().sort(function (a, b) {
+        var x = a[0].cells[column].dataset.value, y = b[0].cells[column].dataset.value;
+        var order = numeric ? parseFloat(x) - parseFloat(y) : x.localeCompare(y);
+        if (numeric && isNaN(order)) { order = isNaN(parseFloat(x)) ? 1 : -1; }
+        if (numeric && isNaN(parseFloat(x)) && isNaN(parseFloat(y))) { order = 0; }
+        order = ascending ? order : -order;
+        // ties keep the board's order
+        return order || a[0].dataset.position - b[0].dataset.position;
+      });
+      sorted.forEach(function (pair) { body.appendChild(pair[0]); body.appendChild(pair[1]); });
+    });
+  });
+  body.addEventListener("click", function (event) {
+    var row = event.target.closest("tr.entry");
+    if (row) {
+      row.nextElementSibling.hidden = !row.nextElementSibling.hidden;
+      row.setAttribute("aria-expanded", String(!row.nextElementSibling.hidden));
+    }
+  });
+});
+"""
+
+
+def _e(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _number(value: float | None) -> str:
+    return "" if value is None else repr(float(value))
+
+
+def _details(entry: dict[str, Any], width: int) -> str:
+    submission = entry["submission"]
+    policy = entry["policy"]
+    items = [
+        ("authors", ", ".join(submission["authors"])),
+        ("algorithm", submission["algorithm"]),
+        ("action mode", submission["action_mode"]),
+        (
+            "policy",
+            f"built-in '{submission['builtin']}'"
+            if "builtin" in submission
+            else f"policy.{policy.get('format', 'zip')}, SHA-256 {policy['sha256']}",
+        ),
+        ("height scan", "yes" if entry["height_scan"] else "no"),
+        ("training steps", f"{submission['training']['env_steps']:,}"),
+        ("wall time", submission["training"]["wall_time"]),
+        ("hardware", submission["training"]["hardware"]),
+        ("training seeds", ", ".join(map(str, submission["training_seeds"])) or "-"),
+        ("command", submission["command"]),
+        ("licence", submission["licence"]),
+    ]
+    items += [(key, submission[key]) for key in ("date", "notes") if key in submission]
+    listing = "".join(
+        f"<dt>{_e(key)}</dt><dd>{_code(value) if key == 'command' else _e(value)}</dd>"
+        for key, value in items
+    )
+    if submission.get("url"):
+        listing += f"<dt>link</dt><dd>{_link(submission['url'])}</dd>"
+    listing += f"<dt>results</dt><dd>{_link(entry['results'])}</dd>"
+    return f'<tr class="details" hidden><td colspan="{width}"><dl>{listing}</dl></td></tr>'
+
+
+def _code(text: str) -> str:
+    return f"<code>{_e(text)}</code>"
+
+
+def _link(target: str) -> str:
+    return f'<a href="{_e(target)}" rel="nofollow noopener">{_e(target)}</a>'
+
+
+def _cell(value: Any, shown: str) -> str:
+    """A table cell; `value` (a number, text or None) is what sorting compares."""
+    key = _e(value) if isinstance(value, str) else _number(value)
+    return f'<td data-value="{key}">{shown}</td>'
+
+
+def _score_cell(text: str) -> str:
+    """'0.373 (25%)' as the score with the success rate small beside it."""
+    score, _, success = text.partition(" ")
+    return _e(score) + (f" <small>{_e(success)}</small>" if success else "")
+
+
+def _table(track: dict[str, Any]) -> str:
+    task_ids = columns(track)
+    headers = [
+        ("Rank", "number", ""),
+        ("Name", "text", ""),
+        ("Algorithm", "text", ""),
+        ("Training steps", "number", ""),
+        ("Overall [95% CI]", "number", ""),
+        ("Robustness (worst)", "number", ""),
+        *(
+            (header_name(track, t), "number", "" if is_ranked(track, t) else "old")
+            for t in task_ids
+        ),
+        ("P(> next)", "number", ""),
+    ]
+    head = "".join(
+        f'<th data-type="{kind}"' + (f' class="{css}"' if css else "") + f">{_e(label)}</th>"
+        for label, kind, css in headers
+    )
+    body = []
+    for position, entry in enumerate(track["entries"]):
+        submission = entry["submission"]
+        score = entry["overall"]
+        cells = [
+            (entry["rank"], str(entry["rank"])),
+            (submission["name"], _e(submission["name"])),
+            (submission["algorithm"], _e(submission["algorithm"])),
+            (submission["training"]["env_steps"], _e(steps_cell(entry))),
+            (score.get("normalized_iqm"), _e(overall_cell(entry))),
+            (
+                None if entry["robustness"] is None else entry["robustness"]["score"],
+                _score_cell(robustness_cell(entry)),
+            ),
+        ]
+        for task_id in task_ids:
+            block = entry["tasks"].get(task_id)
+            value = None if block is None else block.get("normalized_score")
+            cells.append((value, _score_cell(task_cell(entry, task_id))))
+        versus = entry["versus_next"]
+        versus_value = None if versus is None else versus["probability_of_improvement"]
+        cells.append((versus_value, _e(versus_cell(entry))))
+        row = "".join(_cell(value, shown) for value, shown in cells)
+        body.append(
+            f'<tr class="entry" data-slug="{_e(entry["slug"])}" data-position="{position}" '
+            f'tabindex="0" aria-expanded="false">'
+            f"{row}</tr>" + _details(entry, len(cells))
+        )
+    return (
+        f'<div class="scroll"><table class="board" id="table-{_e(track["track"])}">'
+        f"<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
+    )
+
+
+def robustness_panels(entries: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The board's robustness figure: a panel per axis, a line per entry."""
+    axes = list(dict.fromkeys(axis for e in entries for axis in e["robustness"]["axes"]))
+    panels = []
+    for axis in axes:
+        lines = []
+        for entry in entries:
+            points = entry["robustness"]["axes"].get(axis)
+            if points is not None:
+                values, scores, lows, highs = zip(*points["points"], strict=True)
+                lines.append((entry["submission"]["name"], values, scores, lows, highs))
+        kind = PERTURBATIONS[axis]
+        panels.append(
+            {
+                "title": axis,
+                "xlabel": kind.unit,
+                "lines": lines,
+                "built": dataclasses.fields(kind)[0].default,
+            }
+        )
+    return panels
+
+
+README_FIGURE = "../docs/images/robustness.svg"  # beside the board: the project's README's
+
+
+def readme_robustness_figure(document: dict[str, Any]) -> str | None:
+    """The main README's robustness figure: PD, LQR and the best-ranked PPO entry of the
+    single-bot track on every axis, with 95% intervals; None without them."""
+    entries = next(t for t in document["tracks"] if t["track"] == "single")["entries"]
+    profiled = [e for e in entries if e["robustness"] is not None]
+    chosen = [e for slug in ("pd", "lqr") for e in profiled if e["slug"] == slug]
+    chosen += [e for e in profiled if e["submission"]["algorithm"] == "PPO"][:1]
+    if len(chosen) < 3:
+        return None
+    return plots.svg_text(plots.score_curves(robustness_panels(chosen), columns=4))
+
+
+def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> str:
+    """index.html: the tables, sortable; an entry's metadata on click; the figures."""
+    sections = []
+    for track in document["tracks"]:
+        entries = track["entries"]
+        ranked = [t["task"] for t in track["tasks"] if t["ranked"]]
+        profiles = [
+            (
+                e["submission"]["name"],
+                performance_profile(results[e["slug"]], ranked, plots.THRESHOLDS),
+            )
+            for e in entries
+        ]
+        figures = [
+            (
+                "interval-estimates",
+                "Overall: IQM of normalized scores over the ranked tasks, with 95% intervals.",
+                plots.interval_estimates(entries),
+            ),
+            (
+                "performance-profiles",
+                "Score distributions: the fraction of episodes (averaged over the ranked tasks) "
+                "whose normalized score is above each threshold.",
+                plots.performance_profiles(profiles),
+            ),
+            (
+                "per-task",
+                "Per task: the normalized score of the mean return, with its 95% interval.",
+                plots.per_task_scores(entries, columns(track)),
+            ),
+        ]
+        profiled = [entry for entry in entries if entry["robustness"] is not None]
+        if profiled:
+            played = sorted({task_name(entry["robustness"]["task"]) for entry in profiled})
+            figures.append(
+                (
+                    "robustness",
+                    f"Robustness profiles on {' and '.join(played)} (each entry on the first it "
+                    "fits): the normalized score (20 evaluation seeds) at each value of each "
+                    "perturbation's standard grid; the dotted line is the task as built.",
+                    plots.svg_text(
+                        plots.score_curves(robustness_panels(profiled), columns=4, bands=False)
+                    ),
+                )
+            )
+        figures_html = "".join(
+            f'<figure class="plot" id="{track["track"]}-{name}">'
+            f"<figcaption>{_e(caption)}</figcaption>{svg}</figure>"
+            for name, caption, svg in figures
+        )
+        sections.append(
+            f'<section id="track-{_e(track["track"])}"><h2>{_e(track["title"].capitalize())}</h2>'
+            f"{_table(track)}{figures_html}</section>"
+        )
+    intro = " ".join(HOW_TO_READ.replace("**", "").replace("`", "").split())
+    return (
+        "<!DOCTYPE html>\n"
+        '<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>bbbench leaderboard</title><style>{_CSS}</style></head><body>"
+        "<h1>bbbench leaderboard</h1>"
+        f'<p class="meta">bbbench {_e(document["bbbench_version"])} (harness '
+        f"{_e(document['harness_version'])}), pybullet {_e(document['pybullet_version'])}. "
+        'Data: <a href="bbbench-v0.json">bbbench-v0.json</a>. Click a column to sort, '
+        "an entry for its details.</p>"
+        f"<p>{_e(intro)}</p>{''.join(sections)}<script>{_SCRIPT}</script></body></html>\n"
+    )
