@@ -202,7 +202,7 @@ class MultiBalanceEnv(ParallelEnv):
         **unknown: Any,
     ) -> None:
         options = {"n_bots": n_bots, "max_episode_steps": max_episode_steps}
-        options["difficulty"] = difficulty
+        options["difficulty"] = difficulty  # in this order in the messages
         task = task if isinstance(task, TaskSpec) else spec(task)
         modes = self.metadata["render_modes"]
         task = requested_task(
@@ -212,11 +212,7 @@ class MultiBalanceEnv(ParallelEnv):
         self.group = group = task.group
         self.action_mode = action_mode
         self.render_mode = render_mode
-        self.metadata = {
-            **self.metadata,
-            "name": f"bbbench_{task.name.lower()}",  # bbbench_multibumps, ...
-            "render_fps": round(1.0 / task.control_dt),
-        }
+        self.metadata = _metadata(self.metadata, task)
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
@@ -257,10 +253,7 @@ class MultiBalanceEnv(ParallelEnv):
 
     def _check_agent(self, agent: str) -> None:
         if agent not in self.agent_index:
-            raise ValueError(
-                f"unknown agent {agent!r}: {self.task.id} with {self.group.n_bots} bots has "
-                f"agents {self.possible_agents[0]!r} to {self.possible_agents[-1]!r}"
-            )
+            raise ValueError(_unknown_agent(self, agent))
 
     # -- the PettingZoo parallel API ----------------------------------------------
 
@@ -296,7 +289,7 @@ class MultiBalanceEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         agents, scene = self.agents, self._scene
         if not isinstance(actions, dict) or len(actions) != len(agents):
-            check_actions(actions, self)  # a clear error, or actions of ended agents: ignored
+            check_actions(actions, self)  # a clear error (or actions of ended agents: ignored)
         elif not all(agent in actions for agent in agents):
             check_actions(actions, self)
         if not agents:
@@ -343,10 +336,7 @@ class MultiBalanceEnv(ParallelEnv):
         that pass one (RLlib's `ParallelPettingZooEnv` passes its own, None unless set):
         None or the env's own render mode."""
         if mode is not None and mode != self.render_mode:
-            raise ValueError(
-                f"render({mode!r}): this env renders in its own render_mode "
-                f"{self.render_mode!r}; make it with render_mode={mode!r} instead"
-            )
+            raise ValueError(_other_mode(mode, self.render_mode))
         return group_frame(self._scene, self._states) if render_ready(self) else None
 
     def camera(self) -> tuple[tuple[float, float, float], float]:
@@ -360,6 +350,26 @@ class MultiBalanceEnv(ParallelEnv):
     def __getstate__(self) -> dict[str, Any]:
         # A copy has no world (the scene pickles without one) and no episode.
         return {**self.__dict__, "agents": [], "_states": []}
+
+
+def _metadata(metadata: dict[str, Any], task: TaskSpec) -> dict[str, Any]:
+    """The env's metadata for `task`: its name (bbbench_multibumps ...) and frame rate."""
+    name, fps = f"bbbench_{task.name.lower()}", round(1.0 / task.control_dt)
+    return {**metadata, "name": name, "render_fps": fps}
+
+
+def _unknown_agent(env: MultiBalanceEnv, agent: str) -> str:
+    return (
+        f"unknown agent {agent!r}: {env.task.id} with {env.group.n_bots} bots has agents "
+        f"{env.possible_agents[0]!r} to {env.possible_agents[-1]!r}"
+    )
+
+
+def _other_mode(mode: str, own: str | None) -> str:
+    return (
+        f"render({mode!r}): this env renders in its own render_mode {own!r}; make it with "
+        f"render_mode={mode!r} instead"
+    )
 
 
 def group_frame(scene: Scene, states: list[BotState]) -> np.ndarray:
