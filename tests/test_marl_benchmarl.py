@@ -33,11 +33,36 @@ def tiny_config(tmp_path, frames: int, batch: int, discrete: bool = False) -> Ex
     return config
 
 
-def test_the_family_is_every_latest_multi_bot_task():
+def test_the_family_is_every_latest_multi_bot_task_made_from_the_suite():
+    from bbbench.marl.family import task_config
+
     latest = [t for t in bbbench.list_tasks(latest=True) if bbbench.spec(t).multi_agent]
     assert sorted(task.get_from_yaml().task_id for task in BbbenchTask) == sorted(latest)
     for task in BbbenchTask:
         assert task_config_registry[f"bbbench/{task.name.lower()}"] is task
+        # The YAML BenchMARL's hydra CLI reads holds what the suite makes.
+        assert task.get_from_yaml().config == task_config(task.get_from_yaml().task_id)
+
+
+def test_a_new_team_task_trains_with_benchmarl_without_touching_marl(tmp_path, monkeypatch):
+    """A throwaway team task, a row added to the suite and nothing else: the family, its
+    configuration and the recipe (its scenario's) come from the suite."""
+    import dataclasses
+
+    from bbbench.tasks import suite
+    from bbbench.training import train
+
+    row = dataclasses.replace(
+        suite.SUITE["bbbench/Convoy-v0"],
+        id="bbbench/ThrowawayTeam-v0",
+        group=dataclasses.replace(suite.SUITE["bbbench/Convoy-v0"].group, n_bots=2),
+    )
+    monkeypatch.setitem(suite.SUITE, row.id, row)
+    out = tmp_path / "policy.onnx"
+    trained = train([row.id], "ippo", out=out, steps=10, n_envs=2, workers=1, final_episodes=1)
+    assert out.exists()
+    assert trained.results["tasks"][0]["task"] == row.id
+    assert trained.recipe.record()["recipe"] == row.id
 
 
 @pytest.mark.parametrize("continuous", [False, True])

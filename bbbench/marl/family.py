@@ -37,6 +37,29 @@ CONF = Path(__file__).with_name("conf") / "task"
 ENV_NAME = "bbbench"
 
 
+def member_name(task_id: str) -> str:
+    """The BenchMARL task name of a bbbench task ID: bbbench/MultiBalance-v1 -> MULTIBALANCE_V1."""
+    return task_id.removeprefix("bbbench/").replace("-", "_").upper()
+
+
+def task_config(task_id: str) -> dict[str, Any]:
+    """A task's BenchMARL configuration, from its row of the suite: the env's own
+    keywords at their defaults (`n_bots`) and `workers`, the processes that step the
+    worlds (1; the same results for any number). conf/task/bbbench/'s YAML files, which
+    BenchMARL's hydra CLI reads, hold the same (tests/test_marl_benchmarl.py)."""
+    task = bbbench.spec(task_id)
+    if task.group is None:
+        raise ValueError(f"{task_id} is a single-bot task: BenchMARL trains the multi-bot ones")
+    return {"n_bots": task.group.n_bots, "workers": 1}
+
+
+def task_class(task_id: str, **changes: Any) -> BbbenchTaskClass:
+    """The BenchMARL task of any multi-bot task of the suite (no member of `BbbenchTask`
+    needed), its configuration from the suite with `changes`."""
+    config = {**task_config(task_id), **changes}
+    return BbbenchTaskClass(name=member_name(task_id), config=config)
+
+
 def task_id(name: str) -> str:
     """The bbbench task ID of a BenchMARL task name: MULTIBALANCE_V1 -> bbbench/MultiBalance-v1."""
     wanted = name.lower().replace("_v", "-v")
@@ -136,14 +159,9 @@ class BbbenchTaskClass(TaskClass):
         return ENV_NAME
 
 
-class BbbenchTask(Task):
-    """bbbench's latest multi-bot and team tasks, for BenchMARL."""
-
-    MULTIBALANCE_V1 = None
-    MULTIBUMPS_V1 = None
-    BEAMCARRY_V0 = None
-    BEAMCARRYBUMPS_V0 = None
-    CONVOY_V0 = None
+class _Family(Task):
+    """What every member of `BbbenchTask` does (an Enum with members cannot be
+    subclassed: the members are made below, from the suite)."""
 
     @staticmethod
     def associated_class():
@@ -154,6 +172,13 @@ class BbbenchTask(Task):
         file = Path(path) if path else CONF / ENV_NAME / f"{self.name.lower()}.yaml"
         return self.get_task(config=_read_yaml_config(str(file)))
 
+
+# bbbench's latest multi-bot and team tasks, for BenchMARL: one member each, from the suite.
+BbbenchTask = _Family(
+    "BbbenchTask",
+    [(member_name(t), None) for t in bbbench.list_tasks(multi_agent=True, latest=True)],
+    module=__name__,
+)
 
 for _task in BbbenchTask:
     task_config_registry[f"{ENV_NAME}/{_task.name.lower()}"] = _task

@@ -22,13 +22,13 @@ from typing import Any
 import torch.nn
 from benchmarl.experiment import Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
-from benchmarl.utils import _read_yaml_config
 
 import bbbench
 from bbbench.marl.algorithms import MaskedIppoConfig, MaskedMappoConfig
-from bbbench.marl.family import BbbenchTask
+from bbbench.marl.family import task_class, task_config
 from bbbench.marl.models import NeighbourEncoderConfig
 from bbbench.policies.algorithms import unknown
+from bbbench.tasks.suite import latest_version
 from bbbench.training.recipe_files import read_recipe_file
 
 ALGORITHMS = {"ippo": MaskedIppoConfig, "mappo": MaskedMappoConfig}
@@ -122,10 +122,8 @@ class MarlRecipe:
         }
 
     def task_config(self):
-        """The BenchMARL task with its YAML and the recipe's keywords."""
-        task = BbbenchTask[_member(self.key)].get_from_yaml()
-        task.config.update(self.task)
-        return task
+        """The BenchMARL task: its configuration from the suite, with the recipe's."""
+        return task_class(self.key, **self.task)
 
     def algorithm_config(self):
         config = ALGORITHMS[self.algorithm].get_from_yaml()
@@ -181,11 +179,17 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
     table = read_recipe_file(algorithm, file)
     where = f"{Path(file).name if file else f'{algorithm}.yml'}, {key}"
     if key not in table:
-        raise ValueError(
-            f"no {algorithm} recipe for {key}; {Path(file).name if file else f'{algorithm}.yml'} "
-            f"has recipes for {', '.join(map(str, table))}"
-        )
-    entry = table[key]
+        like = _like(key, table)
+        if like is None:
+            named = Path(file).name if file else f"{algorithm}.yml"
+            raise ValueError(
+                f"no {algorithm} recipe for {key}; {named} has recipes for "
+                f"{', '.join(map(str, table))}"
+            )
+        where = f"{where} (as {like})"
+        entry = table[like]
+    else:
+        entry = table[key]
     if not isinstance(entry, dict):
         raise ValueError(f"{where}: expected sections {', '.join(SECTIONS)}")
     extra = sorted(set(entry) - set(SECTIONS))
@@ -247,11 +251,6 @@ def check_workers(workers: Any, worlds: int | None, what: str = "--workers") -> 
     return workers
 
 
-def _member(task_id: str) -> str:
-    """bbbench/MultiBalance-v1 -> MULTIBALANCE_V1."""
-    return task_id.removeprefix("bbbench/").upper().replace("-", "_")
-
-
 def _check_fields(where: str, given: dict[str, Any], config_class) -> None:
     known = [field.name for field in dataclasses.fields(config_class)]
     for field in given:
@@ -259,17 +258,30 @@ def _check_fields(where: str, given: dict[str, Any], config_class) -> None:
             raise ValueError(f"{where}: {unknown('key', field, tuple(known))}")
 
 
+def _like(task_id: str, table: dict[str, Any]) -> str | None:
+    """The task whose recipe a multi-bot task without its own trains with: one of the same
+    scenario, else one whose bots end as its do (a team's together, or each alone)."""
+    try:
+        task = bbbench.spec(task_id)
+    except ValueError:
+        return None
+    if not task.multi_agent or latest_version(task_id) != task_id:
+        return None  # an older version keeps no recipe: the recipes train the latest
+    known = [k for k in table if k in bbbench.list_tasks(multi_agent=True)]
+    for same in (
+        lambda other: other.scenario_class is task.scenario_class,
+        lambda other: other.scenario_class.team == task.scenario_class.team,
+    ):
+        found = [k for k in known if same(bbbench.spec(k))]
+        if found:
+            return found[0]
+    return None
+
+
 def _check_task(where: str, task_id: str, keywords: dict[str, Any]) -> None:
-    if not bbbench.spec(task_id).multi_agent or _member(task_id) not in BbbenchTask.__members__:
-        raise ValueError(f"{where}: not one of the latest multi-bot tasks")
-    defaults = _read_yaml_config(
-        str(
-            Path(__file__).with_name("conf")
-            / "task"
-            / "bbbench"
-            / f"{_member(task_id).lower()}.yaml"
-        )
-    )
+    if not bbbench.spec(task_id).multi_agent:
+        raise ValueError(f"{where}: not a multi-bot task")
+    defaults = task_config(task_id)
     for field in keywords:
         if field not in defaults:
             raise ValueError(
