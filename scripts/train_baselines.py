@@ -21,11 +21,15 @@ in place of the 300k entry of its seed, whose logs stay in `baselines/`.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
+import hashlib
 import json
 import os
 import platform
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -335,13 +339,14 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
         record = json.loads((target / "train.json").read_text())
         old = args.board / "submissions" / cell["replaces"][cell["seeds"].index(seed)]
-        if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
-            subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
         # The seed's own command: `_add` records all of it but its last two (the --out).
         one = ["--seed", str(seed), "--workers", "1", "--out", "-"]
         seeded = [*argv[: argv.index("--seeds")], *one]
         minutes = record["wall_time_s"] / 60
-        print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
+        with board_lock(args.board):
+            if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
+                subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
+            print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
     (folder / "train.log").rename(args.root / f"{cell['cell']}.log")
     folder.rmdir()
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
@@ -352,6 +357,19 @@ def _slug(cell: dict, seed: int) -> str:
 
 
 _BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
+
+
+@contextlib.contextmanager
+def board_lock(board: Path):
+    """The board to this process alone while it adds (campaign cells may run as two
+    processes side by side; `add` rebuilds the board and `git rm` takes git's index)."""
+    key = hashlib.sha256(str(board.resolve()).encode()).hexdigest()[:16]
+    with open(Path(tempfile.gettempdir()) / f"bbbench-adding-{key}.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def _train_and_add(run: dict, args: argparse.Namespace) -> str:
