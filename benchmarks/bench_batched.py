@@ -97,8 +97,8 @@ def recipe_policy(worlds: int, folder: str):
     sampling), as BenchMARL's `Experiment` builds it."""
     from pathlib import Path
 
-    from bbbench.marl.recipes import marl_recipe
-    from bbbench.marl.training import _quiet
+    from bbbench.training.benchmarl.recipes import marl_recipe
+    from bbbench.training.benchmarl.train import _quiet
 
     plan = marl_recipe("ippo", TASK)
     with _quiet():

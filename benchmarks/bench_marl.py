@@ -33,7 +33,8 @@ TASK = "bbbench/MultiBalance-v1"
 
 
 def sb3_rate(bot_steps: int) -> float:
-    from bbbench.training import build_model, recipe, training_env
+    from bbbench.training import recipe
+    from bbbench.training.sb3.train import build_model, training_env
 
     plan = recipe("ppo", TASK)
     env = training_env(plan, [TASK], plan.n_envs, "discrete", seed=0)
@@ -47,8 +48,8 @@ def sb3_rate(bot_steps: int) -> float:
 
 def ippo_rate(batches: int, recipe_file: str | None) -> float:
     """Bot-steps per second of `batches` IPPO iterations."""
-    from bbbench.marl.recipes import marl_recipe
-    from bbbench.marl.training import _quiet, observation_statistics
+    from bbbench.training.benchmarl.recipes import marl_recipe
+    from bbbench.training.benchmarl.train import _quiet, observation_statistics
 
     plan = marl_recipe("ippo", TASK, recipe_file)
     task = plan.task_config()
@@ -71,7 +72,7 @@ def main() -> None:
     parser.add_argument("--bare-steps", type=int, default=16_000, help="world steps")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    from bbbench.marl.recipes import marl_recipe
+    from bbbench.training.benchmarl.recipes import marl_recipe
 
     plan = marl_recipe("ippo", TASK, args.recipe)
     bot_steps = plan.batch() * args.batches * plan.task_config().config["n_bots"]

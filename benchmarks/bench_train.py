@@ -33,8 +33,8 @@ from stable_baselines3.common.env_util import make_vec_env
 import bbbench  # noqa: F401  (registers the tasks)
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies.policy import TorchActor
-from bbbench.training import build_model, evaluation_seeds, training_env
-from bbbench.training.recipes import recipe
+from bbbench.training import evaluation_seeds, recipe
+from bbbench.training.sb3.train import build_model, training_env
 
 FLAT = "bbbench/FlatBalance-v0"
 STANDS = 1400  # mean episode length, of 1500

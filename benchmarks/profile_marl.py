@@ -143,8 +143,8 @@ def run(
     counts from the run's start (set-up off its clock too)."""
     from benchmarl.experiment import Experiment
 
-    from bbbench.marl.recipes import marl_recipe
-    from bbbench.marl.training import _quiet, observation_statistics
+    from bbbench.training.benchmarl.recipes import marl_recipe
+    from bbbench.training.benchmarl.train import _quiet, observation_statistics
 
     plan = marl_recipe(algorithm, task_id, recipe_file)
     task = plan.task_config()

@@ -15,7 +15,8 @@ import pytest
 from bbbench.cli import main
 from bbbench.policies import load_policy
 from bbbench.training import MARL_TRAINABLE, recipe
-from bbbench.training.recipes import recipe_file, recipes
+from bbbench.training.recipe_files import recipe_file
+from bbbench.training.sb3.recipes import recipes
 from conftest import one_line_exit_2
 
 TASK = "bbbench/BeamCarry-v0"
@@ -72,7 +73,7 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
 
 
 def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
-    with pytest.raises(ValueError, match="unknown algorithm 'mappo'"):
+    with pytest.raises(ValueError, match="mappo trains with BenchMARL"):
         recipes("mappo")
 
 
@@ -173,7 +174,7 @@ def test_mappo_refuses_a_critic_that_is_not_centralised(tmp_path, capsys):
 
 
 def test_without_benchmarl_a_marl_algorithm_says_what_to_install(monkeypatch):
-    monkeypatch.setitem(sys.modules, "bbbench.marl.recipes", None)  # import fails
+    monkeypatch.setitem(sys.modules, "bbbench.training.benchmarl.recipes", None)  # import fails
     with pytest.raises(ValueError, match=r"pip install 'bbbench\[marl\]'"):
         recipe("mappo", TASK)
 
@@ -253,7 +254,7 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
 def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed():
     """The classical controller's play (a fifth of its actions random): the pitch spreads
     over hundredths of a radian there, not over the tenths of bots falling at random."""
-    from bbbench.marl.training import classical_controller, observation_statistics
+    from bbbench.training.benchmarl.train import classical_controller, observation_statistics
 
     assert classical_controller("bbbench/MultiBalance-v1") == "pd"
     assert classical_controller(TASK) == "team"

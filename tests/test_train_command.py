@@ -17,8 +17,9 @@ from bbbench import training
 from bbbench.cli import main
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies import load_policy
-from bbbench.training.recipes import (
-    TRAINABLE,
+from bbbench.training.algorithms import TRAINABLE
+from bbbench.training.recipe_files import recipe_file
+from bbbench.training.sb3.recipes import (
     parse_normalize,
     parse_policy_kwargs,
     recipe,
@@ -208,7 +209,7 @@ def test_every_recipe_reads_as_data():
 
 def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     pytest.importorskip("rl_zoo3", reason="rl-zoo3 is in the test extras")
-    conf = training.recipes.recipe_file("ppo")
+    conf = recipe_file("ppo")
     argv = [
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", FLAT,
         "--gym-packages", "bbbench", "-conf", str(conf), "-n", "2048", "-f",

@@ -302,7 +302,7 @@ def test_eval_and_rollout_play_the_legged_tasks(tmp_path, capsys):
 
 
 def test_training_picks_the_robots_action_mode_or_says_what_to_use():
-    from bbbench.training.trainer import check_request
+    from bbbench.training import check_request
 
     assert check_request([LEGGED_TASKS[0]], "ppo", None, None)[2] == "continuous"
     assert check_request(["bbbench/FlatBalance-v1"], "ppo", None, None)[2] == "discrete"

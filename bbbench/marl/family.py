@@ -74,7 +74,7 @@ class BbbenchTaskClass(TaskClass):
 
     `observation_normalization`, if set to (mean, std) per observation value, puts a fixed
     `ObservationNorm` in front of the models ((observation - mean) / std), in training and
-    evaluation alike: what `bbbench train` sets from random play (`bbbench.marl.training`).
+    evaluation alike: what `bbbench train` sets from random play (`bbbench.training.benchmarl`).
     """
 
     observation_normalization: tuple[Any, Any] | None = None

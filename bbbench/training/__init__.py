@@ -3,45 +3,35 @@
     from bbbench.training import train
     result = train(["bbbench/FlatBalance-v1"], "ppo", out="policy.zip", seed=0)
 
-The training loop is `bbbench.training.trainer`; its evaluation during training,
-`bbbench.training.callbacks`; the rl-zoo3 recipe files, `bbbench.training.recipes`.
+One table of algorithms (`bbbench.training.algorithms`) says which route trains each:
+`bbbench.training.sb3` (stable-baselines3, rl-zoo3 recipes, a zip) or
+`bbbench.training.benchmarl` (BenchMARL on multi-bot tasks, ONNX). What both share sits
+here: the request and its checks (`trainer`, `checks`), the recipe files
+(`recipe_files`), the training seeds (`seeds`), the logs (`logs`), the count of trainings
+beside (`beside`) and the fan-out of seeds (`fanout`).
 """
 
+from bbbench.training.algorithms import ALGORITHMS, MARL_TRAINABLE, TRAINABLE, trainable
+from bbbench.training.checks import check_collection, check_policy_path
 from bbbench.training.logs import Trained
-from bbbench.training.recipes import (
-    MARL_TRAINABLE,
-    MIX,
-    TRAINABLE,
-    Recipe,
-    check_collection,
-    check_policy_path,
-    recipe,
-)
+from bbbench.training.sb3.recipes import MIX, Recipe, statistics_path
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
-from bbbench.training.trainer import (
-    build_model,
-    check_request,
-    reproducible_zip,
-    statistics_path,
-    train,
-    training_env,
-)
+from bbbench.training.trainer import check_request, recipe, train
 
 __all__ = [
+    "ALGORITHMS",
     "EVALUATION_EPISODES",
     "MARL_TRAINABLE",
     "MIX",
     "TRAINABLE",
     "Recipe",
     "Trained",
-    "build_model",
     "check_collection",
     "check_policy_path",
     "check_request",
     "evaluation_seeds",
     "recipe",
-    "reproducible_zip",
     "statistics_path",
     "train",
-    "training_env",
+    "trainable",
 ]

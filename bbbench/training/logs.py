@@ -1,5 +1,5 @@
 """What a training leaves beside its policy, whichever trainer ran it (stable-baselines3
-in `bbbench.training.trainer`, BenchMARL in `bbbench.marl.training`): the `Trained`
+in `bbbench.training.sb3`, BenchMARL in `bbbench.training.benchmarl`): the `Trained`
 record, and curve.json, curve.png, train.json and results.json written at once."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The recipe files shipped in the package (`bbbench/training/recipes/<algorithm>.yml`),
-read as data: rl-zoo3's format for stable-baselines3 (`bbbench.training.recipes`),
-BenchMARL's config groups for IPPO and MAPPO (`bbbench.marl.recipes`)."""
+read as data: rl-zoo3's format for stable-baselines3 (`bbbench.training.sb3.recipes`),
+BenchMARL's config groups for IPPO and MAPPO (`bbbench.training.benchmarl.recipes`)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""`bbbench train TASK --algo mappo` (or ippo): BenchMARL's `Experiment` with a recipe of
-`bbbench/training/recipes/`, on one multi-bot or team task.
+"""The BenchMARL route: `bbbench train TASK --algo mappo` (or ippo), BenchMARL's
+`Experiment` with a recipe of `bbbench/training/recipes/`, on one multi-bot or team task.
 
 The policy shared by every bot is exported to ONNX (`bbbench.policies.export_onnx`, with
 its contract) at every evaluation point, and that file plays the task's training seeds
@@ -45,13 +45,13 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
-from bbbench.marl.recipes import MarlRecipe, marl_recipe
 from bbbench.policies import load_policy, onnx_bytes
 from bbbench.policies.onnx_file import parse_onnx
 from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
 from bbbench.training.beside import trainings_beside
+from bbbench.training.checks import check_collection, check_policy_path
 from bbbench.training.logs import Trained, curve_point, write_logs
-from bbbench.training.recipes import check_collection, check_policy_path
 from bbbench.training.seeds import evaluation_seeds
 
 ACTION_MODE = "discrete"

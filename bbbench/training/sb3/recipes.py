@@ -1,5 +1,5 @@
-"""Training recipes: rl-zoo3 hyperparameter files shipped in the package, one per algorithm,
-keyed by task ID (`bbbench/training/recipes/ppo.yml`).
+"""The stable-baselines3 route's recipes: rl-zoo3 hyperparameter files shipped in the
+package, one per algorithm, keyed by task ID (`bbbench/training/recipes/ppo.yml`).
 
 The same file drives `bbbench train` and rl-zoo3's own `python -m rl_zoo3.train --algo
 ppo --env bbbench/Bumps-v1 --gym-packages bbbench -conf <file>`. The keys rl-zoo3
@@ -22,16 +22,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bbbench.files import check_output_path
-from bbbench.policies.algorithms import ALGORITHMS, by_key, unknown
+from bbbench.policies.algorithms import by_key, unknown
+from bbbench.policies.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import SUITE, latest_version, spec
-from bbbench.training.recipe_files import read_recipe_file, recipe_file
+from bbbench.training.algorithms import SB3, trainable
+from bbbench.training.recipe_files import read_recipe_file
 
-# The algorithms `bbbench train` trains: those of the table with a shipped recipe file.
-TRAINABLE = tuple(a.key for a in ALGORITHMS.values() if recipe_file(a.key).is_file())
-# The algorithms trained with BenchMARL (the marl extra) on multi-bot tasks: their recipes,
-# also in bbbench/training/recipes/, are BenchMARL's YAML (bbbench.marl.recipes).
-MARL_TRAINABLE = ("ippo", "mappo")
 MIX = "single-bot mix"  # the recipe key of a generalist trained on several tasks
 _ZOO_KEYS = (
     "n_envs",
@@ -72,6 +68,16 @@ class Recipe:
             steps = parameters["n_steps"].default if "n_steps" in parameters else 1
         return int(steps) * slots
 
+    def batch_of(self, tasks: Sequence[str], n_envs: int, workers: int | None) -> int:
+        """Steps a rollout of `n_envs` envs of `tasks` collects
+        (`bbbench.training.checks.check_collection`)."""
+        if workers is not None:
+            raise ValueError(
+                f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
+                f"{self.algorithm} collects with --n-envs"
+            )
+        return self.batch(vec_slots(tasks, n_envs))
+
     def record(self) -> dict[str, Any]:
         """As `train.json` records it."""
         return {
@@ -89,17 +95,14 @@ class Recipe:
 
 def recipes(algorithm: str, file: str | Path | None = None) -> dict[str, dict[str, Any]]:
     """The recipe table of `algorithm`: its shipped file, or `file` (the same format)."""
-    if algorithm not in TRAINABLE:
-        raise ValueError(unknown("algorithm", algorithm, TRAINABLE + MARL_TRAINABLE))
+    if trainable(algorithm).route != SB3:
+        raise ValueError(f"{algorithm} trains with BenchMARL, from a recipe of its own")
     return read_recipe_file(algorithm, file)
 
 
-def recipe(algorithm: str, key: str, file: str | Path | None = None):
-    """`algorithm`'s recipe for `key` (from `file`, else the shipped one): a `Recipe`, or a
-    `bbbench.marl.recipes.MarlRecipe` for a BenchMARL algorithm; `ValueError` naming the
-    ones there are."""
-    if algorithm in MARL_TRAINABLE:
-        return marl_recipe(algorithm, key, file)
+def recipe(algorithm: str, key: str, file: str | Path | None = None) -> Recipe:
+    """`algorithm`'s recipe for `key` (from `file`, else the shipped one); `ValueError`
+    naming the ones there are."""
     table = recipes(algorithm, file)
     if key not in table:
         newer = _newer_version(key)
@@ -146,34 +149,6 @@ def _check_keys(algorithm: str, where: str, entry: dict[str, Any]) -> None:
     for name in entry:
         if name not in known:
             raise ValueError(f"{where}: {unknown('key', name, known)}")
-
-
-def check_policy_path(algorithm: str, out: str | Path) -> Path:
-    """`out` as the policy file `algorithm` writes: a name ending in .zip
-    (stable-baselines3) or .onnx (IPPO, MAPPO), in a folder it can write, so that it is
-    never taken for one of the logs written beside it (curve.json, train.json ...);
-    `ValueError` saying what to give."""
-    suffix, written = (
-        (".onnx", "an ONNX policy") if algorithm in MARL_TRAINABLE else (".zip", "a zip policy")
-    )
-    if Path(str(out)).suffix != suffix:
-        raise ValueError(
-            f"--out {out}: {algorithm.upper()} writes {written}: give a file name ending in "
-            f"{suffix} (curve.json, curve.png, train.json and results.json go beside it)"
-        )
-    return check_output_path(out, "--out")
-
-
-def marl_recipe(algorithm: str, key: str, file: str | Path | None = None):
-    """A BenchMARL recipe (`bbbench.marl.recipes`); `ValueError` if BenchMARL is missing."""
-    try:
-        from bbbench.marl.recipes import marl_recipe as read  # lazy: benchmarl, optional
-    except ImportError as error:
-        raise ValueError(
-            f"{algorithm.upper()} trains with BenchMARL, which is not installed ({error}): "
-            f"pip install 'bbbench[marl]'"
-        ) from None
-    return read(algorithm, key, file)
 
 
 def parse_normalize(value: Any, where: str) -> dict[str, Any] | None:
@@ -241,18 +216,6 @@ def _show_policy_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     return {k: v.__name__ if isinstance(v, type) else v for k, v in kwargs.items()}
 
 
-def whole_batches(steps: int, batch: int) -> tuple[int, str | None]:
-    """A budget of `steps` as a training honours it: at least one batch (`batch` steps,
-    the least a training collects before it learns); and the note that says so when it
-    is rounded up, else None."""
-    if steps >= batch:
-        return steps, None
-    return batch, (
-        f"--steps {steps:,} is less than one batch of the recipe ({batch:,} steps collected "
-        f"before it learns): training one batch, {batch:,} steps"
-    )
-
-
 def vec_slots(tasks: Sequence[str], n_envs: int) -> int:
     """The slots of the VecEnv `n_envs` envs of `tasks` make (a multi-bot world: one per
     bot)."""
@@ -260,31 +223,18 @@ def vec_slots(tasks: Sequence[str], n_envs: int) -> int:
     return n_envs * (task.group.n_bots if task.multi_agent else 1)
 
 
-def check_collection(
-    plan, tasks: Sequence[str], n_envs: int | None, workers: int | None, steps: int | None
-) -> tuple[int, int, str | None]:
-    """How a training of `plan` collects, checked: its budget (`steps`, default the
-    recipe's, at least one batch), its batch (a rollout of every env; IPPO's and MAPPO's
-    world steps a batch), and the note that says the budget was rounded up (else None).
-    `ValueError` for envs or worker processes the recipe cannot take."""
-    if n_envs is not None and n_envs < 1:
-        raise ValueError(f"--n-envs must be at least 1, got {n_envs}")
-    n_envs = n_envs or plan.n_envs
-    if plan.algorithm in MARL_TRAINABLE:
-        from bbbench.envs.batched import check_memory  # lazy: bbbench.envs
-        from bbbench.marl.recipes import check_workers  # lazy: benchmarl
-
-        check_memory(n_envs)
-        plan.check_worlds(n_envs)
-        if workers is not None:
-            check_workers(workers, n_envs)
-        batch = plan.batch()
-    else:
-        if workers is not None:
-            raise ValueError(
-                f"--workers sets the processes of IPPO's and MAPPO's batched worlds; "
-                f"{plan.algorithm} collects with --n-envs"
-            )
-        batch = plan.batch(vec_slots(tasks, n_envs))
-    budget, note = whole_batches(steps or plan.n_timesteps, batch)
-    return budget, batch, note
+def statistics_path(out: str | Path, plan: Recipe) -> Path | None:
+    """Where the VecNormalize statistics of the policy `out` go if `plan` trains inside
+    VecNormalize: rl-zoo3's layout, which `bbbench eval` finds on its own (`policy.zip`
+    -> `policy/vecnormalize.pkl`). None for a recipe without; `ValueError` if a file is
+    in the way."""
+    if plan.normalize is None:
+        return None
+    out = Path(out)
+    statistics = out.parent / out.stem / STATISTICS_FILE
+    if statistics.parent.exists() and not statistics.parent.is_dir():
+        raise ValueError(
+            f"--out {out}: its recipe trains inside VecNormalize, whose statistics go to "
+            f"{statistics}, but {statistics.parent} is a file: choose another --out"
+        )
+    return statistics

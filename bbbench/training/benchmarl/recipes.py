@@ -1,5 +1,5 @@
-"""BenchMARL recipes: `bbbench/training/recipes/{ippo,mappo}.yml`, one entry per task ID,
-beside the stable-baselines3 recipes.
+"""The BenchMARL route's recipes: `bbbench/training/recipes/{ippo,mappo}.yml`, one entry
+per task ID, beside the stable-baselines3 recipes.
 
 An entry's sections override BenchMARL's own YAML of each config group: `task` (the
 task's YAML in `bbbench/marl/conf/task/bbbench/`), `algorithm` (BenchMARL's
@@ -24,14 +24,14 @@ from benchmarl.experiment import Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
 
 import bbbench
-from bbbench.marl.algorithms import MaskedIppoConfig, MaskedMappoConfig
+from bbbench.envs.batched import check_memory
 from bbbench.marl.family import task_class, task_config
 from bbbench.marl.models import NeighbourEncoderConfig
 from bbbench.policies.algorithms import unknown
 from bbbench.tasks.suite import latest_version
+from bbbench.training.algorithms import MARL_TRAINABLE, trainable
 from bbbench.training.recipe_files import read_recipe_file
 
-ALGORITHMS = {"ippo": MaskedIppoConfig, "mappo": MaskedMappoConfig}
 MODELS = ("mlp", "neighbour_encoder")
 SECTIONS = ("task", "algorithm", "model", "critic_model", "experiment")
 # What bbbench train sets itself (the key, and why).
@@ -75,7 +75,7 @@ class MarlRecipe:
     model: dict[str, Any]
     critic_model: dict[str, Any]
     experiment: dict[str, Any]
-    normalize = None  # no VecNormalize: bbbench.marl.training fixes a normalizer first
+    normalize = None  # no VecNormalize: the BenchMARL route fixes a normalizer first
 
     @functools.cached_property
     def n_timesteps(self) -> int:
@@ -97,6 +97,15 @@ class MarlRecipe:
                 ExperimentConfig.get_from_yaml().on_policy_collected_frames_per_batch,
             )
         )
+
+    def batch_of(self, tasks, worlds: int, workers: int | None) -> int:
+        """World steps a batch of `worlds` worlds stepped in `workers` processes collects
+        (`bbbench.training.checks.check_collection`); `ValueError` if they do not fit."""
+        check_memory(worlds)
+        self.check_worlds(worlds)
+        if workers is not None:
+            check_workers(workers, worlds)
+        return self.batch()
 
     def check_worlds(self, worlds: int) -> None:
         """`ValueError` unless a batch holds at least one world step of each of `worlds`."""
@@ -126,7 +135,7 @@ class MarlRecipe:
         return task_class(self.key, **self.task)
 
     def algorithm_config(self):
-        config = ALGORITHMS[self.algorithm].get_from_yaml()
+        config = trainable(self.algorithm).config_class().get_from_yaml()
         return dataclasses.replace(config, **self.algorithm_overrides)
 
     def model_config(self, critic: bool = False):
@@ -199,14 +208,15 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         )
     sections = {name: dict(entry.get(name) or {}) for name in SECTIONS}
     named = sections["algorithm"].pop("name", algorithm)
-    if named not in ALGORITHMS:
+    if named not in MARL_TRAINABLE:
         raise ValueError(
-            f"{where}: unknown algorithm {named!r}; bbbench trains {', '.join(ALGORITHMS)} "
+            f"{where}: unknown algorithm {named!r}; bbbench trains {', '.join(MARL_TRAINABLE)} "
             f"with BenchMARL (their fallen bots masked)"
         )
     if named != algorithm:
         raise ValueError(f"{where}: the recipe is {named}'s, asked for --algo {algorithm}")
-    _check_fields(f"{where}, algorithm", sections["algorithm"], ALGORITHMS[algorithm])
+    config_class = trainable(algorithm).config_class()
+    _check_fields(f"{where}, algorithm", sections["algorithm"], config_class)
     if sections["algorithm"].get("entropy_coef", 0.0) != 0.0:
         raise ValueError(
             f"{where}: entropy_coef must be 0: the entropy bonus would train the policy on "
