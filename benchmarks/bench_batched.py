@@ -37,7 +37,7 @@ def pd_actor():
     """PD's discrete actions for a batch of observation rows, in one numpy pass (the same
     law as `bbbench.policies.PDController`, vectorized: the driver's cost stays out of
     the comparison; both routes use it)."""
-    from bbbench.policies.pd import _CHANGES
+    from bbbench.policies.controllers.pd import _CHANGES
     from bbbench.robots.twowheel import TWO_WHEEL
 
     radius, kp, kd, kv = TWO_WHEEL.wheel_radius, 40.0, 6.0, 20.0

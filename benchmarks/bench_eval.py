@@ -50,7 +50,7 @@ from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
 from bbbench.policies.policy import act_once
 from bbbench.policies.registry import REFERENCE_POLICY
-from bbbench.policies.zip_policy import SB3ZipPolicy
+from bbbench.policies.sb3.policy import SB3ZipPolicy
 
 
 def time_per_call(function, argument, calls: int) -> float:

@@ -29,7 +29,7 @@ import numpy as np
 import bbbench
 from bbbench.envs.balance import BalanceEnv
 from bbbench.policies import PDController
-from bbbench.policies.legged import LeggedController
+from bbbench.policies.controllers.legged import LeggedController
 from bbbench.tasks.spec import TaskSpec
 
 REFERENCE = "bbbench/FlatBalance-v0"

@@ -20,8 +20,8 @@ import time
 
 import bbbench
 from bbbench.envs.multi import MultiBalanceEnv
-from bbbench.policies.pd import PDController
-from bbbench.policies.team import TeamController
+from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.team import TeamController
 
 
 class Loop:

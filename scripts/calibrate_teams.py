@@ -1,6 +1,6 @@
 """The team tasks' calibration (issue 39): the suite's team tasks, and the candidates
 explored before them, played by the random policy, PD alone on every bot (naive: a
-follower holds the 0 it observes) and the team controller (`bbbench.policies.team`), on
+follower holds the 0 it observes) and the team controller (`bbbench.policies.controllers.team`), on
 the first evaluation seeds; with `--shared-ppo`, also MultiBalance-v1's shared PPO.
 
     python scripts/calibrate_teams.py [--episodes 100] [--workers 2] [--only TEXT]
@@ -29,9 +29,9 @@ from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation import stats
 from bbbench.evaluation.play import MultiEpisode
 from bbbench.policies import load_policy
-from bbbench.policies.pd import PDController
-from bbbench.policies.team import TeamController
-from bbbench.tasks.coupling import Beam, Tether
+from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.team import TeamController
+from bbbench.tasks.scenarios import Beam, Tether
 from bbbench.tasks.spec import EVAL_SEEDS
 from bbbench.tasks.suite import spec
 from bbbench.terrain import Bumps, HeightfieldTerrain

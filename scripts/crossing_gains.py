@@ -2,7 +2,7 @@
 
     python scripts/crossing_gains.py [--task bbbench/MultiBalance-v1] [--episodes 60]
 
-Plays PD and the crossing law (`bbbench.policies.crossing.CrossingController`) with each
+Plays PD and the crossing law (`bbbench.policies.controllers.crossing.CrossingController`) with each
 set of gains below on the same training seeds (0 to `--episodes` - 1: the training
 range, disjoint from the eval seeds) and prints the mean return, the share of whole
 episodes (no bot fell) and P(law > PD) over paired episodes, as JSON lines.
@@ -18,7 +18,7 @@ import numpy as np
 
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.policies import load_policy
-from bbbench.policies.crossing import CrossingController
+from bbbench.policies.controllers.crossing import CrossingController
 from bbbench.policies.policy import PDActor
 
 GRID = {

@@ -59,7 +59,7 @@ The leg servos are soft position loops, like a suspension: each control step a s
 asked for the joint speed {LEG_POSITION_GAIN:g} x (target - angle) rad/s, clipped to the
 joint's speed limit, and holds it with at most the joint's torque limit (the module's
 docstring has the measurements behind the gain). Its classical controller
-(`bbbench eval legged`, `bbbench.policies.legged`) balances through the wheels as the
+(`bbbench eval legged`, `bbbench.policies.controllers.legged`) balances through the wheels as the
 two-wheel bot's PD does and rides low on its legs; docs/tasks.md compares the two robots
 on the same ground.
 

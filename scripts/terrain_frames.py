@@ -25,8 +25,8 @@ from PIL import Image
 
 import bbbench
 from bbbench.policies import PDController
-from bbbench.policies.legged import LeggedController
-from bbbench.policies.team import TeamController
+from bbbench.policies.controllers.legged import LeggedController
+from bbbench.policies.controllers.team import TeamController
 
 TASKS = (
     "bbbench/Bumps-v1",

@@ -35,7 +35,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from bbbench.policies.vecnormalize import find_rl_zoo_statistics
+from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
 from bbbench.training.beside import described
 
 LATEST_SINGLE = (

@@ -53,6 +53,18 @@ def fixed_actions(n: int, action_mode: str = "discrete", seed: int = 7) -> list:
     return [np.array([a], dtype=np.float32) for a in rng.uniform(-1, 1, size=n)]
 
 
+# The fixtures whose tests are slow (`pytest -m slow`): they build or check a leaderboard
+# (playing its episodes), or drive a browser. Trainings, BenchMARL and Ray carry the
+# marker themselves.
+SLOW_FIXTURES = {"built", "board", "command_board", "chromium"}
+
+
+def pytest_collection_modifyitems(items) -> None:
+    for item in items:
+        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(params=["discrete", "continuous"])
 def action_mode(request) -> str:
     return request.param

@@ -5,7 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 import pytest
 
-from bbbench.policies.algorithms import ALGORITHMS, algorithm_of, by_key, declared_parameters
+from bbbench.policies.sb3.algorithms import ALGORITHMS, algorithm_of, by_key, declared_parameters
 from bbbench.robots.twowheel import ACTION_MODES
 
 FLAT = "bbbench/FlatBalance-v1"

@@ -6,7 +6,7 @@ import numpy as np
 
 import bbbench
 from bbbench.policies import PDController
-from bbbench.policies.lqr import (
+from bbbench.policies.controllers.lqr import (
     COST_INPUT,
     COST_STATE,
     GAINS,

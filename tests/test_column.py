@@ -15,12 +15,11 @@ import bbbench
 from bbbench.dev.teams import candidate_task
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation.play import MultiEpisode
-from bbbench.policies.pd import PDController
-from bbbench.policies.team import TeamController
+from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.team import TeamController
 from bbbench.robots.layout import INDEX
 from bbbench.tasks.commands import ConstantVelocity
-from bbbench.tasks.coupling import Beam, Tether
-from bbbench.tasks.scenarios import BeamCarry, Convoy
+from bbbench.tasks.scenarios import Beam, BeamCarry, Convoy, Tether
 
 GRAVITY = 9.81
 TARGET = INDEX["target_velocity"]

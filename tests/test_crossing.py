@@ -8,7 +8,7 @@ import pytest
 
 import bbbench
 from bbbench.policies import PDController, load_policy
-from bbbench.policies.crossing import CrossingController
+from bbbench.policies.controllers.crossing import CrossingController
 
 
 def observation(target: float, *neighbours: tuple[float, float, float, float]) -> np.ndarray:
@@ -58,6 +58,7 @@ def test_it_plays_the_crossing_tasks_only():
     assert "plays the wheel-legged robot" in policy.mismatch("bbbench/LeggedFlatBalance-v0")
 
 
+@pytest.mark.slow
 def test_on_the_training_seeds_its_gains_were_chosen_on_it_beats_pd():
     """MultiBalance-v1's training seeds 0-39 (scripts/crossing_gains.py): fewer bots
     fall and the mean return is higher than PD's (the board scores it on eval seeds)."""

@@ -19,7 +19,7 @@ from bbbench.evaluation.backends import _next_job
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.harness import play_draws, play_tasks
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
-from bbbench.policies.builtin import PDPolicy
+from bbbench.policies.controllers.builtin import PDPolicy
 from bbbench.policies.policy import PDActor
 from bbbench.tasks.perturbations import ComOffset, Push
 
@@ -215,6 +215,7 @@ def test_normalized_scores_put_random_at_0_and_the_maximum_at_1():
     assert (spec.max_return - spec.random_return) > 100
 
 
+@pytest.mark.slow
 def test_stored_random_references_are_what_the_random_policy_scores():
     measured = measure()
     for task_id, value in measured.items():
@@ -306,6 +307,7 @@ def test_episodes_whose_worker_dies_twice_are_reported_and_the_rest_is_written(t
 # -- Ray --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_ray_backend_gives_the_local_backends_bytes():
     pytest.importorskip("ray", reason="the Ray backend is an extra: pip install 'bbbench[ray]'")
     policy = load_policy("reference")

@@ -83,7 +83,7 @@ def test_the_graph_sees_the_imports_it_checks():
     assert "bbbench.envs.scene" in graph["bbbench.envs.balance"]
     assert "bbbench.envs.factory" in graph["bbbench.envs"]  # an __init__
     # A function-level import counts too (lqr identifies its model on a made env).
-    assert "bbbench.envs.factory" in graph["bbbench.policies.lqr"]
+    assert "bbbench.envs.factory" in graph["bbbench.policies.controllers.lqr"]
 
 
 @pytest.mark.parametrize(
@@ -115,6 +115,49 @@ def test_spec_and_suite_import_no_env_code():
 
     for data in ("bbbench.tasks.spec", "bbbench.tasks.suite"):
         assert not reachable(data) & envs, data
+
+
+def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    """Every module `start` imports, directly or through others."""
+    seen, todo = set(), [start]
+    while todo:
+        for following in graph[todo.pop()] - seen:
+            seen.add(following)
+            todo.append(following)
+    return seen
+
+
+POLICY_FORMATS = ("bbbench.policies.sb3", "bbbench.policies.onnx")
+POLICY_BASE = (
+    "bbbench.policies.policy",
+    "bbbench.policies.file_policy",
+    "bbbench.policies.archive",
+    "bbbench.policies.mlp",
+    "bbbench.policies.normalization",
+    "bbbench.policies.encoder",
+    "bbbench.policies.errors",
+)
+
+
+def test_the_policies_base_knows_no_file_format_and_the_formats_not_each_other():
+    graph = import_graph()
+    # The junction above them reaches every kind (so the test sees these edges).
+    assert {"bbbench.policies.sb3.policy", "bbbench.policies.onnx.policy"} <= reachable(
+        graph, "bbbench.policies.registry"
+    )
+    kinds = (*POLICY_FORMATS, "bbbench.policies.controllers")
+    for base in POLICY_BASE:
+        assert not {m for m in reachable(graph, base) if m.startswith(kinds)}, base
+    for one, other in (POLICY_FORMATS, POLICY_FORMATS[::-1]):
+        for module in (m for m in graph if m.startswith(one)):
+            assert not {m for m in reachable(graph, module) if m.startswith(other)}, module
+
+
+def test_marl_imports_nothing_of_training():
+    """Training sits above the TorchRL face of the envs (`bbbench.marl`), never below."""
+    graph = import_graph()
+    for module in (m for m in graph if m.startswith("bbbench.marl")):
+        assert not {m for m in reachable(graph, module) if m.startswith("bbbench.training")}
 
 
 def function_level_imports() -> list[tuple[str, int, str, str]]:

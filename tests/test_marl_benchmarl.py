@@ -38,12 +38,21 @@ def test_the_family_is_every_latest_multi_bot_task_made_from_the_suite():
 
     latest = [t for t in bbbench.list_tasks(latest=True) if bbbench.spec(t).multi_agent]
     assert sorted(task.get_from_yaml().task_id for task in BbbenchTask) == sorted(latest)
+    from hydra.core.config_store import ConfigStore
+
+    from bbbench.marl.run import store_task_configs
+
+    store_task_configs()
+    stored = ConfigStore.instance().repo["task"]["bbbench"]
     for task in BbbenchTask:
         assert task_config_registry[f"bbbench/{task.name.lower()}"] is task
-        # The YAML BenchMARL's hydra CLI reads holds what the suite makes.
-        assert task.get_from_yaml().config == task_config(task.get_from_yaml().task_id)
+        # What BenchMARL's hydra CLI finds is what the suite makes.
+        expected = task_config(task.get_from_yaml().task_id)
+        assert task.get_from_yaml().config == expected
+        assert dict(stored[f"{task.name.lower()}.yaml"].node) == expected
 
 
+@pytest.mark.slow
 def test_a_new_team_task_trains_with_benchmarl_without_touching_marl(tmp_path, monkeypatch):
     """A throwaway team task, a row added to the suite and nothing else: the family, its
     configuration and the recipe (its scenario's) come from the suite."""
@@ -83,6 +92,7 @@ def test_a_task_builds_one_batched_env_of_its_worlds_with_its_bots_in_one_group(
     env.close()
 
 
+@pytest.mark.slow
 def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
     config = tiny_config(tmp_path, frames=400, batch=200)
     torch.manual_seed(0)
@@ -172,6 +182,7 @@ def test_a_fallen_bots_rows_carry_no_policy_gradient(tmp_path, masked):
     assert same == masked
 
 
+@pytest.mark.slow
 def test_benchmarls_hydra_cli_runs_a_bbbench_task(tmp_path):
     import subprocess
     import sys

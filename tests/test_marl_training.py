@@ -145,6 +145,7 @@ def test_workers_belong_to_the_marl_algorithms(tmp_path, capsys):
     assert "--n-envs" in one_line_exit_2(capsys, *argv, "--out", str(tmp_path / "p.zip"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algorithm", ["ippo", "ppo"])
 def test_a_budget_below_one_batch_trains_one_batch_says_so_and_evaluates_once(
     tmp_path, capsys, algorithm
@@ -189,6 +190,7 @@ def untimed(curve: Path) -> list[dict]:
     return [{k: v for k, v in point.items() if k != "wall_time_s"} for point in points]
 
 
+@pytest.mark.slow
 def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(tmp_path):
     """A seed trained alone (its worlds in two processes) and the same seed among --seeds
     (in one), each in a fresh process, write the same bytes; another seed writes other
@@ -267,6 +269,7 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     assert (std > 0).all()
 
 
+@pytest.mark.slow
 def test_a_training_command_ends_without_warnings_of_leaked_semaphores(tmp_path):
     # `bbbench` leaves by os._exit: TorchRL's and tqdm's multiprocessing locks must be
     # gone by then, or the resource tracker warns of them.

@@ -18,7 +18,7 @@ from bbbench.cli import main
 from bbbench.policies import PolicyError, export_onnx, export_zip, load_policy
 from bbbench.policies.encoder import neighbour_encoder
 from bbbench.policies.mlp import MlpActor
-from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies.onnx.policy import OnnxPolicy
 
 ROOT = Path(__file__).resolve().parents[1]
 SUBMISSIONS = ROOT / "leaderboards" / "submissions"
@@ -91,7 +91,7 @@ def test_vecnormalize_is_kept_in_float64_inside_the_graph(tmp_path):
 
 
 def test_export_refuses_to_write_what_would_play_otherwise(tmp_path, monkeypatch):
-    from bbbench.policies import export as export_module
+    from bbbench.policies.onnx import export as export_module
 
     zipped = load_policy("reference")
     real = export_module._Graph.layer
@@ -202,7 +202,7 @@ def test_the_matmul_add_pair_is_one_layer_as_gemm_is(tmp_path):
     ],
 )
 def test_action_spaces_are_read_as_gymnasium_prints_them(space, expected):
-    from bbbench.policies.contract import parse_action_space
+    from bbbench.policies.onnx.contract import parse_action_space
 
     assert str(parse_action_space(space, "--action-space")) == expected
 
@@ -291,7 +291,7 @@ def test_a_neighbour_encoder_plays_a_team_task(encoder_policy):
 
 
 def test_sums_over_slots_are_in_slot_order_in_float64():
-    from bbbench.policies.operators import reduce
+    from bbbench.policies.onnx.operators import reduce
 
     x = np.array([[[1e8], [1.0], [-1e8]]], dtype=np.float32)  # float32 sums lose the 1
     params = {"axes": (1,), "keepdims": 0, "noop": 0, "kind": "sum"}
@@ -321,8 +321,8 @@ def test_the_board_takes_an_onnx_submission(tmp_path):
 
 
 def test_every_operator_of_the_set_has_its_kernel_and_its_rule_in_one_entry():
-    from bbbench.policies.interpreter import KERNELS
-    from bbbench.policies.operators import OPERATORS, STRUCTURAL, TABLE
+    from bbbench.policies.onnx.interpreter import KERNELS
+    from bbbench.policies.onnx.operators import OPERATORS, STRUCTURAL, TABLE
 
     assert set(TABLE) | STRUCTURAL == OPERATORS
     for name, operator in TABLE.items():

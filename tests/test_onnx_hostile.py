@@ -344,7 +344,7 @@ def test_a_hostile_file_is_one_line_and_exit_2_before_any_episode(
 
 
 def test_a_file_over_the_size_cap_is_refused_unread(tmp_path, capsys, monkeypatch):
-    from bbbench.policies import onnx_file
+    from bbbench.policies.onnx import reader as onnx_file
 
     monkeypatch.setattr(onnx_file, "MAX_FILE_BYTES", 1000)
     path = tmp_path / "big.onnx"

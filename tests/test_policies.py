@@ -1,4 +1,4 @@
-"""Reading stable-baselines3 zips without trusting them (bbbench.policies.sb3zip).
+"""Reading stable-baselines3 zips without trusting them (bbbench.policies.sb3.reader).
 
 Honest zips from every supported algorithm act exactly as stable-baselines3's
 own `predict`; hostile zips run no code and are refused with exit code 2.
@@ -20,7 +20,7 @@ from stable_baselines3 import A2C, DQN, PPO, SAC, TD3
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, RefusedForSafety, load_policy
-from bbbench.policies.sb3zip import MEMBER_LIMITS
+from bbbench.policies.sb3.reader import MEMBER_LIMITS
 from conftest import Payload, assert_acts_as_predict, eval_exit, pickled, rewrite
 
 FLAT = "bbbench/FlatBalance-v0"

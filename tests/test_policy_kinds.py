@@ -28,7 +28,7 @@ import bbbench
 from bbbench.cli import main
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, load_policy
-from bbbench.policies.vecnormalize import read_statistics
+from bbbench.policies.sb3.vecnormalize import read_statistics
 from conftest import FLAT, Payload, assert_acts_as_predict, eval_exit, rewrite
 
 VELOCITY = "bbbench/VelocityTracking-v0"

@@ -37,6 +37,7 @@ def train_exit(capsys, *argv: str) -> tuple[int, str, str]:
     return code, captured.out, captured.err
 
 
+@pytest.mark.slow
 def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, capsys):
     for name in ("first", "second"):
         (tmp_path / name).mkdir()
@@ -64,6 +65,7 @@ def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, c
     assert load_policy(first / "policy.zip").mismatch(FLAT) is None  # bbbench's reader
 
 
+@pytest.mark.slow
 def test_a_multi_bot_task_trains_one_shared_policy(tmp_path, capsys):
     out = tmp_path / "policy.zip"
     code, _, err = train_exit(capsys, MULTI, "--algo", "ppo", "--n-envs", "1", "--out", str(out),
@@ -74,6 +76,7 @@ def test_a_multi_bot_task_trains_one_shared_policy(tmp_path, capsys):
     assert policy.mismatch(FLAT) is not None  # it observes the neighbours too
 
 
+@pytest.mark.slow
 def test_a_recipe_with_normalize_keeps_the_statistics_of_the_policy_it_keeps(tmp_path, capsys):
     """The multi-bot recipe trains inside VecNormalize: the statistics of the kept policy
     go where rl-zoo3 puts them, with the same bytes on a second run; `bbbench eval` finds
@@ -143,6 +146,7 @@ def test_a_file_where_the_statistics_go_is_refused_before_training(tmp_path, cap
     assert Path("policy").read_text() == "mine"
 
 
+@pytest.mark.slow
 def test_several_tasks_train_one_generalist(tmp_path):
     tasks = [FLAT, "bbbench/Bumps-v2"]
     trained = training.train(
@@ -154,6 +158,7 @@ def test_several_tasks_train_one_generalist(tmp_path):
     assert set(record["evaluation_seeds"]) == set(tasks)
 
 
+@pytest.mark.slow
 def test_sac_trains_in_continuous_mode(tmp_path):
     trained = training.train(
         [FLAT], "sac", out=tmp_path / "policy.zip", steps=300, final_episodes=1
@@ -207,6 +212,7 @@ def test_every_recipe_reads_as_data():
         parse_policy_kwargs("dict(net_arch=open('x'))")
 
 
+@pytest.mark.slow
 def test_rl_zoo3_trains_with_the_shipped_recipe_file(tmp_path):
     pytest.importorskip("rl_zoo3", reason="rl-zoo3 is in the test extras")
     conf = recipe_file("ppo")
@@ -244,6 +250,7 @@ def test_a_recipe_that_would_wrap_the_env_is_refused(tmp_path, monkeypatch):
         recipe("ppo", "bbbench/FlatBalance-v1", tmp_path / "ppo.yml")
 
 
+@pytest.mark.slow
 def test_the_final_table_plays_the_task_s_own_reward(tmp_path):
     trained = training.train(
         [FLAT], "td3", out=tmp_path / "p.zip", steps=600, final_episodes=1, eval_freq=300
@@ -252,6 +259,7 @@ def test_the_final_table_plays_the_task_s_own_reward(tmp_path):
     assert 0.0 <= trained.results["tasks"][0]["aggregate"]["mean"] <= 150.0
 
 
+@pytest.mark.slow
 def test_a_trainings_bytes_do_not_depend_on_what_its_process_sampled_before(tmp_path):
     """Envs once shared one observation-space object per process, and a zip pickles the
     space with its random generator: sampling any env's space changed the next zip."""

@@ -52,6 +52,7 @@ def test_an_unreachable_ray_address_exits_2_within_ten_seconds(tmp_path, capsys)
     assert "no Ray cluster answers there" in err
 
 
+@pytest.mark.slow
 def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
     """Against `bbbench train --seed 1` in a process of its own, as a user runs it."""
     here, there = tmp_path / "here", tmp_path / "there"
@@ -69,6 +70,7 @@ def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
     assert (there / "policy-s2" / "policy.zip").read_bytes() != (here / "policy.zip").read_bytes()
 
 
+@pytest.mark.slow
 def test_seeds_trained_here_are_each_the_bytes_of_its_own_run(tmp_path, capsys):
     here, there = tmp_path / "here", tmp_path / "there"
     here.mkdir()
@@ -81,6 +83,7 @@ def test_seeds_trained_here_are_each_the_bytes_of_its_own_run(tmp_path, capsys):
         assert (there / "policy-s2" / name).read_bytes() == (here / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_an_ippo_seed_on_ray_with_worker_processes_is_the_local_runs_bytes(tmp_path, capsys):
     """The campaign's route: IPPO's seeds as Ray tasks, each stepping its worlds in two
     worker processes, against a local run on one process (a fresh one, as a user's)."""
@@ -114,6 +117,7 @@ def bytes_of(task, algorithm, seed, folder, **keywords):
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("task_id", "algorithm", "keywords"),
     [

@@ -239,7 +239,7 @@ def test_every_legged_task_documents_the_robots_spaces_and_docs_carry_the_tables
 
 def test_the_classical_controller_balances_where_pd_cannot_play():
     from bbbench.policies import load_policy
-    from bbbench.policies.legged import LeggedController, balance_pitch
+    from bbbench.policies.controllers.legged import LeggedController, balance_pitch
 
     env = BalanceEnv("bbbench/LeggedFlatBalance-v0")
     controller = LeggedController()

@@ -7,8 +7,9 @@ from pathlib import Path
 
 from bbbench.cli.common import UsageError, add_contract_options
 from bbbench.files import check_output_path
-from bbbench.policies import PolicyError, export, load_policy
-from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies import PolicyError, load_policy
+from bbbench.policies.onnx import export
+from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.registry import BUILTIN_POLICIES, REFERENCE_POLICY, TERRAIN_POLICIES
 from bbbench.tasks.suite import spec
 

@@ -165,7 +165,7 @@ def _checked(args: argparse.Namespace):
 def _default_tasks(axis: str, policies) -> list[str]:
     """The tasks the axis is swept on when none is given."""
     from bbbench.evaluation.sweep import applying_tasks  # lazy: bbbench.evaluation.sweep
-    from bbbench.policies.registry import fitting_tasks  # lazy: bbbench.policies
+    from bbbench.policies.policy import fitting_tasks  # lazy: bbbench.policies
 
     if axis not in ("difficulty", "n_bots"):
         # The task the robustness profile plays: VelocityTracking for the two-wheel bot,

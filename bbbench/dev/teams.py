@@ -8,8 +8,8 @@ import dataclasses
 from typing import Any
 
 from bbbench.tasks.commands import PiecewiseConstantVelocity
-from bbbench.tasks.coupling import Beam, Tether
 from bbbench.tasks.group import Group
+from bbbench.tasks.scenarios import Beam, Tether
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE
 

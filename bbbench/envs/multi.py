@@ -12,7 +12,7 @@ from pettingzoo import ParallelEnv
 
 from bbbench.envs.scene import ActionError, Scene, render_ready, requested_task
 from bbbench.robots import BotState
-from bbbench.tasks.scenarios.base import Outcome
+from bbbench.tasks.scenario import Outcome
 from bbbench.tasks.spec import TRAINING_SEEDS, TaskSpec
 from bbbench.tasks.suite import SUITE, spec
 

@@ -12,8 +12,7 @@ from bbbench.evaluation.episodes import LockstepPlayer, Players
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import document
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.policy import Policy
-from bbbench.policies.registry import fitting_tasks
+from bbbench.policies.policy import Policy, fitting_tasks
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 

@@ -25,7 +25,7 @@ from bbbench.leaderboard.submissions import (
 )
 from bbbench.policies import BUILTIN_POLICIES, PolicyError, load_policy
 from bbbench.policies.errors import NoContract
-from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies.onnx.policy import OnnxPolicy
 
 
 def add(

@@ -4,8 +4,8 @@ One BenchMARL task per latest multi-bot task ID (`BbbenchTask`). BenchMARL asks 
 for an env of `num_envs` worlds; a bbbench task gives one batched env of that many
 worlds (`bbbench.marl.batched_env`, `batch_size=[num_envs]`, as VMAS's), so the
 collector calls the policy once a step for every world, and every bot is in one
-group, `bot`. The task's configuration (`conf/task/bbbench/<name>.yaml`) holds the
-env's own keywords (`n_bots`, and `difficulty` on terrain) and `workers`, the
+group, `bot`. The task's configuration, made from its row (`task_config`), holds the
+env's own keywords (`n_bots`) and `workers`, the
 processes that step the worlds (the same results for any number). The action mode
 follows BenchMARL's `prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))`
 per bot.
@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import torch
@@ -33,7 +32,6 @@ from torchrl.envs import EnvBase, ObservationNorm, Transform
 import bbbench
 from bbbench.marl.batched import batched_env
 
-CONF = Path(__file__).with_name("conf") / "task"
 ENV_NAME = "bbbench"
 
 
@@ -45,8 +43,8 @@ def member_name(task_id: str) -> str:
 def task_config(task_id: str) -> dict[str, Any]:
     """A task's BenchMARL configuration, from its row of the suite: the env's own
     keywords at their defaults (`n_bots`) and `workers`, the processes that step the
-    worlds (1; the same results for any number). conf/task/bbbench/'s YAML files, which
-    BenchMARL's hydra CLI reads, hold the same (tests/test_marl_benchmarl.py)."""
+    worlds (1; the same results for any number). BenchMARL's hydra CLI finds the same in
+    hydra's config store (`bbbench.marl.run`)."""
     task = bbbench.spec(task_id)
     if task.group is None:
         raise ValueError(f"{task_id} is a single-bot task: BenchMARL trains the multi-bot ones")
@@ -168,9 +166,11 @@ class _Family(Task):
         return BbbenchTaskClass
 
     def get_from_yaml(self, path: str | None = None) -> TaskClass:
-        """The task with its configuration from bbbench's own YAML (or `path`)."""
-        file = Path(path) if path else CONF / ENV_NAME / f"{self.name.lower()}.yaml"
-        return self.get_task(config=_read_yaml_config(str(file)))
+        """The task with its configuration from its row of the suite (`task_config`), or
+        from the YAML file at `path`."""
+        if path is None:
+            return self.get_task(config=task_config(task_id(self.name)))
+        return self.get_task(config=_read_yaml_config(str(path)))
 
 
 # bbbench's latest multi-bot and team tasks, for BenchMARL: one member each, from the suite.

@@ -4,24 +4,30 @@
     python -m bbbench.marl.run -m algorithm=ippo,mappo task=bbbench/multibalance_v1 seed=0,1,2
 
 is `benchmarl/run.py` (the same config groups and overrides: `experiment.*`,
-`model=layers/...`, `task.n_bots=...`) with bbbench's tasks registered and their
-YAML on hydra's search path.
+`model=layers/...`, `task.n_bots=...`) with bbbench's tasks registered, and each task's
+config made from its row of the suite (`store_task_configs`), where BenchMARL's own
+tasks have a YAML file: in hydra's config store, as `task/bbbench/<name>`.
 """
 
 from __future__ import annotations
 
-import sys
-
 from benchmarl.run import hydra_experiment
+from hydra.core.config_store import ConfigStore
 
-import bbbench.marl  # noqa: F401 (registers bbbench's tasks with BenchMARL)
+from bbbench.marl.family import ENV_NAME, BbbenchTask, task_config, task_id
 
-SEARCH_PATH = "hydra.searchpath=[pkg://bbbench.marl.conf]"
+
+def store_task_configs() -> None:
+    """Put every member of `BbbenchTask`'s configuration in hydra's config store, where
+    `task=bbbench/<name>` finds it (as it would find `conf/task/bbbench/<name>.yaml`)."""
+    store = ConfigStore.instance()
+    for member in BbbenchTask:
+        config = task_config(task_id(member.name))
+        store.store(group=f"task/{ENV_NAME}", name=member.name.lower(), node=config)
 
 
 def main() -> None:
-    if not any(arg.startswith("hydra.searchpath") for arg in sys.argv[1:]):
-        sys.argv.append(SEARCH_PATH)
+    store_task_configs()
     hydra_experiment()
 
 

@@ -8,13 +8,13 @@ from bbbench.policies import export_onnx
 export_onnx(agent.actor, "bbbench/FlatBalance-v1", "policy.onnx")  # any torch actor
 """
 
+from bbbench.policies.controllers.pd import PDController
 from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.export import export_onnx, export_zip, onnx_bytes
-from bbbench.policies.pd import PDController
+from bbbench.policies.onnx.export import export_onnx, export_zip, onnx_bytes
+from bbbench.policies.policy import fitting_tasks
 from bbbench.policies.registry import (
     BUILTIN_POLICIES,
     Policy,
-    fitting_tasks,
     load_policy,
     register_policy,
 )

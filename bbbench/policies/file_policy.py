@@ -15,6 +15,11 @@ from bbbench.policies.policy import Policy, describe_space
 from bbbench.robots import ROBOTS
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
+# The most parameters bbbench evaluates in a policy file, in any format (a zip's
+# policy.pth and the network it declares, an ONNX file's tensors): some 40 MB of
+# float32, far beyond the MLPs these tasks need (a 64 x 64 PPO has ~10k).
+MAX_PARAMETERS = 10_000_000
+
 
 class FilePolicy(Policy):
     """A policy whose file declares `observation_shape` and `action_space`."""

@@ -19,8 +19,9 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.policies.normalization import ObservationNormalization
 from bbbench.robots import ROBOTS
+from bbbench.tasks.suite import list_tasks
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
 
@@ -151,3 +152,8 @@ class TorchActor:
 def act_once(actor: Actor, observation: np.ndarray, rng: np.random.Generator | None = None):
     """One observation's action (None if the policy's output is NaN)."""
     return actor(observation[None], None if rng is None else [rng])[0]
+
+
+def fitting_tasks(policy: Policy) -> list[str]:
+    """The latest version of each task of the suite that the policy can play."""
+    return [task_id for task_id in list_tasks(latest=True) if policy.mismatch(task_id) is None]

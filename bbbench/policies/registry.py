@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bbbench.policies.builtin import (
+from bbbench.policies.controllers.builtin import (
     CrossingPolicy,
     LeggedPolicy,
     LQRPolicy,
@@ -19,11 +19,10 @@ from bbbench.policies.builtin import (
     ZeroPolicy,
 )
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.policy import Policy, describe_space
-from bbbench.policies.vecnormalize import find_rl_zoo_statistics, read_statistics
-from bbbench.policies.zip_policy import SB3ZipPolicy
-from bbbench.tasks.suite import list_tasks
+from bbbench.policies.sb3.policy import SB3ZipPolicy
+from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics, read_statistics
 
 
 def _reference() -> Policy:
@@ -166,7 +165,7 @@ def load_policy(
     else `PolicyError`. `action_mode`: the built-ins pd, zero and random act in
     either mode (default discrete); a file's is its own. `observation` and
     `action_space`: the contract of an ONNX file whose metadata carries none
-    (`bbbench.policies.contract`).
+    (`bbbench.policies.onnx.contract`).
     """
     text = str(name_or_path)
     given = {
@@ -206,8 +205,3 @@ def _attach_normalization(policy: SB3ZipPolicy, path: Path, statistics: str | Pa
             )
     if statistics is not None:
         policy.normalization = read_statistics(statistics, policy.loaded.observation_shape)
-
-
-def fitting_tasks(policy: Policy) -> list[str]:
-    """The latest version of each task of the suite that the policy can play."""
-    return [task_id for task_id in list_tasks(latest=True) if policy.mismatch(task_id) is None]

@@ -120,6 +120,18 @@ class StayUpReward:
         return upright * share, upright * (1.0 - share) * tracking
 
 
+def stay_up_history(earlier: tuple[str, ...], version: int) -> tuple[str, ...]:
+    """The version history of a task's version `version` that moved to `StayUpReward`,
+    the version before it (`earlier`, its history) otherwise unchanged."""
+    change = (
+        f"v{version}: the shared reward in which staying up never costs (StayUpReward: each "
+        f"step earns 0-0.1, 0.01 for being upright and up to 0.09 more for tracking the "
+        f"target velocity; docs/tasks.md says why); robot, dynamics, terrain, commands, "
+        f"sensors and evaluation seeds as v{version - 1}."
+    )
+    return (*earlier, change)
+
+
 @parameters
 class RewardWeights:
     """The first shared reward (v0 tasks, -v1 terrain): the weights of its two terms. Its

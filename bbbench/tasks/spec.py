@@ -17,11 +17,10 @@ import numpy as np
 from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
-from bbbench.tasks.coupling import Beam, Tether
 from bbbench.tasks.group import MIN_BOTS, Group
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
-from bbbench.tasks.scenarios import SCENARIOS, Scenario
+from bbbench.tasks.scenario import SCENARIOS, Scenario
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
 
@@ -140,12 +139,13 @@ class TaskSpec:
     perturbations: tuple[Any, ...] = ()
     # The robot the task plays (`bbbench.robots.ROBOTS`): its body, actions and layout.
     robot: str = "two-wheel"
-    # The task's rules (`bbbench.tasks.scenarios.SCENARIOS`): extra bodies, starts,
+    # The task's rules (`bbbench.tasks.scenario.SCENARIOS`): extra bodies, starts,
     # observation, outcome, metrics. None: the one its group implies, "crossing" for a
     # group and "solo" for one bot (the published tasks' scenarios, hashed as if absent).
     scenario: str | None = None
-    # What couples a team's bots (`bbbench.tasks.coupling`): a beam, tethers, or nothing.
-    coupling: Beam | Tether | None = None
+    # What couples a team's bots, a component of its scenario's module (`Beam`, `Tether`),
+    # checked by the scenario (`Column.refusal`); None for none.
+    coupling: Any = None
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, in the robot's default
     # action mode (discrete for the two-wheel bot): the 0 of the normalized score.

@@ -8,7 +8,7 @@ An algorithm trains through one of two routes, each a package beside this module
   BenchMARL's config groups; it writes the shared policy as ONNX.
 
 A stable-baselines3 algorithm is trainable when the zip format knows it
-(`bbbench.policies.algorithms`, what the reader and rebuild need) and a recipe file is
+(`bbbench.policies.sb3.algorithms`, what the reader and rebuild need) and a recipe file is
 shipped for it (`bbbench/training/recipes/<key>.yml`). A BenchMARL algorithm names its
 config class here (its masked version, `bbbench.marl.algorithms`). Adding an algorithm
 is a row here (or a record in the zip format's table) and its recipe file.
@@ -19,8 +19,8 @@ from __future__ import annotations
 import dataclasses
 import importlib
 
-from bbbench.policies.algorithms import ALGORITHMS as SB3_ALGORITHMS
-from bbbench.policies.algorithms import unknown
+from bbbench.policies.sb3.algorithms import ALGORITHMS as SB3_ALGORITHMS
+from bbbench.policies.sb3.algorithms import unknown
 from bbbench.training.recipe_files import recipe_file
 
 SB3 = "sb3"

@@ -1,21 +1,38 @@
-"""The scenarios: each task's rules (`Scenario`), found by the name its spec gives."""
+"""The scenarios: each task's rules (`Scenario`), found by the name its spec gives, and
+beside each scenario the tasks it plays, a row each (its module's `TASKS`).
 
-from bbbench.tasks.scenarios.base import Scenario
-from bbbench.tasks.scenarios.column import BeamCarry, Column, Convoy
+`TASKS` is every row, scenario by scenario, in the order each module lists them; the
+suite (`bbbench.tasks.suite`) registers them. A new scenario is a module here, named in
+`MODULES`.
+"""
+
+from bbbench.tasks.scenario import SCENARIOS, Scenario, scenario
+
+# In the suite's order: each module registers its scenario, then makes its rows.
+from bbbench.tasks.scenarios import solo
+from bbbench.tasks.scenarios import crossing
+from bbbench.tasks.scenarios import beam_carry
+from bbbench.tasks.scenarios import convoy
+from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
+from bbbench.tasks.scenarios.column import Column
+from bbbench.tasks.scenarios.convoy import Convoy, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
 
-SCENARIOS: dict[str, type[Scenario]] = {
-    cls.name: cls for cls in (Solo, Crossing, BeamCarry, Convoy)
-}
+MODULES = (solo, crossing, beam_carry, convoy)
+TASKS = tuple(task for module in MODULES for task in module.TASKS)
 
-
-def scenario(name: str) -> type[Scenario]:
-    """The scenario called `name` (`TaskSpec.scenario`), or a KeyError that lists them."""
-    try:
-        return SCENARIOS[name]
-    except KeyError:
-        raise KeyError(f"no scenario {name!r}: the scenarios are {', '.join(SCENARIOS)}") from None
-
-
-__all__ = ["SCENARIOS", "BeamCarry", "Column", "Convoy", "Crossing", "Scenario", "Solo", "scenario"]
+__all__ = [
+    "MODULES",
+    "SCENARIOS",
+    "TASKS",
+    "Beam",
+    "BeamCarry",
+    "Column",
+    "Convoy",
+    "Crossing",
+    "Scenario",
+    "Solo",
+    "Tether",
+    "scenario",
+]

@@ -1,6 +1,9 @@
-"""Teams in a column, coupled and led: `BeamCarry` (bots carrying one beam) and `Convoy`
-(bots tethered each to the next). Only the front bot observes the team's target; the
-team earns one reward and a fall ends it (multiwalker's `terminate_on_fall`)."""
+"""`Column`: a team in a column, coupled and led, the base of `BeamCarry` (bots carrying
+one beam, `bbbench.tasks.scenarios.beam_carry`) and `Convoy` (bots tethered each to the
+next, `bbbench.tasks.scenarios.convoy`). Only the front bot observes the team's target;
+the team earns one reward and a fall ends it (multiwalker's `terminate_on_fall`). Here
+too: what every team task's row shares (`team_task`), and the check of a coupling's
+parameters."""
 
 from __future__ import annotations
 
@@ -8,23 +11,18 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-import pybullet
 from gymnasium import spaces
 
-from bbbench.portable import dot3
-from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField
-from bbbench.tasks.coupling import MAX_TEAM, Beam, Tether
+from bbbench.parameters import is_real
+from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField
+from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE
 from bbbench.tasks.reward import has_fallen
-from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, Slots, fell_cause
+from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause
 
+MAX_TEAM = 4  # bots in a coupled column: the beam and tether tasks take 2 to 4
 NEIGHBOUR_REACH = 5.0  # m: offsets to a neighbour saturate here
-HINGE_FORCE_RANGE = 50.0  # N: the hinge force a bot observes saturates here
-STRETCH_RANGE = 5.0  # m
-STRETCH_RATE_RANGE = 10.0  # m/s
-BEAM_HINGE_FORCE_LIMIT = 1000.0  # N: what one hinge may apply (pybullet's maxForce)
-_PARKED = (0.0, -2000.0, 20.0)  # m: where a coupling's body waits between episodes
-_BEADS_PER_TETHER = 12  # what a frame shows of a tether
+PARKED = (0.0, -2000.0, 20.0)  # m: where a coupling's body waits between episodes
 
 
 def _neighbour_fields(where: str) -> tuple[ObservationField, ...]:
@@ -96,7 +94,7 @@ class Column(Scenario):
         if not isinstance(task.coupling, cls.coupling_type):
             return (
                 f"{task.id}: the {cls.name!r} scenario needs a {cls.coupling_type.__name__} "
-                f"coupling (bbbench.tasks.coupling), got {task.coupling!r}"
+                f"coupling (its scenario's module), got {task.coupling!r}"
             )
         return None
 
@@ -217,281 +215,40 @@ def _neighbour(state: Any, other: Any) -> list[float]:
     ]
 
 
-class BeamCarry(Column):
-    """The column carries one beam (`Beam`), hinged to the top of every torso. Each bot
-    observes the force its two hinges exert on it, along the beam and across it
-    (square to the beam, in its vertical plane), and the beam's pitch and pitch rate.
-    The team's velocity is the beam's, along its length.
-
-    `payload_mass` loads the beam (kg at its centre), not the torsos. `com_offset` does
-    not apply: it reloads a torso, and the hinges hold the torso as built."""
-
-    name = "beam-carry"
-    summary = "a column of bots carrying one beam hinged to every torso, led by the front bot"
-    coupling_type = Beam
-    perturbations = ("payload_mass", "friction", "motor_strength", "action_delay", "push")
-    units: ClassVar[dict[str, str]] = {"payload_mass": "kg at the beam's centre"}
-    pull_forward = "hinge_force_along"
-    coupling_layout = (
-        ObservationField(
-            "hinge_force_along",
-            "N",
-            -HINGE_FORCE_RANGE,
-            HINGE_FORCE_RANGE,
-            "the hinges' force on this bot along the beam, + forward",
-        ),
-        ObservationField(
-            "hinge_force_across",
-            "N",
-            -HINGE_FORCE_RANGE,
-            HINGE_FORCE_RANGE,
-            "the same, square to the beam in its vertical plane, + up",
-        ),
-        ObservationField("beam_pitch", "rad", -math.pi / 2, math.pi / 2, "the beam's front end up"),
-        ObservationField(
-            "beam_pitch_rate", "rad/s", -GYRO_RANGE, GYRO_RANGE, "its rate, + front end rising"
-        ),
-    )
-
-    @staticmethod
-    def coupling_spacing(coupling: Beam) -> float:
-        return coupling.spacing
-
-    def build(self, client, bots) -> None:
-        super().build(client, bots)
-        beam, n = self.coupling, len(bots)
-        length = beam.length(n)
-        shape = client.createCollisionShape(
-            pybullet.GEOM_BOX, halfExtents=(beam.width / 2, length / 2, beam.thickness / 2)
-        )
-        visual = client.createVisualShape(
-            pybullet.GEOM_BOX,
-            halfExtents=(beam.width / 2, length / 2, beam.thickness / 2),
-            rgbaColor=(0.8, 0.5, 0.2, 1.0),
-        )
-        self.beam = client.createMultiBody(
-            baseMass=beam.mass,
-            baseCollisionShapeIndex=shape,
-            baseVisualShapeIndex=visual,
-            basePosition=_PARKED,
-        )
-        for bot in bots:  # the beam collides with the ground only
-            for link in (-1, *range(client.getNumJoints(bot.body))):
-                client.setCollisionFilterPair(self.beam, bot.body, -1, link, 0)
-        model = self.robot.model
-        above_com = model.torso_top_height - model.torso_com_height
-        self.hinges = []  # per bot: its two constraints
-        for i, bot in enumerate(bots):
-            along = (n - 1) / 2 * beam.spacing - i * beam.spacing  # bot 0 at the front end
-            pair = []
-            for side in (-beam.hinge_span / 2, beam.hinge_span / 2):
-                constraint = client.createConstraint(
-                    bot.body,
-                    -1,
-                    self.beam,
-                    -1,
-                    pybullet.JOINT_POINT2POINT,
-                    (0.0, 0.0, 0.0),
-                    (side, 0.0, above_com),
-                    (side, along, -beam.thickness / 2),
-                )
-                client.changeConstraint(constraint, maxForce=BEAM_HINGE_FORCE_LIMIT)
-                pair.append(constraint)
-            self.hinges.append(tuple(pair))
-        self._above_com = above_com
-        self._placed = False
-
-    def move_clear(self, scene) -> None:
-        self._client.resetBasePositionAndOrientation(self.beam, _PARKED, (0.0, 0.0, 0.0, 1.0))
-
-    def set_payload(self, scene, kg: float) -> None:
-        """`payload_mass`: `kg` more on the beam, at its centre."""
-        self._client.changeDynamics(self.beam, -1, mass=self.coupling.mass + kg)
-
-    def place(self, scene, rng) -> None:
-        """The beam level on the torsos' tops, along the column."""
-        client, tops = self._client, []
-        for body in self._bodies:
-            position, orientation = client.getBasePositionAndOrientation(body)
-            up = pybullet.getMatrixFromQuaternion(orientation)[2::3]
-            tops.append([p + self._above_com * u for p, u in zip(position, up, strict=True)])
-        centre = np.mean(tops, axis=0)
-        centre[2] += self.coupling.thickness / 2
-        forward = np.subtract(tops[0], tops[-1])
-        yaw = math.atan2(-forward[0], forward[1])
-        client.resetBasePositionAndOrientation(
-            self.beam, centre.tolist(), pybullet.getQuaternionFromEuler((0.0, 0.0, yaw))
-        )
-        client.resetBaseVelocity(self.beam, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        # The hinges have held nothing yet: bullet keeps the last episode's force in
-        # their state until the first step.
-        self._placed = True
-
-    def read(self, states: list[Any]) -> None:
-        client_id = self._client_id
-        _, orientation = pybullet.getBasePositionAndOrientation(self.beam, client_id)
-        velocity, spin = pybullet.getBaseVelocity(self.beam, client_id)
-        matrix = pybullet.getMatrixFromQuaternion(orientation)
-        right, forward, up = matrix[0::3], matrix[1::3], matrix[2::3]
-        self._beam_pitch = math.asin(max(-1.0, min(1.0, forward[2])))
-        self._beam_pitch_rate = sum(w * r for w, r in zip(spin, right, strict=True))
-        horizontal = math.hypot(forward[0], forward[1]) or 1.0
-        self._beam_velocity = (velocity[0] * forward[0] + velocity[1] * forward[1]) / horizontal
-        if self._placed:  # at reset
-            self._placed = False
-            self._forces = [(0.0, 0.0)] * len(self.hinges)
-            return
-        forces = []
-        for pair in self.hinges:  # the state is the force on the beam: the bot feels minus it
-            fx, fy, fz = (0.0, 0.0, 0.0)
-            for constraint in pair:
-                x, y, z = pybullet.getConstraintState(constraint, client_id)
-                fx, fy, fz = fx - x, fy - y, fz - z
-            forces.append(
-                (
-                    fx * forward[0] + fy * forward[1] + fz * forward[2],
-                    fx * up[0] + fy * up[1] + fz * up[2],
-                )
+def check_ranges(component: object, ranges: dict[str, tuple[float, float]], units: dict[str, str]):
+    """A ValueError naming the first parameter outside its physical range."""
+    name = type(component).__name__
+    for field, (low, high) in ranges.items():
+        value = getattr(component, field)
+        if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+            raise ValueError(
+                f"{name} {field} must be a number in [{low:g}, {high:g}] {units[field]}, "
+                f"got {value!r}"
             )
-        self._forces = forces
-
-    def coupling_terms(self, index: int) -> list[float]:
-        along, across = self._forces[index]
-        top = HINGE_FORCE_RANGE
-        return [
-            min(max(along, -top), top),
-            min(max(across, -top), top),
-            self._beam_pitch,
-            min(max(self._beam_pitch_rate, -GYRO_RANGE), GYRO_RANGE),
-        ]
-
-    def team_velocity(self, states: list[Any]) -> float:
-        return self._beam_velocity
+        object.__setattr__(component, field, float(value))
 
 
-class Convoy(Column):
-    """Each bot is tethered to the next (`Tether`): a spring-damper between torso
-    centres that pulls when stretched beyond its rest length (a tether never pushes).
-    Each bot observes the stretch of the tether ahead and of the one behind, and their
-    rates (0 where there is none). The team's velocity is the bots' mean forward velocity.
-    A tether stretched past its breaking stretch ends the episode."""
+# What every team task's row shares: coupled bots, one team reward, led by the front bot,
+# the only one that observes the target; targets fast enough that bots which ignore the
+# coupling are thrown. Each row states the rest (MultiBalance-v1's reward, control rate,
+# time limit and evaluation seeds, and its own scenario and coupling).
+TEAM_TARGETS = PiecewiseConstantVelocity(low=-2.0, high=2.0, hold=(2.0, 5.0))
+TEAM_HISTORY = ("v0: initial release, on the shared reward's team form (Column).",)
+_TEAM_WHY = """\
+Only the front bot observes the team's target velocity; the others read 0 in that slot
+and must infer it from the coupling and from their neighbours. Targets are drawn from
+[-2, 2] m/s (the bot's top speed is 2.46 m/s) and held 2-5 s, as VelocityTracking's: at
+these speeds bots that ignore each other are thrown (at [-1, 1] m/s a hinged beam never
+threw PD). Every agent receives the team's reward, `StayUpReward.terms(pitch, error)`
+with the most tilted bot's pitch and `error` = |team velocity - target|: each step earns
+0-0.1, 0.01 for the team being upright and up to 0.09 more for its tracking. A fall of
+any bot ends every agent's episode (multiwalker's `terminate_on_fall`). The observation
+(19 values per bot, the table in `bbbench.envs.multi`): the shared five, four of the
+coupling, then the bot ahead and the bot behind, each with a presence bit. The naive
+baseline is `pd` (a follower holds the 0 it observes); the classical team controller is
+`team` (`bbbench.policies.controllers.team`); docs/tasks.md has the calibration."""
 
-    name = "convoy"
-    summary = "a column of bots each tethered to the next, led by the front bot"
-    coupling_type = Tether
-    coupling_layout = (
-        ObservationField(
-            "stretch_ahead",
-            "m",
-            -STRETCH_RANGE,
-            STRETCH_RANGE,
-            "the tether ahead: length beyond its rest length",
-        ),
-        ObservationField(
-            "stretch_rate_ahead", "m/s", -STRETCH_RATE_RANGE, STRETCH_RATE_RANGE, "its rate"
-        ),
-        ObservationField(
-            "stretch_behind", "m", -STRETCH_RANGE, STRETCH_RANGE, "the tether behind, the same"
-        ),
-        ObservationField(
-            "stretch_rate_behind", "m/s", -STRETCH_RATE_RANGE, STRETCH_RATE_RANGE, "its rate"
-        ),
-    )
 
-    @staticmethod
-    def coupling_spacing(coupling: Tether) -> float:
-        return coupling.rest_length
-
-    def build(self, client, bots) -> None:
-        super().build(client, bots)
-        self._beads: list[list[int]] = []  # per tether, what `draw` shows of it
-
-    def draw(self, scene) -> None:
-        """Each tether as a line of beads between the torsos' centres: grey while slack,
-        turning red as it stretches towards its breaking stretch. Bodies without mass or
-        collision shape, made at the first frame."""
-        client = self._client
-        if not self._beads:
-            bead = client.createVisualShape(pybullet.GEOM_SPHERE, radius=0.015)
-            self._beads = [
-                [client.createMultiBody(0.0, -1, bead, _PARKED) for _ in range(_BEADS_PER_TETHER)]
-                for _ in self._tethers
-            ]
-        positions, limit = self._positions, self.coupling.breaking_stretch
-        for j, (beads, (_, stretch, _)) in enumerate(zip(self._beads, self._tethers, strict=True)):
-            strain = min(max(stretch / limit, 0.0), 1.0)
-            colour = (0.5 + 0.5 * strain, 0.5 * (1.0 - strain), 0.5 * (1.0 - strain), 1.0)
-            for k, body in enumerate(beads):
-                along = (k + 1) / (len(beads) + 1)
-                point = [a + along * (b - a) for a, b in zip(*positions[j : j + 2], strict=True)]
-                client.resetBasePositionAndOrientation(body, point, (0.0, 0.0, 0.0, 1.0))
-                client.changeVisualShape(body, -1, rgbaColor=colour)
-
-    def read(self, states: list[Any]) -> None:
-        """Each tether's direction, stretch and rate, from the bots' centres of mass."""
-        client_id, rest = self._client_id, self.coupling.rest_length
-        velocities = [pybullet.getBaseVelocity(body, client_id)[0] for body in self._bodies]
-        positions = [pybullet.getBasePositionAndOrientation(b, client_id)[0] for b in self._bodies]
-        self._positions = positions  # where `before_step` and `draw` find the bots
-        tethers = []
-        for j in range(len(positions) - 1):
-            delta = np.subtract(positions[j + 1], positions[j])
-            # dot3, not np.dot / np.linalg.norm: BLAS's rounding varies with the CPU.
-            length = math.sqrt(dot3(delta, delta)) or 1e-9
-            direction = delta / length  # from bot j to bot j + 1
-            rate = dot3(np.subtract(velocities[j + 1], velocities[j]), direction)
-            tethers.append((direction, length - rest, rate))
-        self._tethers = tethers
-
-    @property
-    def tethers(self) -> tuple[tuple[np.ndarray, float, float], ...]:
-        """Each tether's reading, front to back, as of the last `observe`: its direction
-        (from bot j to bot j + 1), its stretch past the rest length (m) and its rate
-        (m/s)."""
-        return tuple(self._tethers)
-
-    @property
-    def beads(self) -> tuple[tuple[int, ...], ...]:
-        """Per tether, the bodies `draw` shows it with (none before the first frame)."""
-        return tuple(map(tuple, self._beads))
-
-    def coupling_terms(self, index: int) -> list[float]:
-        terms = []
-        for j in (index - 1, index):  # the tether ahead joins bot index - 1 and index
-            if 0 <= j < len(self._tethers):
-                _, stretch, rate = self._tethers[j]
-                terms += [
-                    min(max(stretch, -STRETCH_RANGE), STRETCH_RANGE),
-                    min(max(rate, -STRETCH_RATE_RANGE), STRETCH_RATE_RANGE),
-                ]
-            else:
-                terms += [0.0, 0.0]
-        return terms
-
-    def before_step(self, scene) -> None:
-        """Each stretched tether pulls its two bots together: k x stretch + c x rate, at
-        their centres of mass, from the last reading (`read`, after the last step: nothing
-        has moved since)."""
-        tether, client_id = self.coupling, self._client_id
-        bodies, positions = self._bodies, self._positions
-        for j, (direction, stretch, rate) in enumerate(self._tethers):
-            if stretch <= 0.0:
-                continue
-            pull = max(0.0, tether.stiffness * stretch + tether.damping * rate)
-            force = (pull * direction).tolist()
-            back = (-pull * direction).tolist()
-            for k, push in ((j, force), (j + 1, back)):
-                pybullet.applyExternalForce(
-                    bodies[k], -1, push, positions[k], pybullet.WORLD_FRAME,
-                    physicsClientId=client_id,
-                )  # fmt: skip
-
-    broken_cause = "a tether broke"
-    pull_forward = "stretch_ahead"
-
-    def broken(self) -> bool:
-        limit = self.coupling.breaking_stretch
-        return any(stretch > limit for _, stretch, _ in self._tethers)
-
-    def team_velocity(self, states: list[Any]) -> float:
-        return sum(state.forward_velocity for state in states) / len(states)
+def team_description(description: str) -> str:
+    """A team task's description, then what every team task shares."""
+    return f"{description}\n\n{_TEAM_WHY}"

@@ -1,5 +1,5 @@
-"""`Crossing`: several bots in one world whose paths cross, each on its own target (the
-scenario of MultiBalance and MultiBumps)."""
+"""`Crossing`: several bots in one world whose paths cross, each on its own target; and
+the tasks it plays, a row each (`TASKS`): MultiBalance and MultiBumps."""
 
 from __future__ import annotations
 
@@ -8,12 +8,16 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.tasks.group import spawn_poses
+from bbbench.tasks.commands import FORWARD_TARGETS
+from bbbench.tasks.group import Group, spawn_poses
 from bbbench.tasks.observation import agent_observation_space, group_observations
-from bbbench.tasks.reward import step_outcome
-from bbbench.tasks.scenarios.base import Outcome, Pose, Scenario, Slots, fell_cause
+from bbbench.tasks.reward import StayUpReward, stay_up_history, step_outcome
+from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
+from bbbench.tasks.spec import TaskSpec
+from bbbench.terrain import Bumps, HeightfieldTerrain
 
 
+@register_scenario
 class Crossing(Scenario):
     """The group's bots start around a circle heading for its centre (`spawn_poses`), each
     leaning U(-initial_pitch, initial_pitch). Each observes its robot's layout, then its
@@ -69,3 +73,68 @@ class Crossing(Scenario):
     def leave(self, scene: Any, indices: list[int]) -> None:
         """Out of the world: set aside, far away, colliding with nothing."""
         scene.take_out(indices)
+
+
+# The tasks: each row states all it sets (`TaskSpec`'s defaults for the rest); the
+# constants are what a task's versions share.
+_MULTI_BALANCE_SUMMARY = "4 bots (2-16) whose paths cross on flat ground, each at 0.2-0.8 m/s"
+_MULTI_BALANCE_DESCRIPTION = (
+    "Several bots (4 by default, `n_bots` 2-16) start on a circle facing its centre, "
+    "so their paths cross, on flat ground; each follows its own forward target at "
+    "0.2-0.8 m/s and leaves the episode when it falls. `bbbench.envs.multi."
+    "MultiBalanceEnv` documents the PettingZoo API they share."
+)
+_MULTI_BUMPS_SUMMARY = "4 bots (2-16) whose paths cross on smooth random hills"
+_MULTI_BUMPS_DESCRIPTION = (
+    "MultiBalance's bots and targets on a 12 x 12 m square of -v0's smooth random "
+    "hills (0.3 default difficulty) around the spawn circle, level along it."
+)
+_MULTI_BUMPS_TERRAIN = HeightfieldTerrain(
+    generator=Bumps(),
+    difficulty=0.3,
+    # A square around the spawn circle, level along it.
+    size=(12.0, 12.0),
+    start_margin=6.0,
+    start_ring=Group().spawn_radius,
+)
+
+TASKS = (
+    TaskSpec(
+        id="bbbench/MultiBalance-v0",
+        summary=_MULTI_BALANCE_SUMMARY,
+        description=_MULTI_BALANCE_DESCRIPTION,
+        random_return=1.5245667657055884,
+        command=FORWARD_TARGETS,
+        group=Group(),
+    ),
+    TaskSpec(
+        id="bbbench/MultiBalance-v1",
+        summary=_MULTI_BALANCE_SUMMARY,
+        description=_MULTI_BALANCE_DESCRIPTION,
+        random_return=1.72400817656264,
+        command=FORWARD_TARGETS,
+        group=Group(),
+        reward=StayUpReward(),
+        version_history=stay_up_history(("v0: initial release.",), 1),
+    ),
+    TaskSpec(
+        id="bbbench/MultiBumps-v0",
+        summary=_MULTI_BUMPS_SUMMARY,
+        description=_MULTI_BUMPS_DESCRIPTION,
+        random_return=1.5233704486135895,
+        terrain=_MULTI_BUMPS_TERRAIN,
+        command=FORWARD_TARGETS,
+        group=Group(),
+    ),
+    TaskSpec(
+        id="bbbench/MultiBumps-v1",
+        summary=_MULTI_BUMPS_SUMMARY,
+        description=_MULTI_BUMPS_DESCRIPTION,
+        random_return=1.7237354574632304,
+        terrain=_MULTI_BUMPS_TERRAIN,
+        command=FORWARD_TARGETS,
+        group=Group(),
+        reward=StayUpReward(),
+        version_history=stay_up_history(("v0: initial release.",), 1),
+    ),
+)

@@ -2,7 +2,7 @@
 per task ID, beside the stable-baselines3 recipes.
 
 An entry's sections override BenchMARL's own YAML of each config group: `task` (the
-task's YAML in `bbbench/marl/conf/task/bbbench/`), `algorithm` (BenchMARL's
+task's configuration, from its row: `bbbench.marl.family.task_config`), `algorithm` (BenchMARL's
 `conf/algorithm/<algo>.yaml`, here its masked version: `bbbench.marl.algorithms`),
 `model` and `critic_model` (`name: mlp`, BenchMARL's `conf/model/layers/mlp.yaml`, or
 `name: neighbour_encoder`, `bbbench.marl.models`) and `experiment` (BenchMARL's
@@ -27,7 +27,7 @@ import bbbench
 from bbbench.envs.batched import check_memory
 from bbbench.marl.family import task_class, task_config
 from bbbench.marl.models import NeighbourEncoderConfig
-from bbbench.policies.algorithms import unknown
+from bbbench.policies.sb3.algorithms import unknown
 from bbbench.tasks.suite import latest_version
 from bbbench.training.algorithms import MARL_TRAINABLE, trainable
 from bbbench.training.recipe_files import read_recipe_file

@@ -46,8 +46,8 @@ from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import check_output_path, write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
 from bbbench.policies import load_policy, onnx_bytes
-from bbbench.policies.onnx_file import parse_onnx
-from bbbench.policies.onnx_policy import OnnxPolicy
+from bbbench.policies.onnx.policy import OnnxPolicy
+from bbbench.policies.onnx.reader import parse_onnx
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
 from bbbench.training.beside import trainings_beside
 from bbbench.training.checks import check_collection, check_policy_path

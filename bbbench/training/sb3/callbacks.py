@@ -10,7 +10,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.policies.policy import NormalizedActor, TorchActor
-from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.policies.sb3.vecnormalize import live_statistics
 from bbbench.training.logs import curve_point
 from bbbench.training.seeds import evaluation_seeds
 
@@ -44,7 +44,7 @@ class TrainingEvaluation(BaseCallback):
         actor = TorchActor(model.policy)
         normalized = isinstance(model.get_env(), VecNormalize)
         if normalized:  # the observations as the training env shows them now
-            actor = NormalizedActor(actor, ObservationNormalization.of(model.get_env()))
+            actor = NormalizedActor(actor, live_statistics(model.get_env()))
         self.runner = self.runner or LockstepPlayer(actors={}, action_mode=self.mode, sampled=False)
         for task_id in self.tasks:
             self.runner.actors[task_id] = actor

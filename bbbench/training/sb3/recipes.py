@@ -22,8 +22,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bbbench.policies.algorithms import by_key, unknown
-from bbbench.policies.vecnormalize import STATISTICS_FILE
+from bbbench.policies.sb3.algorithms import by_key, unknown
+from bbbench.policies.sb3.vecnormalize import STATISTICS_FILE
 from bbbench.tasks.suite import SUITE, latest_version, spec
 from bbbench.training.algorithms import SB3, trainable
 from bbbench.training.recipe_files import read_recipe_file

@@ -28,7 +28,7 @@ import torch
 from bbbench.evaluation import evaluate
 from bbbench.files import check_output_path, write_atomic
 from bbbench.policies import load_policy
-from bbbench.policies.algorithms import by_key
+from bbbench.policies.sb3.algorithms import by_key
 from bbbench.training.beside import trainings_beside
 from bbbench.training.checks import check_collection, check_policy_path
 from bbbench.training.logs import Trained, write_logs

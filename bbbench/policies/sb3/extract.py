@@ -1,9 +1,9 @@
 """The acting network of a rebuilt stable-baselines3 policy, copied out to numpy.
 
-Given the network rebuilt with its weights loaded strictly (`bbbench.policies.rebuild`),
+Given the network rebuilt with its weights loaded strictly (`bbbench.policies.sb3.rebuild`),
 the function of its family reads the layers that act, as the keywords of an `MlpActor`
 (which runs them with portable arithmetic, `bbbench.portable`). Each algorithm family
-lays its acting network out differently; `bbbench.policies.algorithms` names the
+lays its acting network out differently; `bbbench.policies.sb3.algorithms` names the
 function below that reads each family's.
 """
 

@@ -19,21 +19,21 @@ calls it (nor `BasePolicy.load`, nor `pickle`) on a submitted file:
    architecture, and refused above `MAX_PARAMETERS`, before anything is built.
 4. `policy.pth` is read with `torch.load(weights_only=True)`, every tensor's
    shape and dtype checked before its values are copied
-   (`bbbench.policies.weights`).
+   (`bbbench.policies.sb3.weights`).
 5. The network is rebuilt from the task's own spaces and an allowlisted
    architecture, and the weights are loaded with `strict=True`
-   (`bbbench.policies.rebuild`); the acting layers are copied out to numpy
-   (`bbbench.policies.extract`).
+   (`bbbench.policies.sb3.rebuild`); the acting layers are copied out to numpy
+   (`bbbench.policies.sb3.extract`).
 
 The supported algorithms, their policy classes and how each is laid out are one table,
-`bbbench.policies.algorithms`.
+`bbbench.policies.sb3.algorithms`.
 
 Supported: the MLP policies of stable-baselines3's PPO, A2C, DQN, SAC and TD3
 and of sb3-contrib's QR-DQN, TQC, TRPO and ARS (MLP or linear), on Box
 observations; gSDE (`use_sde=True`) when acting deterministically. A policy
 trained inside `VecNormalize` is detected (stable-baselines3 saves its last
 unnormalized observation only then) and needs its statistics
-(`bbbench.policies.vecnormalize`).
+(`bbbench.policies.sb3.vecnormalize`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,10 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.policies.algorithms import (
+from bbbench.policies.archive import Archive, read_file
+from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.file_policy import MAX_PARAMETERS
+from bbbench.policies.sb3.algorithms import (
     LINEAR_POLICY,
     Algorithm,
     NetArch,
@@ -54,9 +57,7 @@ from bbbench.policies.algorithms import (
     action_mode,
     declared_parameters,
 )
-from bbbench.policies.archive import Archive, read_file
-from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.sb3data import (
+from bbbench.policies.sb3.data import (
     MAX_QUANTILES,
     algorithm_and_class,
     check_keys,
@@ -66,7 +67,7 @@ from bbbench.policies.sb3data import (
     policy_kwargs,
     read_action_space,
 )
-from bbbench.policies.weights import MAX_PARAMETERS, read_weights
+from bbbench.policies.sb3.weights import read_weights
 
 MAX_FILE_BYTES = 256 * 2**20
 # Every member a stable-baselines3 zip may hold, with the most bbbench lets it inflate to.

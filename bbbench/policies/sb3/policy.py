@@ -10,20 +10,20 @@ from gymnasium import spaces
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.file_policy import FilePolicy
 from bbbench.policies.mlp import MlpActor
+from bbbench.policies.normalization import ObservationNormalization
 from bbbench.policies.policy import Actor, NormalizedActor, TorchActor, describe_space
-from bbbench.policies.rebuild import torch_policy
-from bbbench.policies.sb3zip import SB3Zip, read_sb3_zip
-from bbbench.policies.vecnormalize import ObservationNormalization
+from bbbench.policies.sb3.reader import SB3Zip, read_sb3_zip
+from bbbench.policies.sb3.rebuild import torch_policy
 from bbbench.tasks.suite import agent_spaces
 
 
 class SB3ZipPolicy(FilePolicy):
-    """A stable-baselines3 `.zip`, read without unpickling (`bbbench.policies.sb3zip`).
+    """A stable-baselines3 `.zip`, read without unpickling (`bbbench.policies.sb3.reader`).
 
     Its actor runs the network in numpy (`backend="numpy"`, the default: faster
     for small MLPs) or as stable-baselines3's own torch module (`"torch"`).
     `normalization`: the `VecNormalize` statistics the policy was trained with
-    (`bbbench.policies.vecnormalize`), applied to every observation first.
+    (`bbbench.policies.sb3.vecnormalize`), applied to every observation first.
     """
 
     deterministic_only = None  # its action distribution, sampled with `--stochastic`

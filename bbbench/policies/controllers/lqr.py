@@ -18,7 +18,7 @@ direction is excited, keeping the steps where |pitch| < 0.2 rad. The fit, with
 The wheels reach their command within a step (row 3), and leaning forward
 accelerates the lean (A[1, 0] > 0): an inverted pendulum whose pivot the wheels move.
 (the last row is the command's own integrator, exact). `python -m
-bbbench.policies.lqr` identifies them again and prints them;
+bbbench.policies.controllers.lqr` identifies them again and prints them;
 tests/test_baselines.py checks the stored ones still fit the simulator.
 
 **The cost.** sum over steps of (s - s_ref)^T Q (s - s_ref) + R u^2 with
@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench.envs.factory import make
-from bbbench.policies.pd import PDController
+from bbbench.policies.controllers.pd import PDController
 from bbbench.robots.layout import INDEX
 from bbbench.robots.twowheel import (
     ACTION_MODES,
@@ -53,7 +53,7 @@ from bbbench.robots.twowheel import (
 STATE = ("pitch", "pitch_rate", "wheel_speed", "wheel_command")
 COST_STATE = np.diag([100.0, 1.0, 0.1, 0.01])
 COST_INPUT = 1.0
-# The identified model (python -m bbbench.policies.lqr prints a fresh fit).
+# The identified model (python -m bbbench.policies.controllers.lqr prints a fresh fit).
 MODEL_A = np.array(
     [
         [1.0019, 0.0100, 0.0031, -0.0031],

@@ -11,7 +11,7 @@ tensor is decoded:
 - only the default operator domain, at an opset in `OPSETS`; no functions,
   training info, sparse tensors or subgraphs (`Loop`, `If`, `Scan` and any
   graph-valued attribute);
-- at most `MAX_NODES` nodes, each an operator of `bbbench.policies.interpreter`'s
+- at most `MAX_NODES` nodes, each an operator of `bbbench.policies.onnx.interpreter`'s
   set (any other is refused by name);
 - no external data: every weight inside the file ("export with external_data=False");
 - every tensor's declared size counts against `MAX_PARAMETERS` (the zips' cap),
@@ -34,8 +34,8 @@ import numpy as np
 
 from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
-from bbbench.policies.operators import OPERATORS
-from bbbench.policies.weights import MAX_PARAMETERS
+from bbbench.policies.file_policy import MAX_PARAMETERS
+from bbbench.policies.onnx.operators import OPERATORS
 
 MAX_FILE_BYTES = 64 * 2**20  # 10M float32 parameters are 40 MB
 MAX_NODES = 1000

@@ -26,10 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.file_policy import MAX_PARAMETERS
 
-# The most parameters bbbench evaluates, in policy.pth and in the network a zip declares:
-# some 40 MB of float32, far beyond the MLPs these tasks need (a 64 x 64 PPO has ~10k).
-MAX_PARAMETERS = 10_000_000
 CAST_TO_FLOAT32 = ("float16", "bfloat16", "float64")
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbbench.policies.pd import PDController
+from bbbench.policies.controllers.pd import PDController
 from bbbench.robots.layout import INDEX, ObservationField
 
 # The gain the law gives the coupling's pull forward, by the unit it is read in.

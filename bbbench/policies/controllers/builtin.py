@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbbench.policies.crossing import CrossingController
-from bbbench.policies.legged import LeggedController
-from bbbench.policies.lqr import LQRController
-from bbbench.policies.pd import PDController
+from bbbench.policies.controllers.crossing import CrossingController
+from bbbench.policies.controllers.legged import LeggedController
+from bbbench.policies.controllers.lqr import LQRController
+from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.team import TeamController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
-from bbbench.policies.team import TeamController
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
 from bbbench.tasks.scenarios import Column, Crossing
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
@@ -58,7 +58,7 @@ class StandPolicy(PDPolicy):
 
 
 class LQRPolicy(TwoWheelPolicy):
-    """The LQR baseline (`bbbench.policies.lqr.LQRController`): designed from a model
+    """The LQR baseline (`bbbench.policies.controllers.lqr.LQRController`): designed from a model
     identified from the simulator; reads only the shared layout, so it fits every task of
     the two-wheel robot."""
 
@@ -72,7 +72,7 @@ class LQRPolicy(TwoWheelPolicy):
 
 
 class TeamPolicy(TwoWheelPolicy):
-    """The team tasks' classical controller (`bbbench.policies.team.TeamController`): PD
+    """The team tasks' classical controller (`bbbench.policies.controllers.team.TeamController`): PD
     on a target each bot makes from its team, the front bot's target limited in how fast
     it changes, a follower's from the bot ahead and the coupling's pull. It plays the
     column tasks (BeamCarry, BeamCarryBumps, Convoy) only; on them, `pd` is the naive
@@ -100,7 +100,7 @@ def _is_team(task_id: str) -> bool:
 
 
 class CrossingPolicy(TwoWheelPolicy):
-    """The crossing tasks' classical controller (`bbbench.policies.crossing`): PD, the
+    """The crossing tasks' classical controller (`bbbench.policies.controllers.crossing`): PD, the
     bot that would reach a crossing later yielding and the earlier one passing, from
     the neighbours it observes. It plays the crossing tasks (MultiBalance, MultiBumps)
     only; on them, `pd` is the baseline the targets are set against."""
@@ -126,7 +126,7 @@ class CrossingPolicy(TwoWheelPolicy):
 
 
 class LeggedPolicy(Policy):
-    """The wheel-legged robot's classical controller (`bbbench.policies.legged`): PD on
+    """The wheel-legged robot's classical controller (`bbbench.policies.controllers.legged`): PD on
     the wheels from the balance pitch, the legs riding low and damping the torso's roll. It
     fits every task of the wheel-legged robot."""
 

@@ -21,7 +21,6 @@ clip_obs)` in float64, cast to float32.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import io
 import pickle
@@ -32,6 +31,7 @@ import numpy as np
 
 from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
+from bbbench.policies.normalization import ObservationNormalization
 
 MAX_STATISTICS_BYTES = 16 * 2**20
 STATISTICS_FILE = "vecnormalize.pkl"  # the name stable-baselines3's docs and rl-zoo3 use
@@ -132,40 +132,17 @@ class _Unpickler(pickle.Unpickler):
         raise RefusedForSafety(f"{self.path}: holds persistent references; refused")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class ObservationNormalization:
-    """`VecNormalize`'s observation statistics, and the file they came from."""
-
-    file: str
-    sha256: str
-    normalize: bool  # VecNormalize's norm_obs: False leaves observations as they are
-    mean: np.ndarray  # float64, the observation shape
-    std: np.ndarray  # sqrt(var + epsilon), float64
-    clip: float
-
-    @classmethod
-    def of(cls, venv: Any) -> ObservationNormalization:
-        """A copy of the statistics a live `VecNormalize` applies now (a policy evaluated
-        while it trains sees observations as its training env shows them)."""
-        return cls(
-            file="(in training)",
-            sha256="",
-            normalize=bool(venv.norm_obs),
-            mean=np.array(venv.obs_rms.mean, dtype=np.float64),
-            std=np.sqrt(np.asarray(venv.obs_rms.var, dtype=np.float64) + venv.epsilon),
-            clip=float(venv.clip_obs),
-        )
-
-    def __call__(self, observations: np.ndarray) -> np.ndarray:
-        """Observations as the policy saw them in training (float32)."""
-        if not self.normalize:
-            return observations
-        scaled = (observations - self.mean) / self.std
-        return np.clip(scaled, -self.clip, self.clip).astype(np.float32)
-
-    def record(self) -> dict[str, Any]:
-        """As the results document records it."""
-        return {"file": self.file, "sha256": self.sha256, "normalize": self.normalize}
+def live_statistics(venv: Any) -> ObservationNormalization:
+    """A copy of the statistics a live `VecNormalize` applies now (a policy evaluated
+    while it trains sees observations as its training env shows them)."""
+    return ObservationNormalization(
+        file="(in training)",
+        sha256="",
+        normalize=bool(venv.norm_obs),
+        mean=np.array(venv.obs_rms.mean, dtype=np.float64),
+        std=np.sqrt(np.asarray(venv.obs_rms.var, dtype=np.float64) + venv.epsilon),
+        clip=float(venv.clip_obs),
+    )
 
 
 def read_statistics(

@@ -4,10 +4,10 @@ A record says everything the rest of the package asks of an algorithm: its
 stable-baselines3 (or sb3-contrib) class, the MLP policy classes its zips name,
 the action modes it learns in, its policy's default architecture, whether it
 learns on-policy, and its *family* — how its acting network is laid out, which
-says how the numpy actor is extracted (`bbbench.policies.extract`) and how its
+says how the numpy actor is extracted (`bbbench.policies.sb3.extract`) and how its
 parameters are counted before anything is built (`declared_parameters`).
 
-The zip reader (`bbbench.policies.sb3zip`), the rebuild (`bbbench.policies.rebuild`),
+The zip reader (`bbbench.policies.sb3.reader`), the rebuild (`bbbench.policies.sb3.rebuild`),
 the recipes and `bbbench train` all read `ALGORITHMS`. Adding an algorithm is one
 record here plus its test (and a recipe file in `bbbench/training/recipes/` to train
 it with `bbbench train`).
@@ -25,7 +25,7 @@ from typing import Any
 
 from gymnasium import spaces
 
-from bbbench.policies import extract
+from bbbench.policies.sb3 import extract
 
 NetArch = list[int] | dict[str, list[int]] | None
 

@@ -1,7 +1,7 @@
 """A zip's network rebuilt as stable-baselines3's own torch module, weights loaded strictly.
 
 The network is built from the task's own spaces, the policy class the zip names
-(one of `bbbench.policies.algorithms`' allowlisted classes) and the architecture read
+(one of `bbbench.policies.sb3.algorithms`' allowlisted classes) and the architecture read
 as plain data; `load_state_dict(strict=True)` then refuses any weight that does not
 fit it. Nothing of the zip is unpickled.
 """
@@ -12,8 +12,8 @@ from typing import Any
 
 from gymnasium import spaces
 
-from bbbench.policies.algorithms import ACTOR_CRITIC, load_class
 from bbbench.policies.errors import PolicyError
+from bbbench.policies.sb3.algorithms import ACTOR_CRITIC, load_class
 
 
 def torch_policy(model, observation_space: spaces.Box, action_space: spaces.Space):

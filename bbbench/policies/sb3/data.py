@@ -1,5 +1,5 @@
 """The `data` member of a stable-baselines3 zip, read as plain JSON and never unpickled
-(`bbbench.policies.sb3zip` says why): its keys, its policy class as a plain class
+(`bbbench.policies.sb3.reader` says why): its keys, its policy class as a plain class
 reference, its spaces and its policy kwargs, each checked, each refusal a `PolicyError`
 that names the file."""
 
@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.policies.algorithms import ALGORITHMS, Algorithm, algorithm_of
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import ACTIVATIONS
+from bbbench.policies.sb3.algorithms import ALGORITHMS, Algorithm, algorithm_of
 
 _MAX_JSON_DEPTH = 32  # data nests a few levels; deeper is not a model.save() file
 

@@ -26,12 +26,11 @@ from gymnasium import spaces
 
 from bbbench.files import write_atomic
 from bbbench.policies.archive import read_file
-from bbbench.policies.contract import Contract, describe_action_space, read_contract
 from bbbench.policies.errors import PolicyError
-from bbbench.policies.onnx_file import MAX_FILE_BYTES, check_safety, parse_onnx, parse_proto
-from bbbench.policies.onnx_policy import OnnxPolicy
-from bbbench.policies.policy import NormalizedActor, Policy
-from bbbench.policies.registry import fitting_tasks
+from bbbench.policies.onnx.contract import Contract, describe_action_space, read_contract
+from bbbench.policies.onnx.policy import OnnxPolicy
+from bbbench.policies.onnx.reader import MAX_FILE_BYTES, check_safety, parse_onnx, parse_proto
+from bbbench.policies.policy import NormalizedActor, Policy, fitting_tasks
 from bbbench.tasks.suite import agent_spaces, spec
 
 OPSET = 17

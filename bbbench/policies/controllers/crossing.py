@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbbench.policies.pd import PDController
+from bbbench.policies.controllers.pd import PDController
 from bbbench.robots.layout import INDEX
 from bbbench.robots.twowheel import TWO_WHEEL
 from bbbench.tasks.group import NEIGHBOUR_FIELDS

@@ -1,9 +1,9 @@
 """An ONNX model as a `Policy`: read safely, run by bbbench's interpreter.
 
-The model is read without trusting it (`bbbench.policies.onnx_file`), its
+The model is read without trusting it (`bbbench.policies.onnx.reader`), its
 contract taken from its metadata or the command line
-(`bbbench.policies.contract`), and its graph compiled to a `Program` on
-portable arithmetic (`bbbench.policies.interpreter`), then tried once on a
+(`bbbench.policies.onnx.contract`), and its graph compiled to a `Program` on
+portable arithmetic (`bbbench.policies.onnx.interpreter`), then tried once on a
 trial batch: every shape, type and the output's width are checked before an
 episode is played. onnxruntime never scores: its kernels round by CPU.
 """
@@ -17,11 +17,11 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from bbbench.policies.contract import Contract, read_contract
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.file_policy import FilePolicy
-from bbbench.policies.interpreter import Program, compile_graph, compile_steps, trial_shapes
-from bbbench.policies.onnx_file import OnnxModel, read_onnx
+from bbbench.policies.onnx.contract import Contract, read_contract
+from bbbench.policies.onnx.interpreter import Program, compile_graph, compile_steps, trial_shapes
+from bbbench.policies.onnx.reader import OnnxModel, read_onnx
 from bbbench.policies.policy import Actor
 
 _TRIAL_ROWS = 3

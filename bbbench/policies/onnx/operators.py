@@ -5,7 +5,7 @@ that computes it on numpy arrays (`run(params, *inputs)`, on `bbbench.portable`'
 arithmetic where rounding could differ between CPUs), and what it reads of its node
 (`bind`: the attributes and constant inputs that become its `params`, with their
 checks), the types it computes on, and the type it gives. The interpreter
-(`bbbench.policies.interpreter`) compiles a graph with these entries and knows no
+(`bbbench.policies.onnx.interpreter`) compiles a graph with these entries and knows no
 operator by name but the four that shape the graph itself: `Constant` and `Identity`
 (names and values), `Gemm` and `MatMul` (layers).
 """

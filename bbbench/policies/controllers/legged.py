@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from bbbench.policies.pd import PDController
+from bbbench.policies.controllers.pd import PDController
 from bbbench.robots.wheel_legged import (
     LEG_JOINT_NAMES,
     LEGGED_MODEL,

@@ -88,8 +88,30 @@ class Slots(NamedTuple):
     presence: int | None
 
 
+# Every scenario, by the name a task spec gives (`TaskSpec.scenario`), in the suite's
+# order: each module of `bbbench.tasks.scenarios` registers its own.
+SCENARIOS: dict[str, type[Scenario]] = {}
+
+
+def register_scenario(cls: type[Scenario]) -> type[Scenario]:
+    """Register the scenario `cls` under its `name`; `ValueError` if the name is taken."""
+    if cls.name in SCENARIOS:
+        raise ValueError(f"a scenario is already called {cls.name!r}")
+    SCENARIOS[cls.name] = cls
+    return cls
+
+
+def scenario(name: str) -> type[Scenario]:
+    """The scenario called `name` (`TaskSpec.scenario`), or a KeyError that lists them."""
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise KeyError(f"no scenario {name!r}: the scenarios are {', '.join(SCENARIOS)}") from None
+
+
 class Scenario(abc.ABC):
-    """What makes a task itself; subclasses are registered in `SCENARIOS` by `name`.
+    """What makes a task itself; each scenario is registered in `SCENARIOS` by `name`
+    (`register_scenario`, in its module, before the rows that name it).
 
     Class attributes:
         name: what `TaskSpec.scenario` holds.

@@ -1,6 +1,6 @@
 """A small interpreter of ONNX policy graphs on portable arithmetic.
 
-It runs the operators a policy network needs and no others (`bbbench.policies.operators`,
+It runs the operators a policy network needs and no others (`bbbench.policies.onnx.operators`,
 each kernel beside its rule):
 
 - layers: `Gemm` (alpha = beta = 1, A not transposed) and `MatMul` by a constant
@@ -38,7 +38,7 @@ import numpy as np
 from bbbench import portable
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import MlpActor
-from bbbench.policies.operators import F4, F8, I8, TABLE, clip
+from bbbench.policies.onnx.operators import F4, F8, I8, TABLE, clip
 
 # The most values any tensor may hold per observation (or in all, for a constant): a
 # policy for these tasks needs thousands.
@@ -72,7 +72,7 @@ def _normalize(params, x):
     return clip(params, scaled).astype(F4)
 
 
-# Each step's kernel: an ONNX operator's (`bbbench.policies.operators`), or a layer's, or
+# Each step's kernel: an ONNX operator's (`bbbench.policies.onnx.operators`), or a layer's, or
 # VecNormalize's arithmetic folded into one.
 KERNELS: dict[str, Callable] = {
     **{name: operator.run for name, operator in TABLE.items()},

@@ -1,0 +1,95 @@
+"""docs/architecture.md's recipes hold: every file they name exists, a task's row sits
+beside its scenario, and adding a task touches nothing of the MARL or training code."""
+
+from __future__ import annotations
+
+import ast
+import re
+import sys
+from pathlib import Path
+
+import bbbench
+from bbbench.tasks.scenario import SCENARIOS
+from bbbench.tasks.scenarios import MODULES, TASKS
+from bbbench.tasks.suite import SUITE
+
+ROOT = Path(__file__).resolve().parents[1]
+RECIPES = ROOT / "docs" / "architecture.md"
+TASK_ID = re.compile(r"bbbench/[A-Z][A-Za-z]+-v\d+")
+
+
+def recipes() -> str:
+    text = RECIPES.read_text()
+    return text[text.index("## How to add...") : text.index("## One episode, written once")]
+
+
+def named_files(text: str) -> set[str]:
+    """The repository files a text names in backticks (`bbbench/tasks/scenario.py`)."""
+    found = re.findall(r"`((?:bbbench|tests|docs|benchmarks|scripts)/[\w/.<>*-]+)`", text)
+    return {path for path in found if "<" not in path and "*" not in path}
+
+
+def test_every_file_the_recipes_name_exists():
+    named = named_files(recipes())
+    assert len(named) > 15  # the reading finds them
+    assert sorted(path for path in named if not (ROOT / path).exists()) == []
+
+
+def test_the_reading_of_named_files_sees_a_missing_one():
+    assert named_files("a `bbbench/tasks/nope.py` and `bbbench/tasks/<x>.py`") == {
+        "bbbench/tasks/nope.py"
+    }
+
+
+def test_each_task_row_is_in_its_scenarios_module():
+    assert {task.id for task in TASKS} == set(SUITE)
+    for task in SUITE.values():
+        module = sys.modules[SCENARIOS[task.scenario].__module__]
+        assert module in MODULES, task.id
+        assert task in module.TASKS, f"{task.id} is not beside its scenario, {module.__name__}"
+
+
+def code_naming_a_task(path: Path, root: Path = ROOT) -> list[str]:
+    """Where a module's code (not its docstrings) names a task ID."""
+    tree = ast.parse(path.read_text())
+    docstrings = {
+        id(node.body[0].value)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.body
+        and isinstance(node.body[0], ast.Expr)
+        and isinstance(node.body[0].value, ast.Constant)
+    }
+    return [
+        f"{path.relative_to(root)}:{node.lineno}: {node.value!r}"
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and id(node) not in docstrings
+        and TASK_ID.search(node.value)
+    ]
+
+
+def test_no_marl_or_training_code_names_a_task():
+    """A task is its row (and its generated artefacts): its BenchMARL task, configuration
+    and default recipe come from the suite, so no code there names one."""
+    found = [
+        where
+        for folder in ("marl", "training")
+        for path in sorted((ROOT / "bbbench" / folder).rglob("*.py"))
+        for where in code_naming_a_task(path)
+    ]
+    assert found == []
+
+
+def test_the_reading_of_task_ids_sees_one_in_code(tmp_path):
+    module = tmp_path / "probe.py"
+    module.write_text('"""About bbbench/FlatBalance-v1."""\nTASK = "bbbench/FlatBalance-v1"\n')
+    assert code_naming_a_task(module, tmp_path) == ["probe.py:2: 'bbbench/FlatBalance-v1'"]
+
+
+def test_the_recipes_name_the_scenarios_registry_and_rows():
+    text = recipes()
+    for name in ("register_scenario", "MODULES", "TASKS", "bbbench/tasks/scenarios/__init__.py"):
+        assert name in text
+    assert bbbench.spec("bbbench/BeamCarry-v0").coupling.__module__.endswith("beam_carry")
