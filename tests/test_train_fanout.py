@@ -65,6 +65,11 @@ def test_a_seed_trained_as_a_ray_task_is_the_local_runs_bytes(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "seed 1: wrote" in printed
     assert "seed 2: wrote" in printed
+    # Each seed's curve, point by point, as it trains: the last point before its files.
+    for seed in (1, 2):
+        last = f"seed {seed}: 1,024 of 1,024 steps"
+        assert last in printed
+        assert printed.index(last) < printed.index(f"seed {seed}: wrote")
     for name in ("policy.zip", "results.json"):  # curve.json and train.json hold wall times
         assert (there / "policy-s1" / name).read_bytes() == (here / name).read_bytes(), name
     assert (there / "policy-s2" / "policy.zip").read_bytes() != (here / "policy.zip").read_bytes()
@@ -79,6 +84,8 @@ def test_seeds_trained_here_are_each_the_bytes_of_its_own_run(tmp_path, capsys):
     subprocess.run([sys.executable, "-m", "bbbench", *local], check=True, capture_output=True)
     argv = ["--seeds", "1,2", "--out", str(there / "policy.zip")]
     assert main(["train", FLAT, *TINY, *argv]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("seed 2: 1,024 of 1,024 steps") == 1  # its curve's last point
     for name in ("policy.zip", "results.json"):
         assert (there / "policy-s2" / name).read_bytes() == (here / name).read_bytes(), name
 

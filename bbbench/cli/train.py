@@ -210,6 +210,13 @@ def _run_seeds(args: argparse.Namespace) -> int:
         args.written.append(f"{run.out.parent}/")
         print(f"seed {run.seed}: wrote {run.out.parent}/ ({run.seconds:.0f} s)", flush=True)
 
+    def point(seed: int, steps: int, total: int, point: dict) -> None:
+        print(
+            f"seed {seed}: {steps:,} of {total:,} steps, {point['wall_time_s']:.0f} s: mean "
+            f"return {point['mean']:.2f} on training seeds",
+            flush=True,
+        )
+
     try:
         runs = fanout.train_seeds(
             tasks,
@@ -219,6 +226,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
             backend=args.backend,
             address=args.address,
             on_done=done,
+            on_point=point,
             action_mode=args.action_mode,
             steps=args.steps,
             n_envs=args.n_envs,

@@ -14,6 +14,10 @@ With `--backend ray [--address HOST:PORT]` every seed is a Ray task (one CPU
 each) on a local Ray or a cluster. The task trains in a folder of its own on
 whichever machine runs it and returns its files' bytes; this machine writes them
 (atomically), so a cluster needs no shared filesystem.
+
+Each seed sends the points of its curve back as it draws them (a queue: a manager's
+here, a Ray actor there), so that `on_point` tells how every seed is going while they
+train, not only when one ends.
 """
 
 from __future__ import annotations
@@ -72,45 +76,91 @@ def train_seeds(
     backend: str = "local",
     address: str | None = None,
     on_done: Callable[[SeedRun], None] | None = None,
+    on_point: Callable[[int, int, int, dict], None] | None = None,
     **keywords: Any,
 ) -> list[SeedRun]:
     """Train one policy per seed (`bbbench.training.train`'s keywords: action_mode, steps,
     n_envs, final_episodes), locally one after another or as Ray tasks; each seed's files
-    in `seed_out(out, seed)`'s folder. `on_done(run)` as each finishes."""
+    in `seed_out(out, seed)`'s folder. `on_done(run)` as each finishes;
+    `on_point(seed, steps, total, point)` at each point of a seed's curve, as it trains."""
     if keywords.get("recipe_file") is not None:  # sent as text: a Ray worker may be elsewhere
         keywords["recipe_file"] = ("text", Path(keywords["recipe_file"]).read_text())
-    jobs = [(list(task_ids), algorithm, Path(out).name, seed, keywords) for seed in seeds]
     done: list[SeedRun] = []
     if backend == "local":
         # Each seed in a fresh process, as a `--seed` run is: what one training leaves in
         # its process (memory, connections) is freed with it (the module's docstring).
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(1, mp_context=context, max_tasks_per_child=1) as pool:
-            for job in jobs:
-                done.append(_write(out, job[3], pool.submit(_train_in_folder, *job).result()))
+        with (
+            context.Manager() as manager,
+            ProcessPoolExecutor(1, mp_context=context, max_tasks_per_child=1) as pool,
+        ):
+            points = manager.Queue()
+            for seed in seeds:
+                job = (list(task_ids), algorithm, Path(out).name, seed, keywords, points)
+                future = pool.submit(_train_in_folder, *job)
+                while not _wait_local(future, points, on_point):
+                    pass
+                done.append(_write(out, seed, future.result()))
                 if on_done is not None:
                     on_done(done[-1])
         return done
     ray = import_ray()
-    started = join_ray(address, min(len(jobs), default_workers()))
+    from ray.util.queue import Queue  # lazy: ray
+
+    started = join_ray(address, min(len(seeds), default_workers()))
     try:
+        points = Queue()
         # A fresh worker process for every seed (max_calls=1), as for the local backend.
         remote = ray.remote(num_cpus=1, max_calls=1)(_train_in_folder)
-        futures = {remote.remote(*job): job[3] for job in jobs}
+        futures = {
+            remote.remote(list(task_ids), algorithm, Path(out).name, seed, keywords, points): seed
+            for seed in seeds
+        }
         while futures:
-            [future], _ = ray.wait(list(futures), num_returns=1)
-            seed = futures.pop(future)
-            done.append(_write(out, seed, ray.get(future)))
-            if on_done is not None:
-                on_done(done[-1])
+            ready, _ = ray.wait(list(futures), num_returns=1, timeout=_POLL_S)
+            _drain(points, on_point)
+            for future in ready:
+                seed = futures.pop(future)
+                done.append(_write(out, seed, ray.get(future)))
+                if on_done is not None:
+                    on_done(done[-1])
+        _drain(points, on_point)
     finally:
         if started:
             ray.shutdown()
     return sorted(done, key=lambda run: list(seeds).index(run.seed))
 
 
-def _train_in_folder(task_ids, algorithm, name, seed, keywords) -> dict[str, Any]:
-    """One seed trained in a folder of its own; its files' bytes, and what it measured."""
+_POLL_S = 1.0  # s between looks at the queue of curve points while seeds train
+
+
+def _wait_local(future, points, on_point) -> bool:
+    """Whether `future` is done, after handing on the points that came within a poll."""
+    try:
+        future.result(timeout=_POLL_S)
+    except TimeoutError:
+        _drain(points, on_point)
+        return False
+    _drain(points, on_point)
+    return True
+
+
+def _drain(points, on_point) -> None:
+    """Hand every point in the queue to `on_point` (none, if it is None)."""
+    while not points.empty():
+        point = points.get()
+        if on_point is not None:
+            on_point(*point)
+
+
+def _train_in_folder(task_ids, algorithm, name, seed, keywords, points=None) -> dict[str, Any]:
+    """One seed trained in a folder of its own; its files' bytes, and what it measured.
+    Each point of its curve goes into `points` (a queue) as (seed, steps, total, point)."""
+
+    def sent(steps: int, total: int, point: dict | None) -> None:
+        if point is not None and points is not None:
+            points.put((seed, steps, total, point))
+
     with (
         tempfile.TemporaryDirectory(prefix="bbbench-train-") as folder,
         tempfile.TemporaryDirectory(prefix="bbbench-recipe-") as recipes,
@@ -120,7 +170,15 @@ def _train_in_folder(task_ids, algorithm, name, seed, keywords) -> dict[str, Any
             recipe = Path(recipes) / "recipe.yml"
             recipe.write_text(keywords["recipe_file"][1])
             keywords = {**keywords, "recipe_file": recipe}
-        trained = train(task_ids, algorithm, out=root / name, seed=seed, log_dir=root, **keywords)
+        trained = train(
+            task_ids,
+            algorithm,
+            out=root / name,
+            seed=seed,
+            log_dir=root,
+            on_progress=sent,
+            **keywords,
+        )
         files = {
             str(path.relative_to(root)): path.read_bytes()
             for path in sorted(root.rglob("*"))
