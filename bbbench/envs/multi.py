@@ -217,7 +217,8 @@ class MultiBalanceEnv(ParallelEnv):
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
         self._action_space = task.robot_model.action_space(action_mode)
-        self._scene = scene = Scene(task, action_mode)
+        # The episode's world, ground and bots, and what its seed drew (`scene.episode`).
+        self.scene = scene = Scene(task, action_mode)
         self._scenario = scenario = scene.scenario
         self._observation_space = scenario.observation_space()
         self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per bot-step
@@ -236,13 +237,6 @@ class MultiBalanceEnv(ParallelEnv):
         """The seed of the episode being played (-1 before the first reset)."""
         return self._episode_seed
 
-    @property
-    def scene(self) -> Scene:
-        """The episode's world, ground and bots, and what its seed drew (`scene.episode`)."""
-        return self._scene
-
-    # -- spaces -----------------------------------------------------------------
-
     def observation_space(self, agent: str) -> spaces.Box:
         self._check_agent(agent)
         return self._observation_space
@@ -255,16 +249,14 @@ class MultiBalanceEnv(ParallelEnv):
         if agent not in self.agent_index:
             raise ValueError(_unknown_agent(self, agent))
 
-    # -- the PettingZoo parallel API ----------------------------------------------
-
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         if options and not self._warned_options:  # ignored, with a word, once
             self._warned_options = True
             warnings.warn(_ignored(options, self.task.id), stacklevel=2)
-        episode_seed = self._episode_seed_for(seed)
-        scene = self._scene
+        self._np_random, episode_seed = _episode_seed(self._np_random, seed)
+        scene = self.scene
         self._states = states = scene.reset(episode_seed)
         self._episode_seed = episode_seed
         self.agents = agents = self.possible_agents[:]
@@ -276,22 +268,12 @@ class MultiBalanceEnv(ParallelEnv):
         infos = dict(zip(agents, outcome.infos, strict=True))
         return dict(zip(agents, observations, strict=True)), infos
 
-    def _episode_seed_for(self, seed: int | None) -> int:
-        """The episode's seed: `seed`, or a training seed drawn from the env's generator
-        (seeded by the last seed given, as Gymnasium's `np_random`)."""
-        if seed is not None:
-            self._np_random, _ = seeding.np_random(seed)
-            return int(seed)
-        if self._np_random is None:
-            self._np_random, _ = seeding.np_random()
-        return int(self._np_random.integers(TRAINING_SEEDS.stop))
-
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        agents, scene = self.agents, self._scene
-        if not isinstance(actions, dict) or len(actions) != len(agents):
+        agents, scene = self.agents, self.scene
+        if not (isinstance(actions, dict) and len(actions) == len(agents)) or not all(
+            agent in actions for agent in agents
+        ):
             check_actions(actions, self)  # a clear error (or actions of ended agents: ignored)
-        elif not all(agent in actions for agent in agents):
-            check_actions(actions, self)
         if not agents:
             return {}, {}, {}, {}, {}
         try:
@@ -323,13 +305,13 @@ class MultiBalanceEnv(ParallelEnv):
         for agent in ended:
             self.ended_at[agent] = steps
         kept = [k for k, agent in enumerate(self.agents) if agent not in gone]
-        self._scenario.leave(self._scene, [self.agent_index[agent] for agent in ended])
+        self._scenario.leave(self.scene, [self.agent_index[agent] for agent in ended])
         self.agents = [self.agents[k] for k in kept]
         self._states = [self._states[k] for k in kept] or self._states
 
     def _observe(self, states: list[BotState], targets: list[float], step: int) -> np.ndarray:
-        commands = [bot.wheel_command for bot in self._scene.live_bots]
-        return self._scenario.observe(self._scene, states, commands, targets, step)
+        commands = [bot.wheel_command for bot in self.scene.live_bots]
+        return self._scenario.observe(self.scene, states, commands, targets, step)
 
     def render(self, mode: str | None = None) -> np.ndarray | None:
         """A frame of the whole group in the env's render mode. `mode` is for callers
@@ -337,19 +319,31 @@ class MultiBalanceEnv(ParallelEnv):
         None or the env's own render mode."""
         if mode is not None and mode != self.render_mode:
             raise ValueError(_other_mode(mode, self.render_mode))
-        return group_frame(self._scene, self._states) if render_ready(self) else None
+        return group_frame(self.scene, self._states) if render_ready(self) else None
 
     def camera(self) -> tuple[tuple[float, float, float], float]:
         """Where the camera looks, and from how far, to frame every bot."""
         return framing(self._states)
 
     def close(self) -> None:
-        self._scene.close()
+        self.scene.close()
         self.agents = []
 
     def __getstate__(self) -> dict[str, Any]:
         # A copy has no world (the scene pickles without one) and no episode.
         return {**self.__dict__, "agents": [], "_states": []}
+
+
+def _episode_seed(
+    np_random: np.random.Generator | None, seed: int | None
+) -> tuple[np.random.Generator | None, int]:
+    """The env's generator and the episode's seed: `seed` (which seeds the generator, as
+    Gymnasium's `np_random`), or a training seed drawn from the generator."""
+    if seed is not None:
+        return seeding.np_random(seed)[0], int(seed)
+    if np_random is None:
+        np_random, _ = seeding.np_random()
+    return np_random, int(np_random.integers(TRAINING_SEEDS.stop))
 
 
 def _metadata(metadata: dict[str, Any], task: TaskSpec) -> dict[str, Any]:
