@@ -251,13 +251,18 @@ class BalanceBot(Body):
         # Pointing straight up or down there is no heading: say +y.
         heading = (r01 / length, r11 / length) if length > 1e-9 else (0.0, 1.0)
         px, py, pz = position
+        # `tilt_from_quaternion`, inline (this runs every step): the same operations, and
+        # the same clamping as its max(-1, min(1, .)), NaN included.
+        qx, qy = orientation[0], orientation[1]
+        up = 1.0 - 2.0 * (qx * qx + qy * qy)
+        up = up if up < 1.0 else 1.0
         return _new_state(
             (
                 position,
                 orientation,
                 math.atan2(-r21, r22),  # pitch
                 0.0 - (r00 * wx + r10 * wy + r20 * wz),  # pitch rate; "0.0 -": no -0.0 at rest
-                tilt_from_quaternion(orientation),
+                math.acos(up if up > -1.0 else -1.0),  # tilt
                 # The right wheel's axis is reversed: its forward speed is minus its joint's.
                 0.5 * (left[1] - right[1]),  # wheel speed
                 vx * heading[0] + vy * heading[1],  # forward velocity
