@@ -9,8 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from bbbench.files import write_atomic
+from bbbench.robots import steering
 from bbbench.robots.wheel_legged import LEG_POSITION_GAIN, facts_markdown, interface_markdown
 
+RADIUS = steering.MODEL.wheel_radius  # m
 OUT = Path(__file__).resolve().parent.parent / "docs" / "robots.md"
 ROBOT_ROWS = "\n".join(
     [
@@ -20,6 +22,10 @@ ROBOT_ROWS = "\n".join(
         "| `wheel-legged` | LeggedFlatBalance, LeggedVelocityTracking, LeggedBumps, "
         "LeggedObstacles | `Box(-1, 1, (6,))`: four leg targets, two wheel-speed changes | "
         "`Box(17,)`: the five, then the legs |",
+        "| `two-wheel-steer` | none yet: the steering tasks come with it (issue 52) | "
+        "`Discrete(27)` or `Box(-1, 1, (2,))`: changes of the forward and turning commands | "
+        "`Box(8,)`: the five, then yaw rate, wheel speed difference, turning command; a "
+        "task's own fields after them |",
     ]
 )
 
@@ -64,6 +70,18 @@ two-wheel bot's PD does and rides low on its legs; docs/tasks.md compares the tw
 on the same ground.
 
 {interface_markdown()}
+
+## The two-wheel bot that steers
+
+The two-wheel bot's body and motors with its wheels commanded apart, as a differential
+drive (`bbbench.robots.steering`): a forward command and a turning command, the left
+wheel held at forward - turning and the right at forward + turning. Turning left
+(counter-clockwise from above) is positive; a turning command d turns the bot at about
+{RADIUS:g} x 2d / 0.24 = {RADIUS * 2 / 0.24:.2f} d rad/s (the wheels 0.24 m apart). The
+published two-wheel robot and its tasks are unchanged: this is a robot of its own, with
+tasks of its own.
+
+{steering.interface_markdown()}
 """
 
 

@@ -138,7 +138,7 @@ def test_a_world_never_uses_the_global_connection():
     world.close()
 
 
-@pytest.mark.parametrize("name", ["two-wheel", "wheel-legged"])
+@pytest.mark.parametrize("name", ["two-wheel", "wheel-legged", "two-wheel-steer"])
 def test_a_task_may_not_ask_for_more_than_its_robots_top_speed(name):
     robot = ROBOTS[name]
     assert robot.top_speed == robot.model.wheel_speed_limit * robot.model.wheel_radius

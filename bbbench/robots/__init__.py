@@ -12,10 +12,13 @@ from bbbench.robots.balancebot import (
 )
 from bbbench.robots.body import Body
 from bbbench.robots.robot import Robot
+from bbbench.robots.steering import TWO_WHEEL_STEER, SteeringBot, SteerState
 from bbbench.robots.twowheel import TWO_WHEEL
 from bbbench.robots.wheel_legged import WHEEL_LEGGED
 
-ROBOTS: dict[str, Robot] = {robot.name: robot for robot in (TWO_WHEEL, WHEEL_LEGGED)}
+ROBOTS: dict[str, Robot] = {
+    robot.name: robot for robot in (TWO_WHEEL, WHEEL_LEGGED, TWO_WHEEL_STEER)
+}
 
 
 def robot(name: str) -> Robot:
@@ -31,6 +34,7 @@ __all__ = [
     "MODEL",
     "ROBOTS",
     "TWO_WHEEL",
+    "TWO_WHEEL_STEER",
     "URDF_PATH",
     "WHEEL_LEGGED",
     "BalanceBot",
@@ -38,6 +42,8 @@ __all__ = [
     "BotState",
     "Robot",
     "RobotModel",
+    "SteerState",
+    "SteeringBot",
     "read_model",
     "robot",
 ]
