@@ -347,7 +347,10 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
             if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
                 subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
             print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
-    (folder / "train.log").rename(args.root / f"{cell['cell']}.log")
+    # The cell's log keeps every run of it (seeds trained in several goes).
+    with open(args.root / f"{cell['cell']}.log", "a") as whole:
+        whole.write((folder / "train.log").read_text())
+    (folder / "train.log").unlink()
     folder.rmdir()
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
 
