@@ -99,7 +99,8 @@ def budget_to_reach(points: list[dict], line: float, slope: float) -> int | None
 
 
 def controller_line(task_id: str) -> float:
-    """The classical controller's normalized mean return on the curve's training seeds."""
+    """The classical controller's normalized return on the curve's training seeds,
+    aggregated as the curve is: the IQM of its episodes."""
     player = LockstepPlayer(
         actors={task_id: load_policy(classical(task_id)).actor(task_id)},
         action_mode="discrete",
@@ -107,7 +108,7 @@ def controller_line(task_id: str) -> float:
     )
     played = player.play(task_id, evaluation_seeds(task_id))
     player.close()
-    return float(np.mean([normalized(episode.episode_return, spec(task_id)) for episode in played]))
+    return float(stats.iqm(np.array([normalized(e.episode_return, spec(task_id)) for e in played])))
 
 
 def figure(task_id: str, curves: dict[str, list[dict]], line: float) -> bytes:
