@@ -10,8 +10,11 @@ from pathlib import Path
 import numpy as np
 import pybullet_data
 import pytest
+from gymnasium.utils.env_checker import check_env
 
+from bbbench.envs.balance import BalanceEnv
 from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.steer import SteerController
 from bbbench.robots import MODEL, ROBOTS, TWO_WHEEL, TWO_WHEEL_STEER
 from bbbench.robots.steering import (
     DISCRETE_ACTIONS,
@@ -20,6 +23,9 @@ from bbbench.robots.steering import (
     TURN_LIMIT,
 )
 from bbbench.sim import World
+from bbbench.tasks.commands import PiecewiseConstantTwist, PiecewiseConstantVelocity
+from bbbench.tasks.reward import StayUpReward, TwistReward
+from bbbench.tasks.spec import TaskSpec
 
 TRACK = 0.24  # m between the wheels (balancebot.urdf's joints at x = -+0.12)
 
@@ -153,3 +159,106 @@ def test_the_robots_page_carries_its_spaces():
     page = (Path(__file__).parents[1] / "docs" / "robots.md").read_text()
     assert interface_markdown() in page
     assert "`two-wheel-steer`" in page
+
+
+# -- the steering scenario, on a probe task (no steering task is published yet) ----------
+
+
+def probe(**changes) -> TaskSpec:
+    fields = {
+        "id": "bbbench/SteerProbe-v0",
+        "summary": "a probe of the steering scenario",
+        "robot": "two-wheel-steer",
+        "scenario": "steer",
+        "command": PiecewiseConstantTwist(low=-1.0, high=1.0, yaw_low=-1.0, yaw_high=1.0),
+        "reward": TwistReward(),
+        **changes,
+    }
+    return TaskSpec(**fields)
+
+
+def test_a_steering_task_plays_in_the_gymnasium_env_and_passes_its_checker():
+    env = BalanceEnv(probe())
+    assert env.observation_space.shape == (9,)  # the robot's 8, then the target yaw rate
+    assert str(env.action_space) == "Discrete(27)"
+    observation, _ = env.reset(seed=5)
+    targets = env.scene.episode.targets  # (bots, steps + 1, 2): velocity, yaw rate
+    assert targets.shape == (1, 1501, 2)
+    assert observation[4] == np.float32(targets[0, 0, 0])  # target velocity
+    assert observation[8] == np.float32(targets[0, 0, 1])  # target yaw rate
+    _, reward, _, _, info = env.step(13)
+    assert 0.0 <= reward <= 0.1
+    assert set(info) >= {"velocity_error", "yaw_rate_error", "reward_upright"}
+    env.close()
+    check_env(BalanceEnv(probe(), action_mode="continuous"), skip_render_check=True)
+
+
+def test_a_steering_episode_is_the_same_bits_in_another_env():
+    runs = []
+    for _ in range(2):
+        env = BalanceEnv(probe(), action_mode="continuous")
+        controller = SteerController("continuous")
+        observation, _ = env.reset(seed=11)
+        seen = [observation]
+        for _ in range(300):
+            observation, *_ = env.step(controller(observation))
+            seen.append(observation)
+        runs.append(np.array(seen))
+        env.close()
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        ({"robot": "two-wheel"}, "cannot play the two-wheel robot"),
+        ({"command": PiecewiseConstantVelocity()}, r"commands a velocity and a yaw rate"),
+        ({"reward": StayUpReward()}, "scores TwistReward"),
+        ({"scenario": None, "robot": "two-wheel-steer"}, "commands a forward velocity"),
+    ],
+)
+def test_a_steering_task_refuses_what_it_cannot_play(changes, expected):
+    with pytest.raises(ValueError, match=expected):
+        probe(**changes)
+
+
+@pytest.mark.parametrize(("mode", "most_error"), [("discrete", 0.1), ("continuous", 0.02)])
+def test_the_steering_law_balances_and_tracks_the_commanded_yaw_rate(mode, most_error):
+    env = BalanceEnv(probe(), action_mode=mode)
+    controller = SteerController(mode)
+    for seed in (0, 1, 2):
+        observation, _ = env.reset(seed=seed)
+        errors = []
+        for _ in range(1500):
+            observation, _, terminated, _, info = env.step(controller(observation))
+            assert not terminated
+            errors.append(info["yaw_rate_error"])
+        assert np.mean(errors) < most_error
+    env.close()
+
+
+def test_the_twist_reward_pays_each_tracked_term_and_never_costs():
+    reward = TwistReward()
+    assert sum(reward.terms(0.0, 0.0, 0.0)) == pytest.approx(0.1)
+    assert sum(reward.terms(0.0, 0.0, 3.0)) == pytest.approx(0.01 + 0.09 * 0.5)
+    assert sum(reward.terms(0.0, 3.0, 3.0)) == pytest.approx(0.01)
+    assert sum(reward.terms(1.0, 0.0, 0.0)) == 0.0  # fallen over: nothing, never less
+    assert reward.terms(0.0, 0.0, 0.5)[1] < reward.terms(0.0, 0.0, 0.2)[1]
+    with pytest.raises(ValueError, match="yaw_share"):
+        TwistReward(yaw_share=1.5)
+
+
+def test_a_twist_command_holds_each_pair_for_its_drawn_duration():
+    command = PiecewiseConstantTwist(low=0.2, high=0.8, yaw_low=-2.0, yaw_high=2.0)
+    targets = command.targets(np.random.default_rng(0), 1500, 0.01)
+    assert len(targets) == 1501
+    velocities, yaw_rates = zip(*targets, strict=True)
+    assert min(velocities) >= 0.2
+    assert max(velocities) <= 0.8
+    assert min(yaw_rates) >= -2.0
+    assert max(yaw_rates) <= 2.0
+    changes = [i for i in range(1, 1501) if targets[i] != targets[i - 1]]
+    assert all(200 <= b - a <= 500 for a, b in itertools.pairwise(changes))  # 2-5 s
+    assert command.top_target == 0.8
+    with pytest.raises(ValueError, match="yaw_low <= yaw_high"):
+        PiecewiseConstantTwist(yaw_low=1.0, yaw_high=-1.0)

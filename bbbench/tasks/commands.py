@@ -65,7 +65,54 @@ class PiecewiseConstantVelocity:
         return targets[: n_steps + 1]
 
 
-CommandSchedule = ConstantVelocity | PiecewiseConstantVelocity
+@parameters
+class PiecewiseConstantTwist:
+    """A forward velocity drawn uniformly from [low, high] m/s and a yaw rate from
+    [yaw_low, yaw_high] rad/s (+ turning left), each pair held for U(hold) seconds:
+    legged_gym's velocity command for a robot that cannot move sideways. Its targets are
+    (velocity, yaw rate) pairs; `targets` of a steering task's scenario reads them."""
+
+    low: float = -1.0
+    high: float = 1.0
+    yaw_low: float = -1.0
+    yaw_high: float = 1.0
+    hold: tuple[float, float] = (2.0, 5.0)  # s
+
+    def __post_init__(self) -> None:
+        for name in ("low", "high", "yaw_low", "yaw_high"):
+            if not np.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
+        if not (
+            self.low <= self.high
+            and self.yaw_low <= self.yaw_high
+            and 0 < self.hold[0] <= self.hold[1]
+        ):
+            raise ValueError(
+                f"need low <= high, yaw_low <= yaw_high and 0 < hold[0] <= hold[1], got "
+                f"low={self.low!r}, high={self.high!r}, yaw_low={self.yaw_low!r}, "
+                f"yaw_high={self.yaw_high!r}, hold={self.hold!r}"
+            )
+
+    @property
+    def top_target(self) -> float:
+        """The fastest forward target (m/s, either way) the schedule can ask for."""
+        return max(abs(self.low), abs(self.high))
+
+    def targets(
+        self, rng: np.random.Generator, n_steps: int, dt: float
+    ) -> list[tuple[float, float]]:
+        """(velocity, yaw rate) for steps 0..n_steps: each pair drawn (velocity first),
+        then held for a duration drawn from `hold`."""
+        targets: list[tuple[float, float]] = []
+        while len(targets) <= n_steps:
+            steps = max(1, round(rng.uniform(*self.hold) / dt))
+            pair = (float(rng.uniform(self.low, self.high)),
+                    float(rng.uniform(self.yaw_low, self.yaw_high)))  # fmt: skip
+            targets.extend([pair] * steps)
+        return targets[: n_steps + 1]
+
+
+CommandSchedule = ConstantVelocity | PiecewiseConstantVelocity | PiecewiseConstantTwist
 
 # The schedules the suite's tasks share, each new value held 2-5 s.
 # Either way on flat ground (VelocityTracking, NoisySensors).

@@ -156,7 +156,70 @@ class RewardWeights:
         return self.upright * (1.0 - abs(pitch)), -self.velocity * velocity_error
 
 
-Reward = StayUpReward | RewardWeights
+@parameters
+class TwistReward:
+    """The shared reward's form for a commanded forward velocity and yaw rate (the
+    steering tasks): in [0, scale] every step, so staying up never costs.
+
+        upright  = tolerance(|pitch|, pitch_bound, pitch_width)
+        forward  = 0.9 * tolerance(|v error|, velocity_bound, velocity_width)
+                   + 0.1 * ramp(|v error|, velocity_bound, tail_width)
+        turning  = 0.9 * tolerance(|yaw rate error|, yaw_rate_bound, yaw_rate_width)
+                   + 0.1 * ramp(|yaw rate error|, yaw_rate_bound, yaw_rate_tail_width)
+        tracking = (1 - yaw_share) * forward + yaw_share * turning
+        reward   = scale * upright * (upright_share + (1 - upright_share) * tracking)
+
+    `StayUpReward` with a second tracked term, each with its own tolerance and tail, as
+    legged_gym rewards each commanded velocity."""
+
+    scale: float = 0.1
+    upright_share: float = 0.1
+    pitch_bound: float = 0.1  # rad
+    pitch_width: float = 0.5  # rad
+    velocity_bound: float = 0.1  # m/s
+    velocity_width: float = 0.25  # m/s
+    tail_share: float = 0.1  # of each tracked term, its long linear tail's share
+    tail_width: float = 2.0  # m/s
+    yaw_rate_bound: float = 0.1  # rad/s
+    yaw_rate_width: float = 0.5  # rad/s
+    yaw_rate_tail_width: float = 2.0  # rad/s
+    yaw_share: float = 0.5  # of the tracking credit, the yaw rate's
+
+    def __post_init__(self) -> None:
+        for name in ("scale", "pitch_bound", "velocity_bound", "yaw_rate_bound"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        widths = ("pitch_width", "velocity_width", "tail_width", "yaw_rate_width")
+        for name in (*widths, "yaw_rate_tail_width"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        for name in ("upright_share", "tail_share", "yaw_share"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+
+    @property
+    def max_step(self) -> float:
+        return self.scale
+
+    def terms(
+        self, pitch: float, velocity_error: float, yaw_rate_error: float
+    ) -> tuple[float, float]:
+        """(upright, tracking): the credit for staying up, and for tracking both targets
+        while up. Both lie in [0, scale]; their sum is the step's reward."""
+        tail = self.tail_share
+        upright = self.scale * tolerance(pitch, self.pitch_bound, self.pitch_width)
+        forward = (1.0 - tail) * tolerance(
+            velocity_error, self.velocity_bound, self.velocity_width
+        ) + tail * ramp(velocity_error, self.velocity_bound, self.tail_width)
+        turning = (1.0 - tail) * tolerance(
+            yaw_rate_error, self.yaw_rate_bound, self.yaw_rate_width
+        ) + tail * ramp(yaw_rate_error, self.yaw_rate_bound, self.yaw_rate_tail_width)
+        tracking = (1.0 - self.yaw_share) * forward + self.yaw_share * turning
+        share = self.upright_share
+        return upright * share, upright * (1.0 - share) * tracking
+
+
+Reward = StayUpReward | RewardWeights | TwistReward
 
 
 def has_fallen(state: BotState) -> bool:
@@ -182,3 +245,22 @@ def step_outcome(
         "velocity_error": velocity_error,
     }
     return upright + velocity, has_fallen(state), info
+
+
+def twist_outcome(
+    state: Any, target: tuple[float, float], reward: TwistReward
+) -> tuple[float, bool, dict[str, Any]]:
+    """`step_outcome` for a commanded (velocity, yaw rate): the reward, whether the bot
+    fell, and its `info`: the two terms, `velocity_error` (m/s) and `yaw_rate_error`
+    (rad/s), each |true - target|."""
+    velocity, yaw_rate = target
+    velocity_error = abs(state.forward_velocity - velocity)
+    yaw_rate_error = abs(state.yaw_rate - yaw_rate)
+    upright, tracking = reward.terms(state.pitch, velocity_error, yaw_rate_error)
+    info = {
+        "reward_upright": upright,
+        "reward_velocity": tracking,
+        "velocity_error": velocity_error,
+        "yaw_rate_error": yaw_rate_error,
+    }
+    return upright + tracking, has_fallen(state), info

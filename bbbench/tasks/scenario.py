@@ -41,7 +41,9 @@ import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import MIN_BOTS
+from bbbench.tasks.reward import TwistReward
 
 # The spec imports the scenarios, not the other way round: a task is typed `Task` here.
 Task = Any  # a `bbbench.tasks.spec.TaskSpec`
@@ -130,6 +132,8 @@ class Scenario(abc.ABC):
         most_bots: the most bots it plays; None for as many as a `Group` holds.
         units: a perturbation's unit where the scenario applies it elsewhere than the
             perturbation says (BeamCarry's payload is the beam's).
+        steers: its targets are (velocity, yaw rate) pairs (`PiecewiseConstantTwist`),
+            scored by `TwistReward`; else forward velocities, scored by the others.
     """
 
     name: ClassVar[str]
@@ -141,6 +145,7 @@ class Scenario(abc.ABC):
     perturbations: ClassVar[tuple[str, ...] | None] = None
     most_bots: ClassVar[int | None] = None
     units: ClassVar[dict[str, str]] = {}
+    steers: ClassVar[bool] = False
 
     def __init__(self, task: Task) -> None:
         self.task = task
@@ -159,6 +164,19 @@ class Scenario(abc.ABC):
             return f"{task.id}: the {cls.name!r} scenario needs several bots (a Group)"
         if not cls.multi_agent and task.group is not None:
             return f"{task.id}: the {cls.name!r} scenario plays one bot, not a Group"
+        if cls.steers != isinstance(task.command, PiecewiseConstantTwist):
+            wants = (
+                "a velocity and a yaw rate (PiecewiseConstantTwist)"
+                if cls.steers
+                else ("a forward velocity")
+            )
+            return (
+                f"{task.id}: the {cls.name!r} scenario commands {wants}, got "
+                f"{type(task.command).__name__}"
+            )
+        if cls.steers != isinstance(task.reward, TwistReward):
+            wants = "TwistReward" if cls.steers else "a velocity's reward, not TwistReward"
+            return f"{task.id}: the {cls.name!r} scenario scores {wants}"
         if cls.most_bots is not None and task.group.n_bots > cls.most_bots:
             return (
                 f"{task.id}: n_bots must be from {MIN_BOTS} to {cls.most_bots} for the "

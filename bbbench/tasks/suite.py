@@ -112,9 +112,10 @@ def agent_spaces(
     task_id: str, action_mode: str, height_scan: bool = False
 ) -> tuple[spaces.Box, spaces.Space]:
     """The observation and action space of one bot of a task (every bot's, on a multi-bot
-    task, which has no height scan: its scenario's), without building the task's world."""
+    task), without building the task's world: the robot's layout on a solo task (with the
+    height scan if asked), else the scenario's, which has none."""
     task = spec(task_id)
     robot = task.robot_model
-    if task.group is None:
+    if task.scenario == "solo":  # the robot's layout, with or without the scan
         return robot.observation_space(height_scan), robot.action_space(action_mode)
     return task.scenario_class(task).observation_space(), robot.action_space(action_mode)

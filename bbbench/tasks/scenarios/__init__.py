@@ -13,13 +13,15 @@ from bbbench.tasks.scenarios import solo
 from bbbench.tasks.scenarios import crossing
 from bbbench.tasks.scenarios import beam_carry
 from bbbench.tasks.scenarios import convoy
+from bbbench.tasks.scenarios import steer
 from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
 from bbbench.tasks.scenarios.column import Column
 from bbbench.tasks.scenarios.convoy import Convoy, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
+from bbbench.tasks.scenarios.steer import Steer
 
-MODULES = (solo, crossing, beam_carry, convoy)
+MODULES = (solo, crossing, beam_carry, convoy, steer)
 TASKS = tuple(task for module in MODULES for task in module.TASKS)
 
 __all__ = [
@@ -33,6 +35,7 @@ __all__ = [
     "Crossing",
     "Scenario",
     "Solo",
+    "Steer",
     "Tether",
     "scenario",
 ]
