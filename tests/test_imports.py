@@ -98,25 +98,6 @@ def test_find_cycle(graph, expected):
     assert find_cycle(graph) == expected
 
 
-def test_spec_and_suite_import_no_env_code():
-    """The data side (specs, the task table) stands below the envs."""
-    graph = import_graph()
-    envs = {name for name in graph if name.startswith("bbbench.envs")}
-    envs.add("bbbench.dev.golden")
-    assert "bbbench.envs.task_envs" in envs
-
-    def reachable(start: str) -> set[str]:
-        seen, todo = set(), [start]
-        while todo:
-            for following in graph[todo.pop()] - seen:
-                seen.add(following)
-                todo.append(following)
-        return seen
-
-    for data in ("bbbench.tasks.spec", "bbbench.tasks.suite"):
-        assert not reachable(data) & envs, data
-
-
 def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
     """Every module `start` imports, directly or through others."""
     seen, todo = set(), [start]
@@ -125,6 +106,17 @@ def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
             seen.add(following)
             todo.append(following)
     return seen
+
+
+def test_spec_and_suite_import_no_env_code():
+    """The data side (specs, the task table) stands below the envs."""
+    graph = import_graph()
+    envs = {name for name in graph if name.startswith("bbbench.envs")}
+    envs.add("bbbench.dev.golden")
+    assert "bbbench.envs.task_envs" in envs
+
+    for data in ("bbbench.tasks.spec", "bbbench.tasks.suite"):
+        assert not reachable(graph, data) & envs, data
 
 
 POLICY_FORMATS = ("bbbench.policies.sb3", "bbbench.policies.onnx")

@@ -16,6 +16,7 @@ blind layout stays the one every policy can play.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from itertools import chain
 from typing import NamedTuple
 
@@ -161,3 +162,21 @@ def clipped_scan(scan):
     if scan and not -SCAN_RANGE <= min(scan) <= max(scan) <= SCAN_RANGE:  # rare: a deep drop
         return [SCAN_RANGE if h > SCAN_RANGE else max(h, -SCAN_RANGE) for h in scan]
     return scan
+
+
+def observation_with(
+    reading: tuple[float, float, float],
+    command: float,
+    target: float,
+    own: Sequence[float],
+    scan: list[float] | None = None,
+) -> np.ndarray:
+    """A robot's observation: the shared five (`reading` clipped as `sensed` clips it, the
+    command, the target), then the robot's `own` values, then the height `scan` (clipped)
+    if given. For the robots that add fields (`observe` is the two-wheel bot's own)."""
+    values = chain(sensed(*reading), (command, target), own)
+    if scan is not None:
+        scan = clipped_scan(scan)
+        values = chain(values, scan)
+    size = _OBSERVATION_SIZE + len(own) + (len(scan) if scan is not None else 0)
+    return np.fromiter(values, OBSERVATION_DTYPE, size)

@@ -31,7 +31,6 @@ import functools
 import math
 import operator
 from collections.abc import Callable
-from itertools import chain
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -43,9 +42,8 @@ from bbbench.robots.balancebot import MODEL, BalanceBot, RobotModel
 from bbbench.robots.layout import (
     ENCODER_SPEED_RANGE,
     GYRO_RANGE,
-    OBSERVATION_DTYPE,
     ObservationField,
-    clipped_scan,
+    observation_with,
     sensed,
     shared_layout,
 )
@@ -342,16 +340,7 @@ class TwoWheelSteer(Robot):
         state: SteerState,
         scan: list[float] | None = None,
     ) -> np.ndarray:
-        if scan is None:
-            return np.fromiter(
-                chain(sensed(*reading), (command, target), _own(state)), OBSERVATION_DTYPE, _SIZE
-            )
-        scan = clipped_scan(scan)
-        return np.fromiter(
-            chain(sensed(*reading), (command, target), _own(state), scan),
-            OBSERVATION_DTYPE,
-            _SIZE + len(scan),
-        )
+        return observation_with(reading, command, target, _own(state), scan)
 
     def values(
         self, reading: tuple[float, float, float], command: float, target: float, state: SteerState

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -47,9 +46,8 @@ from pybullet_utils.bullet_client import BulletClient
 from bbbench.robots.layout import (
     ENCODER_SPEED_RANGE,
     GYRO_RANGE,
-    OBSERVATION_DTYPE,
     ObservationField,
-    clipped_scan,
+    observation_with,
     sensed,
     shared_layout,
 )
@@ -292,16 +290,7 @@ class WheelLegged(Robot):
         scan: list[float] | None = None,
     ) -> np.ndarray:
         own = _legs_observed(state)
-        if scan is None:
-            return np.fromiter(
-                chain(sensed(*reading), (command, target), own), OBSERVATION_DTYPE, _SIZE
-            )
-        scan = clipped_scan(scan)
-        return np.fromiter(
-            chain(sensed(*reading), (command, target), own, scan),
-            OBSERVATION_DTYPE,
-            _SIZE + len(scan),
-        )
+        return observation_with(reading, command, target, own, scan)
 
     def values(
         self, reading: tuple[float, float, float], command: float, target: float, state: LeggedState

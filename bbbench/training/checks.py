@@ -3,6 +3,7 @@ the budget it collects in whole batches."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -50,3 +51,40 @@ def check_collection(
     batch = plan.batch_of(tasks, n_envs or plan.n_envs, workers)
     budget, note = whole_batches(steps or plan.n_timesteps, batch)
     return budget, batch, note
+
+
+@dataclasses.dataclass(frozen=True)
+class Schedule:
+    """How a training of a recipe runs, checked, for either route: its budget and batch
+    (`check_collection`), its envs (worlds), where the policy and the logs go, and how
+    often it evaluates."""
+
+    budget: int
+    batch: int
+    n_envs: int
+    out: Path
+    log_dir: Path
+    eval_freq: int
+
+
+def schedule(
+    plan,
+    algorithm: str,
+    tasks: Sequence[str],
+    out: str | Path,
+    n_envs: int | None,
+    workers: int | None,
+    steps: int | None,
+    log_dir: str | Path | None,
+    eval_freq: int | None,
+) -> Schedule:
+    """The `Schedule` of a training of `plan`: `n_envs` and the budget default to the
+    recipe's, the logs to the policy's folder (made), the evaluations to a tenth of the
+    budget and at least a batch. `ValueError` for what cannot be trained or written."""
+    budget, batch, _ = check_collection(plan, tasks, n_envs, workers, steps)
+    out = check_policy_path(algorithm, out)
+    log_dir = Path(log_dir) if log_dir is not None else out.parent
+    log_dir.mkdir(parents=True, exist_ok=True)
+    check_output_path(log_dir / "curve.json", "--log")
+    eval_freq = max(eval_freq or budget // 10, batch)
+    return Schedule(budget, batch, n_envs or plan.n_envs, out, log_dir, eval_freq)

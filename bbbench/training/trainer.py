@@ -126,40 +126,23 @@ def train(
     tasks, key, mode = check_request(task_ids, algorithm, action_mode, steps, recipe_file)
     if seed < 0:
         raise ValueError(f"--seed must be >= 0, got {seed}")
+    shared = {
+        "steps": steps,
+        "seed": seed,
+        "n_envs": n_envs,
+        "log_dir": log_dir,
+        "eval_freq": eval_freq,
+        "final_episodes": final_episodes,
+        "on_progress": on_progress,
+        "recipe_file": recipe_file,
+    }
     if trainable(algorithm).route == BENCHMARL:
         from bbbench.training.benchmarl.train import train_marl  # lazy: benchmarl, optional
 
-        return train_marl(
-            key,
-            algorithm,
-            out,
-            steps=steps,
-            seed=seed,
-            n_envs=n_envs,
-            log_dir=log_dir,
-            eval_freq=eval_freq,
-            final_episodes=final_episodes,
-            on_progress=on_progress,
-            recipe_file=recipe_file,
-            workers=workers,
-        )
+        return train_marl(key, algorithm, out, workers=workers, **shared)
     from bbbench.training.sb3.train import train_sb3  # lazy: stable_baselines3
 
-    return train_sb3(
-        tasks,
-        key,
-        algorithm,
-        mode,
-        out,
-        steps=steps,
-        seed=seed,
-        n_envs=n_envs,
-        log_dir=log_dir,
-        eval_freq=eval_freq,
-        final_episodes=final_episodes,
-        on_progress=on_progress,
-        recipe_file=recipe_file,
-    )
+    return train_sb3(tasks, key, algorithm, mode, out, **shared)
 
 
 def recipe(algorithm: str, key: str, file: str | Path | None = None):

@@ -13,11 +13,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from bbbench.robots.layout import GYRO_RANGE, ObservationField, box
 from bbbench.tasks.reward import twist_outcome
-from bbbench.tasks.scenario import Outcome, Pose, Scenario, register_scenario
+from bbbench.tasks.scenario import Outcome, register_scenario
+from bbbench.tasks.scenarios.solo import Solo
 
 TARGET_YAW_RATE = ObservationField(
     "target_yaw_rate", "rad/s", -GYRO_RANGE, GYRO_RANGE, "yaw rate the task asks for, + left"
@@ -25,11 +25,11 @@ TARGET_YAW_RATE = ObservationField(
 
 
 @register_scenario
-class Steer(Scenario):
-    """One steering bot at the origin heading along +y, leaning U(-initial_pitch,
-    initial_pitch); it observes its robot's layout, then the yaw rate it is asked for,
-    earns the twist reward for tracking the commanded (velocity, yaw rate), and a fall
-    ends it."""
+class Steer(Solo):
+    """One steering bot, started as `Solo`'s (at the origin heading along +y, leaning
+    U(-initial_pitch, initial_pitch)); it observes its robot's layout, then the yaw rate
+    it is asked for, earns the twist reward for tracking the commanded (velocity, yaw
+    rate), and a fall ends it."""
 
     name = "steer"
     summary = "one steering bot tracking a commanded forward velocity and yaw rate"
@@ -50,13 +50,6 @@ class Steer(Scenario):
         if task.height_scan:
             return f"{task.id}: the {cls.name!r} scenario observes no height scan"
         return None
-
-    def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
-        pitch = self.task.initial_pitch
-        return [((0.0, 0.0), 0.0)], [rng.uniform(-pitch, pitch)]
-
-    def observation_space(self) -> spaces.Box:
-        return self._space
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int

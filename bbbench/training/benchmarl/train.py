@@ -43,14 +43,14 @@ from benchmarl.experiment.callback import Callback
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
-from bbbench.files import check_output_path, write_atomic
+from bbbench.files import write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
 from bbbench.policies import load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
 from bbbench.training.beside import trainings_beside
-from bbbench.training.checks import check_collection, check_policy_path
+from bbbench.training.checks import schedule
 from bbbench.training.logs import Trained, curve_point, write_logs
 from bbbench.training.seeds import evaluation_seeds
 
@@ -197,13 +197,14 @@ def train_marl(
     default to the recipe's; `eval_freq` to a tenth of the budget and at least a batch,
     at the end of the training iteration that reaches it."""
     plan: MarlRecipe = marl_recipe(algorithm, task_id, recipe_file)
-    budget, batch, _ = check_collection(plan, [task_id], n_envs, workers, steps)
-    n_envs = n_envs or plan.n_envs
-    out = check_policy_path(algorithm, out)
-    log_dir = Path(log_dir) if log_dir is not None else out.parent
-    log_dir.mkdir(parents=True, exist_ok=True)
-    check_output_path(log_dir / "curve.json", "--log")
-    eval_freq = max(eval_freq or budget // 10, batch)
+    run = schedule(plan, algorithm, [task_id], out, n_envs, workers, steps, log_dir, eval_freq)
+    budget, n_envs, out, log_dir, eval_freq = (
+        run.budget,
+        run.n_envs,
+        run.out,
+        run.log_dir,
+        run.eval_freq,
+    )
     task = plan.task_config()
     if workers is not None:
         task.config["workers"] = workers

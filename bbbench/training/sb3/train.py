@@ -26,11 +26,11 @@ import numpy as np
 import torch
 
 from bbbench.evaluation import evaluate
-from bbbench.files import check_output_path, write_atomic
+from bbbench.files import write_atomic
 from bbbench.policies import load_policy
 from bbbench.policies.sb3.algorithms import by_key
 from bbbench.training.beside import trainings_beside
-from bbbench.training.checks import check_collection, check_policy_path
+from bbbench.training.checks import schedule
 from bbbench.training.logs import Trained, write_logs
 from bbbench.training.sb3.callbacks import TrainingEvaluation
 from bbbench.training.sb3.recipes import Recipe, recipe, statistics_path
@@ -58,14 +58,15 @@ def train_sb3(
     passed: its recipe `key`, its action `mode`) and write the best policy to `out`, a
     zip, with the logs beside it (`bbbench.training.train` says the rest)."""
     plan = recipe(algorithm, key, recipe_file)
-    budget, batch, _ = check_collection(plan, tasks, n_envs, None, steps)
-    n_envs = n_envs or plan.n_envs
-    out = check_policy_path(algorithm, out)
+    run = schedule(plan, algorithm, tasks, out, n_envs, None, steps, log_dir, eval_freq)
+    budget, n_envs, out, log_dir, eval_freq = (
+        run.budget,
+        run.n_envs,
+        run.out,
+        run.log_dir,
+        run.eval_freq,
+    )
     statistics = statistics_path(out, plan)
-    log_dir = Path(log_dir) if log_dir is not None else out.parent
-    log_dir.mkdir(parents=True, exist_ok=True)
-    check_output_path(log_dir / "curve.json", "--log")
-    eval_freq = max(eval_freq or budget // 10, batch)
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
