@@ -15,7 +15,14 @@ import pytest
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.policies import load_policy
-from bbbench.tasks.reward import RewardWeights, StayUpReward, ramp, step_outcome, tolerance
+from bbbench.tasks.reward import (
+    RewardWeights,
+    StayUpReward,
+    TwistReward,
+    ramp,
+    step_outcome,
+    tolerance,
+)
 from bbbench.tasks.suite import SUITE
 from conftest import REWARD_SUCCESSORS
 
@@ -55,8 +62,11 @@ def test_the_latest_version_of_every_task_plays_the_new_reward():
     first_on_it = {"bbbench/PushRecovery-v0"}
     first_on_it |= {t for t in SUITE if bbbench.spec(t).robot == "wheel-legged"}
     first_on_it |= {t for t in SUITE if bbbench.spec(t).coupling is not None}  # the teams
+    first_on_it |= {t for t in SUITE if bbbench.spec(t).robot == "two-wheel-steer"}
     assert sorted(latest.values()) == sorted({*SUCCESSORS, *first_on_it})
-    assert all(isinstance(bbbench.spec(task).reward, StayUpReward) for task in latest.values())
+    # The shared form: StayUpReward, or its twin for a commanded yaw rate too.
+    rewards = {type(bbbench.spec(task).reward) for task in latest.values()}
+    assert rewards == {StayUpReward, TwistReward}
 
 
 # -- a. each step earns between 0 and 0.1; 0.1 only upright and on target ----------------

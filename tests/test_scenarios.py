@@ -105,9 +105,11 @@ def ball_task(monkeypatch) -> TaskSpec:
 
 def test_every_task_before_the_teams_plays_solo_or_crossing():
     """The tasks published before the scenario seam name none, and play the scenario
-    their group implies; the team tasks name theirs."""
+    their group implies; the team tasks and the steering robot's tasks name theirs."""
     for task in SUITE.values():
-        if task.coupling is None:
+        if task.robot == "two-wheel-steer":
+            assert task.scenario in ("steer", "waypoints")
+        elif task.coupling is None:
             assert task.scenario_class is (Crossing if task.multi_agent else Solo)
         else:
             assert task.scenario in ("beam-carry", "convoy")

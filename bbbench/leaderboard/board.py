@@ -288,9 +288,12 @@ def _stored_episodes(
 
 
 def records_current(task: TaskSpec, records: list[dict[str, Any]]) -> bool:
-    """Whether stored episode records hold what today's do: on a team task, each
-    episode's cause (or its failure); records made before causes were recorded are
-    played again."""
+    """Whether stored episode records hold what today's do: each of the scenario's
+    metrics, and on a team task each episode's cause (or its failure). Records made
+    before a metric or the causes were recorded are played again."""
+    metrics = task.scenario_class.metrics
+    if not all(metric in record for record in records for metric in metrics):
+        return False
     if not task.scenario_class.team:
         return True
     return all("cause" in record or record["failure"] is not None for record in records)

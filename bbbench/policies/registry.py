@@ -15,6 +15,7 @@ from bbbench.policies.controllers.builtin import (
     PDPolicy,
     RandomPolicy,
     StandPolicy,
+    SteerPolicy,
     TeamPolicy,
     ZeroPolicy,
 )
@@ -51,6 +52,7 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "legged": LeggedPolicy,
     "team": TeamPolicy,
     "crossing": CrossingPolicy,
+    "steer": SteerPolicy,
     "random": RandomPolicy,
     "reference": _reference,
     "zero": ZeroPolicy,

@@ -260,7 +260,7 @@ _SIZE = len(OBSERVATION_LAYOUT)
 _DIFFERENCE_RANGE = 2 * ENCODER_SPEED_RANGE
 
 
-def _own(state: SteerState) -> tuple[float, float, float]:
+def own_values(state: SteerState) -> tuple[float, float, float]:
     """The robot's own values after the shared five, clipped to their sensors' ranges."""
     rate, difference = state.yaw_rate, state.wheel_speed_difference
     return (
@@ -340,12 +340,12 @@ class TwoWheelSteer(Robot):
         state: SteerState,
         scan: list[float] | None = None,
     ) -> np.ndarray:
-        return observation_with(reading, command, target, _own(state), scan)
+        return observation_with(reading, command, target, own_values(state), scan)
 
     def values(
         self, reading: tuple[float, float, float], command: float, target: float, state: SteerState
     ) -> tuple[float, ...]:
-        return (*sensed(*reading), command, target, *_own(state))
+        return (*sensed(*reading), command, target, *own_values(state))
 
 
 TWO_WHEEL_STEER = TwoWheelSteer()

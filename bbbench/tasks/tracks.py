@@ -81,6 +81,14 @@ TRACKS: dict[str, Track] = {
             False,
             "bbbench/LeggedVelocityTracking-v0",
         ),
+        Track(
+            "steering",
+            "steering",
+            "the steering robot's tasks (its wheels commanded apart)",
+            "two-wheel-steer",
+            False,
+            "bbbench/SteerTracking-v0",
+        ),
     )
 }
 

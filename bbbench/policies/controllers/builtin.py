@@ -1,6 +1,7 @@
 """The classical baselines and reference policies every task can be scored against:
-PD, stand (PD holding 0 m/s), LQR, random and zero; the team tasks' own, team; and the
-crossing tasks' own, crossing."""
+PD, stand (PD holding 0 m/s), LQR, random and zero; the team tasks' own, team; the
+crossing tasks' own, crossing; the wheel-legged robot's, legged; and the steering
+robot's, steer."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from bbbench.policies.controllers.crossing import CrossingController
 from bbbench.policies.controllers.legged import LeggedController
 from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.steer import GUIDES, SteerController
 from bbbench.policies.controllers.team import TeamController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
@@ -139,6 +141,30 @@ class LeggedPolicy(Policy):
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         return PDActor(LeggedController())
+
+
+class SteerPolicy(Policy):
+    """The steering robot's classical controller (`bbbench.policies.controllers.steer`):
+    PD balance on the forward command and a yaw-rate law on the turning command, towards
+    the (velocity, yaw rate) its task asks for or that heads for its goal. It fits every
+    steering task whose scenario it has a guide for."""
+
+    name = algorithm = "steer"
+    robot = "two-wheel-steer"
+
+    def __init__(self, action_mode: str = "discrete") -> None:
+        self.action_mode = action_mode
+
+    def mismatch(self, task_id: str) -> str | None:
+        refused = robot_mismatch(self, task_id)
+        scenario = spec(task_id).scenario_class.name
+        if refused is None and scenario not in GUIDES:
+            return f"{task_id}: steer has no guide for its {scenario!r} scenario"
+        return refused
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        scenario = spec(task_id).scenario_class.name
+        return PDActor(SteerController.for_scenario(scenario, self.action_mode))
 
 
 class RandomPolicy(Policy):

@@ -64,18 +64,22 @@ class PDController:
         self.hold_velocity = hold_velocity
         self.wheel_radius = wheel_radius
 
-    def wheel_speed_change(self, observation: np.ndarray, balance_pitch: float = 0.0) -> float:
+    def wheel_speed_change(
+        self, observation: np.ndarray, balance_pitch: float = 0.0, target: float | None = None
+    ) -> float:
         """The change of wheel command (rad/s) the controller wants. `balance_pitch` (rad):
         the pitch at which the robot's centre of mass is over its axle (0 for the
-        two-wheel bot; the wheel-legged robot's depends on its legs)."""
+        two-wheel bot; the wheel-legged robot's depends on its legs). `target` (m/s), if
+        given, is tracked instead of the observed target (and of `hold_velocity`)."""
         pitch = float(observation[INDEX["pitch"]]) - balance_pitch
         pitch_rate = float(observation[INDEX["pitch_rate"]])
         velocity = self.wheel_radius * (float(observation[INDEX["wheel_speed"]]) + pitch_rate)
-        target = (
-            float(observation[INDEX["target_velocity"]])
-            if self.hold_velocity is None
-            else self.hold_velocity
-        )
+        if target is None:
+            target = (
+                float(observation[INDEX["target_velocity"]])
+                if self.hold_velocity is None
+                else self.hold_velocity
+            )
         desired = (
             target / self.wheel_radius  # fed forward
             + self.kp * pitch

@@ -1,8 +1,18 @@
 """The steering bot's classical law: PD balance on the forward command, and a yaw-rate
-law on the turning command.
+law on the turning command, towards a (velocity, yaw rate) its task's guide makes from
+the observation.
+
+A guide reads a task's own fields: `commanded` the (velocity, yaw rate) a
+`SteerTracking` task asks for; `toward_goal` one that heads for a waypoint:
+
+    yaw rate = k_heading x sin(bearing), or +-k_heading when the goal is behind
+    velocity = target speed x max(cos(bearing), 0)
+
+(clipped to +-`MAX_GUIDED_YAW_RATE`): it turns towards its goal, in place when the goal
+is behind, and drives as fast as it faces it.
 
 The forward command is the PD baseline's (`PDController.wheel_speed_change`, on the five
-shared values, so it balances and tracks the target velocity as on the published
+shared values, so it balances and tracks the guide's velocity as on the published
 tasks). The turning command is fed forward from the target yaw rate and corrected by
 the gyro:
 
@@ -15,6 +25,8 @@ nearest pair of the discrete table, or the clipped changes in continuous mode.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -30,9 +42,34 @@ from bbbench.robots.twowheel import MAX_WHEEL_SPEED_CHANGE, WHEEL_SPEED_CHANGES
 TRACK = 0.24  # m between the wheels (balancebot.urdf)
 _FIELDS = [field.name for field in OBSERVATION_LAYOUT]
 YAW_RATE, TURN_COMMAND = _FIELDS.index("yaw_rate"), _FIELDS.index("turn_command")
+TARGET_VELOCITY = _FIELDS.index("target_velocity")
 TARGET_YAW_RATE = len(_FIELDS)  # the steering scenario's field, after the robot's
+GOAL_COS, GOAL_SIN = len(_FIELDS) + 1, len(_FIELDS) + 2  # the waypoints scenario's
+K_HEADING = 3.0  # (rad/s) of yaw rate per unit of the goal bearing's sine
+MAX_GUIDED_YAW_RATE = 3.0  # rad/s
 _FORWARD = np.asarray(WHEEL_SPEED_CHANGES)
 _TURN = np.asarray(TURN_CHANGES)
+
+Guide = Callable[[np.ndarray], tuple[float, float]]
+
+
+def commanded(observation: np.ndarray) -> tuple[float, float]:
+    """The (velocity, yaw rate) a twist-commanded task asks for (the `steer` scenario)."""
+    return float(observation[TARGET_VELOCITY]), float(observation[TARGET_YAW_RATE])
+
+
+def toward_goal(observation: np.ndarray) -> tuple[float, float]:
+    """A (velocity, yaw rate) that heads for the goal (the `waypoints` scenario)."""
+    speed = float(observation[TARGET_VELOCITY])
+    cos, sin = float(observation[GOAL_COS]), float(observation[GOAL_SIN])
+    if cos > 0.0:
+        yaw_rate = min(max(K_HEADING * sin, -MAX_GUIDED_YAW_RATE), MAX_GUIDED_YAW_RATE)
+        return speed * cos, yaw_rate
+    return 0.0, MAX_GUIDED_YAW_RATE if sin >= 0.0 else -MAX_GUIDED_YAW_RATE
+
+
+# Each steering scenario's guide, by the scenario's name.
+GUIDES: dict[str, Guide] = {"steer": commanded, "waypoints": toward_goal}
 
 
 class SteerController:
@@ -42,21 +79,33 @@ class SteerController:
         action_mode: "discrete" or "continuous" (the steering robot's modes).
         k_yaw: turning command per rad/s of yaw-rate error, (rad/s)/(rad/s).
         balance: the forward law (the PD baseline's, default gains).
+        guide: the (velocity, yaw rate) to track, from the observation (`GUIDES`); the
+            commanded pair by default.
     """
 
     def __init__(
-        self, action_mode: str = "discrete", k_yaw: float = 0.5, balance: PDController | None = None
+        self,
+        action_mode: str = "discrete",
+        k_yaw: float = 0.5,
+        balance: PDController | None = None,
+        guide: Guide = commanded,
     ) -> None:
         TWO_WHEEL_STEER.check_action_mode(action_mode)
         self.action_mode = action_mode
         self.k_yaw = k_yaw
         self.balance = balance or PDController("continuous")
+        self.guide = guide
         self.feed_forward = TRACK / (2 * TWO_WHEEL_STEER.wheel_radius)
+
+    @classmethod
+    def for_scenario(cls, scenario: str, action_mode: str = "discrete") -> SteerController:
+        """The law with the guide of the steering scenario called `scenario`."""
+        return cls(action_mode, guide=GUIDES[scenario])
 
     def changes(self, observation: np.ndarray) -> tuple[float, float]:
         """The changes of the forward and turning commands (rad/s) the law wants."""
-        forward = self.balance.wheel_speed_change(observation)
-        target = float(observation[TARGET_YAW_RATE])
+        velocity, target = self.guide(observation)
+        forward = self.balance.wheel_speed_change(observation, target=velocity)
         wanted = self.feed_forward * target + self.k_yaw * (target - float(observation[YAW_RATE]))
         return forward, wanted - float(observation[TURN_COMMAND])
 

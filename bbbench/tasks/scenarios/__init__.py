@@ -14,14 +14,16 @@ from bbbench.tasks.scenarios import crossing
 from bbbench.tasks.scenarios import beam_carry
 from bbbench.tasks.scenarios import convoy
 from bbbench.tasks.scenarios import steer
+from bbbench.tasks.scenarios import waypoints
 from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
 from bbbench.tasks.scenarios.column import Column
 from bbbench.tasks.scenarios.convoy import Convoy, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
 from bbbench.tasks.scenarios.steer import Steer
+from bbbench.tasks.scenarios.waypoints import Waypoints
 
-MODULES = (solo, crossing, beam_carry, convoy, steer)
+MODULES = (solo, crossing, beam_carry, convoy, steer, waypoints)
 TASKS = tuple(task for module in MODULES for task in module.TASKS)
 
 __all__ = [
@@ -37,5 +39,6 @@ __all__ = [
     "Solo",
     "Steer",
     "Tether",
+    "Waypoints",
     "scenario",
 ]

@@ -4,8 +4,8 @@ and yaw rate (legged_gym's command for a robot that cannot move sideways).
 Its targets are (velocity, yaw rate) pairs (`PiecewiseConstantTwist`); the bot observes
 its robot's layout (`two-wheel-steer`: the shared five, its target velocity among them,
 then its yaw rate, wheel speed difference and turning command), then the yaw rate it is
-asked for; it earns `TwistReward` for tracking both, and a fall ends it. The steering
-tasks are rows here once calibrated (issue 52); `TASKS` holds none yet.
+asked for; it earns `TwistReward` for tracking both, and a fall ends it. Its task,
+`SteerTracking-v0`, is the row at the end.
 """
 
 from __future__ import annotations
@@ -15,9 +15,11 @@ from typing import Any
 import numpy as np
 
 from bbbench.robots.layout import GYRO_RANGE, ObservationField, box
-from bbbench.tasks.reward import twist_outcome
+from bbbench.tasks.commands import PiecewiseConstantTwist
+from bbbench.tasks.reward import TwistReward, twist_outcome
 from bbbench.tasks.scenario import Outcome, register_scenario
 from bbbench.tasks.scenarios.solo import Solo
+from bbbench.tasks.spec import TaskSpec
 
 TARGET_YAW_RATE = ObservationField(
     "target_yaw_rate", "rad/s", -GYRO_RANGE, GYRO_RANGE, "yaw rate the task asks for, + left"
@@ -70,5 +72,37 @@ class Steer(Solo):
         return Outcome((reward,), (fell,), fell, f"{agents[0]} fell" if fell else "", (info,))
 
 
-# The tasks it plays come with their calibration (issue 52).
-TASKS: tuple = ()
+# The robot's whole envelope: its turning command's limit makes about 5 rad/s, and 2 m/s
+# is within its top speed. Calibration: docs/tasks.md, "The steering tasks".
+_ENVELOPE = PiecewiseConstantTwist(low=-2.0, high=2.0, yaw_low=-5.0, yaw_high=5.0, hold=(2.0, 5.0))
+
+TASKS = (
+    TaskSpec(
+        id="bbbench/SteerTracking-v0",
+        summary="track a commanded velocity (+-2 m/s) and yaw rate (+-5 rad/s) on flat ground",
+        description="""\
+legged_gym's command for a robot that cannot move sideways: a forward velocity drawn from
+[-2, 2] m/s and a yaw rate from [-5, 5] rad/s (+ turning left), the pair held for a
+duration drawn from 2-5 s, then the next, all from the episode's seed. The pairs span the
+robot's whole envelope: 5 rad/s is about its turning limit, and a fast turn at speed
+throws the bot sideways (its centripetal acceleration, velocity x yaw rate, reaches
+10 m/s^2), so a policy that tracks every pair falls on some, and one that knows its
+limits gives up a little tracking to stay up. Flat ground; sensors are perfect. The bot
+observes the robot's eight values (the target velocity is observation 4), then the
+target yaw rate.
+
+The reward (`TwistReward`), each step in [0, 0.1]:
+
+    upright  = tolerance(|pitch|, 0.1 rad, 0.5 rad)
+    forward  = 0.9 tolerance(|v error|, 0.1 m/s, 0.25 m/s) + 0.1 ramp(|v error|, 0.1, 2.0)
+    turning  = 0.9 tolerance(|yaw rate error|, 0.1, 0.5) + 0.1 ramp(|yaw rate error|, 0.1, 2.0)
+    reward   = 0.1 upright (0.1 + 0.9 (0.5 forward + 0.5 turning))
+
+with the velocity the axle's true forward velocity and the yaw rate the gyro's.""",
+        robot="two-wheel-steer",
+        scenario="steer",
+        command=_ENVELOPE,
+        reward=TwistReward(),
+        random_return=1.3204822078160736,
+    ),
+)

@@ -1,0 +1,94 @@
+"""The waypoint tasks (`bbbench.tasks.scenarios.waypoints`): the steering bot drives
+through a seeded course; the steering law (`steer`) gets round it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import bbbench
+from bbbench.policies import load_policy
+from bbbench.policies.controllers.steer import SteerController
+from bbbench.tasks.scenarios.waypoints import (
+    COURSE_POINTS,
+    COURSE_RADIUS,
+    MIN_LEG,
+    REACH,
+    draw_course,
+)
+
+WAYPOINTS = ("bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
+
+
+def test_a_course_lies_in_its_disc_with_legs_at_least_the_least_leg():
+    course = draw_course(np.random.default_rng(3))
+    assert len(course) == COURSE_POINTS
+    points = np.array([(0.0, 0.0), *course])
+    assert np.all(np.hypot(points[:, 0], points[:, 1]) <= COURSE_RADIUS)
+    assert np.all(np.hypot(*np.diff(points, axis=0).T) >= MIN_LEG)
+    assert course == draw_course(np.random.default_rng(3))
+    assert course != draw_course(np.random.default_rng(4))
+
+
+@pytest.mark.parametrize("task_id", WAYPOINTS)
+def test_the_course_comes_from_the_episode_seed(task_id):
+    env = bbbench.make(task_id)
+    env.reset(seed=7)
+    first = list(env.unwrapped.scene.scenario.course)
+    env.reset(seed=8)
+    assert env.unwrapped.scene.scenario.course != first
+    env.reset(seed=7)
+    assert env.unwrapped.scene.scenario.course == first
+    env.close()
+
+
+def test_the_goal_is_observed_in_the_bot_frame_and_moves_on_when_reached():
+    env = bbbench.make("bbbench/Waypoints-v0")
+    observation, _ = env.reset(seed=7)
+    scenario = env.unwrapped.scene.scenario
+    gx, gy = scenario.course[0]
+    # The bot starts at the origin heading along +y: a goal to its left has a + sine.
+    assert observation[8] == pytest.approx(np.hypot(gx, gy), abs=0.02)
+    assert observation[9] == pytest.approx(gy / np.hypot(gx, gy), abs=0.02)
+    assert observation[10] == pytest.approx(-gx / np.hypot(gx, gy), abs=0.02)
+    assert observation[9] ** 2 + observation[10] ** 2 == pytest.approx(1.0, abs=1e-5)
+    law = SteerController.for_scenario("waypoints")
+    reached = []
+    for step in range(1500):
+        observation, _, terminated, _, info = env.step(law(observation))
+        assert not terminated
+        if info["waypoints_per_minute"]:
+            assert info["waypoints_per_minute"] == 6000.0  # 100 steps a second
+            reached.append(step)
+            assert info["goal_distance"] > REACH  # the next one's distance
+    env.close()
+    assert len(reached) >= 2
+    assert scenario.goal == len(reached)
+
+
+def test_driving_at_the_goal_earns_more_than_driving_past_it():
+    env = bbbench.make("bbbench/Waypoints-v0")
+    law = SteerController.for_scenario("waypoints")
+    blind = SteerController("discrete", guide=lambda o: (float(o[4]), 0.0))  # straight on
+    returns = []
+    for policy in (law, blind):
+        observation, _ = env.reset(seed=7)
+        total = 0.0
+        for _ in range(600):
+            observation, reward, terminated, _, _ = env.step(policy(observation))
+            total += reward
+            if terminated:
+                break
+        returns.append(total)
+    env.close()
+    assert returns[0] > 1.5 * returns[1]
+
+
+def test_the_steering_law_plays_only_the_steering_robot():
+    policy = load_policy("steer")
+    assert policy.mismatch("bbbench/Waypoints-v0") is None
+    assert policy.mismatch("bbbench/SteerTracking-v0") is None
+    assert "two-wheel robot" in policy.mismatch("bbbench/VelocityTracking-v1")
+    assert "steer controls the two-wheel-steer robot" in load_policy("steer").mismatch(
+        "bbbench/FlatBalance-v1"
+    )
