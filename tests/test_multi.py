@@ -125,7 +125,8 @@ def test_observations_stay_in_their_space_at_every_step(task_id):
         while env.agents:
             for agent, observation in observations.items():
                 assert env.observation_space(agent).contains(observation), (agent, observation)
-            actions = {a: rng.uniform(-1, 1, size=1).astype(np.float32) for a in env.agents}
+            width = env.action_space("bot_0").shape[0]  # 2 for the steering robot
+            actions = {a: rng.uniform(-1, 1, size=width).astype(np.float32) for a in env.agents}
             observations, *_ = env.step(actions)
         for agent, observation in observations.items():
             assert env.observation_space(agent).contains(observation)

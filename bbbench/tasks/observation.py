@@ -25,12 +25,19 @@ def agent_observation_space(robot: Robot, group: Group) -> spaces.Box:
 
 
 def group_observations(
-    robot: Robot, states, commands: list[float], targets: list[float], group: Group, size: int
+    robot: Robot,
+    states,
+    commands: list[float],
+    targets: list[float],
+    group: Group,
+    size: int,
+    extras: list[tuple[float, ...]] | None = None,
 ) -> np.ndarray:
     """The observations of a group's live bots, one row of `size` values each: the robot's
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
-    then its `group.neighbours` nearest others within `group.neighbour_range`, in its own
-    frame (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
+    then the bot's `extras` if given (a scenario's own fields, a tuple per bot), then its
+    `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
+    (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
@@ -45,6 +52,8 @@ def group_observations(
     for i, state in enumerate(states):
         reading = (state.pitch, state.pitch_rate, state.wheel_speed)
         row = [*values(reading, commands[i], targets[i], state)]
+        if extras is not None:
+            row += extras[i]
         here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
         turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
         for j in nearest[i]:

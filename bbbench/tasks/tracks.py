@@ -89,6 +89,14 @@ TRACKS: dict[str, Track] = {
             False,
             "bbbench/SteerTracking-v0",
         ),
+        Track(
+            "steering-multi",
+            "multi-bot steering",
+            "the steering robot's multi-bot tasks (one policy shared by every bot)",
+            "two-wheel-steer",
+            True,
+            "bbbench/Swap-v0",
+        ),
     )
 }
 

@@ -11,7 +11,7 @@ from bbbench.policies.controllers.crossing import CrossingController
 from bbbench.policies.controllers.legged import LeggedController
 from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
-from bbbench.policies.controllers.steer import GUIDES, SteerController
+from bbbench.policies.controllers.steer import GUIDES, Avoiding, SteerController
 from bbbench.policies.controllers.team import TeamController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
@@ -165,6 +165,28 @@ class SteerPolicy(Policy):
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         scenario = spec(task_id).scenario_class.name
         return PDActor(SteerController.for_scenario(scenario, self.action_mode))
+
+
+class SteerAvoidPolicy(SteerPolicy):
+    """`steer` with collision avoidance (`bbbench.policies.controllers.steer.Avoiding`):
+    each bot heads for its goal, pushed away from the neighbours it observes within
+    1.5 m and keeping to the right of the one ahead. It plays the swap tasks only; on
+    them, `steer` is the law without avoidance."""
+
+    name = algorithm = "steer-avoid"
+
+    def mismatch(self, task_id: str) -> str | None:
+        refused = robot_mismatch(self, task_id)
+        if refused is None and spec(task_id).scenario_class.name != "swap":
+            swaps = [t for t in list_tasks(latest=True) if spec(t).scenario_class.name == "swap"]
+            return f"{task_id} is not a swap task; steer-avoid plays {', '.join(swaps)}"
+        return refused
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        task = spec(task_id)
+        slots = task.scenario_class(task).slots()
+        guide = Avoiding(slots.own, slots.count, radius=1.5, keep_right=2.0)
+        return PDActor(SteerController(self.action_mode, guide=guide))
 
 
 class RandomPolicy(Policy):

@@ -68,8 +68,65 @@ def toward_goal(observation: np.ndarray) -> tuple[float, float]:
     return 0.0, MAX_GUIDED_YAW_RATE if sin >= 0.0 else -MAX_GUIDED_YAW_RATE
 
 
+def heading_for(forward: float, right: float, speed: float) -> tuple[float, float]:
+    """A (velocity, yaw rate) that heads along the body-frame vector (forward, right) m/s,
+    as `toward_goal` heads for a goal: turning in place when it points behind."""
+    size = (forward * forward + right * right) ** 0.5
+    if size == 0.0:
+        return 0.0, 0.0
+    cos, sin = forward / size, -right / size
+    if cos > 0.0:
+        yaw_rate = min(max(K_HEADING * sin, -MAX_GUIDED_YAW_RATE), MAX_GUIDED_YAW_RATE)
+        return min(size, speed) * cos, yaw_rate
+    return 0.0, MAX_GUIDED_YAW_RATE if sin >= 0.0 else -MAX_GUIDED_YAW_RATE
+
+
+class Avoiding:
+    """A guide towards the goal that keeps clear of the neighbours the observation holds
+    (the `swap` scenario's layout: the goal after the robot's values, then slots of
+    right, forward, right velocity, forward velocity):
+
+        wanted = speed x unit(goal)
+                 + sum over neighbours within `radius` m of
+                   speed x w x (push x unit(away from it) + keep_right x [it is ahead])
+
+    with w = 1 - distance / radius; `keep_right` steers every bot to its right of the
+    one ahead, so that bots meeting head on pass each other on the same side (the rule
+    of the road). The bot heads along `wanted` (`heading_for`)."""
+
+    def __init__(
+        self,
+        first_slot: int,
+        slots: int,
+        radius: float = 1.2,
+        push: float = 1.0,
+        keep_right: float = 1.0,
+        lane: float = 0.8,
+    ) -> None:
+        self.first_slot, self.slots = first_slot, slots
+        self.radius, self.push, self.keep_right, self.lane = radius, push, keep_right, lane
+
+    def __call__(self, observation: np.ndarray) -> tuple[float, float]:
+        speed = float(observation[TARGET_VELOCITY])
+        cos, sin = float(observation[GOAL_COS]), float(observation[GOAL_SIN])
+        forward, right = speed * cos, -speed * sin
+        radius = self.radius
+        for k in range(self.slots):
+            at = self.first_slot + 4 * k
+            r, f = float(observation[at]), float(observation[at + 1])
+            distance = (r * r + f * f) ** 0.5
+            if distance == 0.0 or distance >= radius:
+                continue  # an empty slot, or too far to matter
+            weight = speed * (1.0 - distance / radius)
+            forward -= weight * self.push * f / distance
+            right -= weight * self.push * r / distance
+            if f > 0.0 and abs(r) < self.lane:
+                right += weight * self.keep_right
+        return heading_for(forward, right, speed)
+
+
 # Each steering scenario's guide, by the scenario's name.
-GUIDES: dict[str, Guide] = {"steer": commanded, "waypoints": toward_goal}
+GUIDES: dict[str, Guide] = {"steer": commanded, "waypoints": toward_goal, "swap": toward_goal}
 
 
 class SteerController:

@@ -15,15 +15,17 @@ from bbbench.tasks.scenarios import beam_carry
 from bbbench.tasks.scenarios import convoy
 from bbbench.tasks.scenarios import steer
 from bbbench.tasks.scenarios import waypoints
+from bbbench.tasks.scenarios import swap
 from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
 from bbbench.tasks.scenarios.column import Column
 from bbbench.tasks.scenarios.convoy import Convoy, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
 from bbbench.tasks.scenarios.steer import Steer
+from bbbench.tasks.scenarios.swap import Swap
 from bbbench.tasks.scenarios.waypoints import Waypoints
 
-MODULES = (solo, crossing, beam_carry, convoy, steer, waypoints)
+MODULES = (solo, crossing, beam_carry, convoy, steer, waypoints, swap)
 TASKS = tuple(task for module in MODULES for task in module.TASKS)
 
 __all__ = [
@@ -38,6 +40,7 @@ __all__ = [
     "Scenario",
     "Solo",
     "Steer",
+    "Swap",
     "Tether",
     "Waypoints",
     "scenario",

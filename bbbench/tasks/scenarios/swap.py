@@ -1,0 +1,176 @@
+"""`Swap`: steering bots on a circle, each driving to the point opposite its start,
+through the others (VMAS' navigation and give_way); and the task it plays (`TASKS`).
+
+The bots start spread around a circle facing its centre (`spawn_poses`), so that every
+straight path crosses every other at the middle. A bot's goal is its start mirrored
+through the centre. It tracks a velocity towards its goal that slows as it arrives,
+
+    target = min(speed, ARRIVAL_RATE x distance to the goal)
+
+so that a bot that has arrived earns its tracking credit by standing on its goal, and
+is an obstacle the others must pass. The reward is the shared form (`StayUpReward`,
+0 to 0.1 a step) on |velocity . unit(goal - axle) - target|; a bot that falls ends its
+own episode and leaves the world, as on the crossings.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField, box
+from bbbench.tasks.commands import SPEED_TARGETS
+from bbbench.tasks.group import Group, spawn_poses
+from bbbench.tasks.observation import group_observations
+from bbbench.tasks.reward import StayUpReward, has_fallen
+from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
+from bbbench.tasks.scenarios.waypoints import SEEN_DISTANCE, bearing
+from bbbench.tasks.spec import TaskSpec
+
+ARRIVAL_RATE = 1.0  # 1/s: the target speed near the goal, per m from it
+MOST_BOTS = 8
+
+_GOAL_FIELDS = (
+    ObservationField("goal_distance", "m", 0.0, SEEN_DISTANCE, "distance to the goal"),
+    ObservationField("goal_cos", "", -1.0, 1.0, "cosine of the goal's bearing (1: dead ahead)"),
+    ObservationField("goal_sin", "", -1.0, 1.0, "sine of the goal's bearing (+: to the left)"),
+)
+_NEIGHBOUR_FIELDS = ("right", "forward", "right_velocity", "forward_velocity")
+
+
+@register_scenario
+class Swap(Scenario):
+    """The group's steering bots on a circle (`spawn_poses`), each to the point opposite
+    (the module's docstring). Each observes its robot's layout (its target velocity the
+    arrival-limited one), its goal's distance and bearing, then its nearest neighbours
+    as on the crossings (`group_observations`); it earns the shared reward for its
+    velocity towards its goal, and a bot that falls ends its own episode and leaves."""
+
+    name = "swap"
+    summary = "steering bots on a circle, each to the point opposite, through the others"
+    multi_agent = True
+    robots = ("two-wheel-steer",)
+    metrics = ("velocity_error", "goal_distance")
+    most_bots = MOST_BOTS
+
+    def __init__(self, task) -> None:
+        super().__init__(task)
+        self.group = task.group
+        low, high = task.group.bounds()
+        own = box((*self.robot.layout(), *_GOAL_FIELDS))
+        self._space = spaces.Box(
+            low=np.concatenate([own.low, low]).astype(OBSERVATION_DTYPE),
+            high=np.concatenate([own.high, high]).astype(OBSERVATION_DTYPE),
+            dtype=OBSERVATION_DTYPE,
+        )
+        self._own = own.shape[0]
+        self._size = self._space.shape[0]
+        self.goals: list[tuple[float, float]] = []
+        self._live: list[int] = []  # the live bots' indices at the last observation
+
+    @classmethod
+    def refusal(cls, task) -> str | None:
+        refused = super().refusal(task)
+        if refused:
+            return refused
+        if not isinstance(task.reward, StayUpReward):
+            return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
+        return None
+
+    def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
+        pitch = self.task.initial_pitch
+        poses = spawn_poses(rng, self.group)
+        self.goals = [(-x, -y) for (x, y), _ in poses]
+        return poses, list(rng.uniform(-pitch, pitch, size=self.group.n_bots))
+
+    def observation_space(self) -> spaces.Box:
+        return self._space
+
+    def slots(self) -> Slots:
+        """The robot's own values and the goal, then the K nearest neighbours' 4 values."""
+        k = self.group.neighbours
+        return Slots(self._own, k, len(_NEIGHBOUR_FIELDS), None)
+
+    def _goals(self, states: list[Any], targets: list[float]):
+        """Each live bot's goal (distance, cos, sin) and its arrival-limited target."""
+        goals = [bearing(state, self.goals[i]) for i, state in zip(self._live, states, strict=True)]
+        limited = [
+            min(speed, ARRIVAL_RATE * goal[0]) for speed, goal in zip(targets, goals, strict=True)
+        ]
+        return goals, limited
+
+    def observe(
+        self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
+    ) -> np.ndarray:
+        """The live bots' observations, one row each: the robot's layout, the goal, the
+        neighbours (`group_observations`)."""
+        self._live = list(scene.live)
+        goals, limited = self._goals(states, targets)
+        extras = [(min(d, SEEN_DISTANCE), cos, sin) for d, cos, sin in goals]
+        return group_observations(
+            self.robot, states, commands, limited, self.group, self._size, extras
+        )
+
+    def outcome(
+        self, agents: list[str], states: list[Any], targets: list[float], seed: int
+    ) -> Outcome:
+        """Each live bot's reward for its velocity towards its goal, whether it fell (a
+        fall ends that bot's episode alone), and its info: the reward's two terms,
+        `velocity_error` (m/s), `goal_distance` (m) and `episode_seed`."""
+        goals, limited = self._goals(states, targets)
+        rewards, fell, infos = [], [], []
+        terms = self.reward.terms
+        for i, state, (distance, _, _), target in zip(
+            self._live, states, goals, limited, strict=True
+        ):
+            x, y, _ = state.axle
+            gx, gy = self.goals[i]
+            vx, vy = state.velocity
+            toward = (vx * (gx - x) + vy * (gy - y)) / distance if distance > 0.0 else 0.0
+            velocity_error = abs(toward - target)
+            upright, tracking = terms(state.pitch, velocity_error)
+            down = has_fallen(state)
+            rewards.append(upright + tracking)
+            fell.append(down)
+            infos.append(
+                {
+                    "reward_upright": upright,
+                    "reward_velocity": tracking,
+                    "velocity_error": velocity_error,
+                    "goal_distance": distance,
+                    "episode_seed": seed,
+                }
+            )
+        return Outcome(rewards, fell, False, fell_cause(agents, fell), infos)
+
+    def leave(self, scene: Any, indices: list[int]) -> None:
+        """Out of the world: set aside, far away, colliding with nothing."""
+        scene.take_out(indices)
+
+
+TASKS = (
+    TaskSpec(
+        id="bbbench/Swap-v0",
+        summary="4 steering bots (2-8) on a circle, each to the point opposite, through the others",
+        description=f"""\
+Several steering bots (4 by default, `n_bots` 2-{MOST_BOTS}) start spread around a circle of
+3 m radius facing its centre, on flat ground; each must drive to the point opposite its
+start, so every straight path crosses every other at the middle (VMAS' navigation and
+give_way). Each bot's target speed is drawn from [1, 2] m/s and held 2-5 s, and
+limited near its goal to {ARRIVAL_RATE:g}/s x its distance, so that a bot that has arrived
+stands on its goal. It observes the steering robot's eight values, its goal's distance
+and bearing (cosine and sine, + to the left), then its 3 nearest neighbours within 5 m
+as on MultiBalance. The reward is the shared one (`StayUpReward`) on the velocity
+towards the goal: |velocity . unit(goal - axle) - target|. A bot that falls ends its own
+episode and leaves the world. `bbbench.envs.multi.MultiBalanceEnv` documents the
+PettingZoo API.""",
+        robot="two-wheel-steer",
+        scenario="swap",
+        command=SPEED_TARGETS,
+        reward=StayUpReward(),
+        group=Group(spawn_radius=3.0, heading_jitter=0.0),
+        random_return=0.6887960389410176,
+    ),
+)
