@@ -97,6 +97,15 @@ TRACKS: dict[str, Track] = {
             True,
             "bbbench/Swap-v0",
         ),
+        Track(
+            "steering-cooperative",
+            "steering cooperative",
+            "the steering robot's cooperative tasks (a tethered team, one team reward)",
+            "two-wheel-steer",
+            True,
+            "bbbench/ConvoyTurns-v0",
+            team=True,
+        ),
     )
 }
 

@@ -12,7 +12,7 @@ from bbbench.policies.controllers.legged import LeggedController
 from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
 from bbbench.policies.controllers.steer import GUIDES, Avoiding, SteerController
-from bbbench.policies.controllers.team import TeamController
+from bbbench.policies.controllers.team import SteeringTeam, TeamController
 from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
 from bbbench.tasks.scenarios import Column, Crossing
@@ -78,23 +78,33 @@ class TeamPolicy(TwoWheelPolicy):
     on a target each bot makes from its team, the front bot's target limited in how fast
     it changes, a follower's from the bot ahead and the coupling's pull. It plays the
     column tasks (BeamCarry, BeamCarryBumps, Convoy) only; on them, `pd` is the naive
-    baseline (a follower holds the 0 it observes)."""
+    baseline (a follower holds the 0 it observes). On a column of steering bots
+    (ConvoyTurns) it steers too (`SteeringTeam`): the front bot as commanded, a
+    follower after the bot ahead."""
 
     name = algorithm = "team"
+    robots = ("two-wheel", "two-wheel-steer")
 
     def __init__(self, action_mode: str = "discrete") -> None:
         self.action_mode = action_mode
 
     def mismatch(self, task_id: str) -> str | None:
-        refused = robot_mismatch(self, task_id)
-        if refused is None and not _is_team(task_id):
+        task = spec(task_id)
+        if task.robot not in self.robots:
+            return (
+                f"{task_id} plays the {task.robot} robot; team controls {' and '.join(self.robots)}"
+            )
+        if not _is_team(task_id):
             teams = [t for t in list_tasks(multi_agent=True, latest=True) if _is_team(t)]
             return f"{task_id} is not a team task; team plays {', '.join(teams)}"
-        return refused
+        return None
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         task = spec(task_id)
-        return PDActor(TeamController.for_scenario(task.scenario_class(task), self.action_mode))
+        scenario = task.scenario_class(task)
+        if scenario.steers:
+            return PDActor(SteerController(self.action_mode, guide=SteeringTeam(scenario)))
+        return PDActor(TeamController.for_scenario(scenario, self.action_mode))
 
 
 def _is_team(task_id: str) -> bool:

@@ -11,6 +11,10 @@ PD on every bot, each on a target it makes from what it observes of its team.
 
 Its own velocity is PD's estimate, wheel radius x (wheel speed + pitch rate). The law is
 stateless: one observation in, one action out, so it plays any episode in any order.
+
+On a column of steering bots (ConvoyTurns), `SteeringTeam` adds the turning: the front
+bot asks the steering law for the yaw rate it is commanded, and a follower for
+`K_HEADING` x the sine of the bearing of the bot ahead, so that it drives after it.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.steer import heading_for
 from bbbench.robots.layout import INDEX, ObservationField
 
 # The gain the law gives the coupling's pull forward, by the unit it is read in.
@@ -86,3 +91,26 @@ class TeamController:
         shared = np.array(observation[: len(INDEX)], dtype=np.float32)
         shared[INDEX["target_velocity"]] = self.target(observation)
         return self.pd(shared)
+
+
+class SteeringTeam:
+    """The team law's guide for a column of steering bots: the (velocity, yaw rate) the
+    steering law (`SteerController`) tracks. The velocity is `TeamController.target`'s;
+    the yaw rate the commanded one for the front bot, and for a follower one that turns
+    it towards the bot ahead (`heading_for` the offset of that bot)."""
+
+    def __init__(self, scenario) -> None:
+        self.team = TeamController.for_scenario(scenario, "continuous")
+        index = {field.name: i for i, field in enumerate(scenario.layout)}
+        self._ahead = index["ahead_present"]
+        self._right, self._forward = index["ahead_right"], index["ahead_forward"]
+        self._yaw_rate = index["target_yaw_rate"]
+
+    def __call__(self, observation: np.ndarray) -> tuple[float, float]:
+        velocity = self.team.target(observation)
+        if observation[self._ahead] == 0.0:  # the front bot
+            return velocity, float(observation[self._yaw_rate])
+        right, forward = float(observation[self._right]), float(observation[self._forward])
+        if forward < 0.0:  # the bot ahead is behind it (reversing): back after it
+            forward, right = -forward, -right
+        return velocity, heading_for(forward, right, abs(velocity))[1]

@@ -18,7 +18,7 @@ from bbbench.tasks.scenarios import waypoints
 from bbbench.tasks.scenarios import swap
 from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
 from bbbench.tasks.scenarios.column import Column
-from bbbench.tasks.scenarios.convoy import Convoy, Tether
+from bbbench.tasks.scenarios.convoy import Convoy, ConvoyTurns, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
 from bbbench.tasks.scenarios.solo import Solo
 from bbbench.tasks.scenarios.steer import Steer
@@ -36,6 +36,7 @@ __all__ = [
     "BeamCarry",
     "Column",
     "Convoy",
+    "ConvoyTurns",
     "Crossing",
     "Scenario",
     "Solo",

@@ -11,10 +11,11 @@ import pybullet
 
 from bbbench.parameters import parameters
 from bbbench.portable import dot3
-from bbbench.robots.layout import ObservationField
+from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField, box
+from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import Group
-from bbbench.tasks.reward import StayUpReward
-from bbbench.tasks.scenario import register_scenario
+from bbbench.tasks.reward import StayUpReward, TwistReward, has_fallen
+from bbbench.tasks.scenario import Outcome, fell_cause, register_scenario
 from bbbench.tasks.scenarios.column import (
     PARKED,
     TEAM_HISTORY,
@@ -188,7 +189,77 @@ class Convoy(Column):
         return sum(state.forward_velocity for state in states) / len(states)
 
 
-# The task it plays: its row states all it sets (`TaskSpec`'s defaults for the rest).
+TARGET_YAW_RATE = ObservationField(
+    "target_yaw_rate", "rad/s", -GYRO_RANGE, GYRO_RANGE, "the yaw rate the front bot is asked for"
+)
+
+
+@register_scenario
+class ConvoyTurns(Convoy):
+    """`Convoy` for the steering robot, its front bot commanded a velocity and a yaw rate
+    (`PiecewiseConstantTwist`): the column must follow its front bot through turns. Each
+    bot observes its robot's layout, then the target yaw rate (the front bot's; 0 for the
+    others, as their target velocity), then Convoy's tethers and neighbours. The team's
+    reward is `TwistReward.terms` with the most tilted bot's pitch, the team's mean
+    forward velocity against the target velocity, and the front bot's yaw rate against
+    the target yaw rate."""
+
+    name = "convoy-turns"
+    summary = "a tethered column of steering bots following its front bot through turns"
+    robots = ("two-wheel-steer",)
+    steers = True
+    metrics = ("velocity_error", "yaw_rate_error")
+
+    def __init__(self, task) -> None:
+        super().__init__(task)
+        own = len(self.robot.layout())
+        self.layout = (*self.layout[:own], TARGET_YAW_RATE, *self.layout[own:])
+        self._space = box(self.layout)
+
+    def observe(
+        self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int
+    ) -> np.ndarray:
+        """Convoy's rows with the front bot's target velocity in the robot's slot and its
+        target yaw rate after the robot's values (0 and 0 for the followers)."""
+        velocity, yaw_rate = targets[0]
+        rows = super().observe(scene, states, commands, [velocity] * len(states), step)
+        own = len(self.robot.layout())
+        yaw_rates = np.zeros((len(states), 1), dtype=OBSERVATION_DTYPE)
+        yaw_rates[0, 0] = min(max(yaw_rate, -GYRO_RANGE), GYRO_RANGE)
+        return np.concatenate([rows[:, :own], yaw_rates, rows[:, own:]], axis=1)
+
+    def outcome(
+        self, agents: list[str], states: list[Any], targets: list[Any], seed: int
+    ) -> Outcome:
+        """The team's reward for every bot (the class's docstring), and the team's end at
+        a fall or a broken tether, as Convoy's."""
+        velocity, yaw_rate = targets[0]
+        pitch = max((state.pitch for state in states), key=abs)
+        velocity_error = abs(self.team_velocity(states) - velocity)
+        yaw_rate_error = abs(states[0].yaw_rate - yaw_rate)
+        upright, tracking = self.reward.terms(pitch, velocity_error, yaw_rate_error)
+        fell = [has_fallen(state) for state in states]
+        broken = self.broken()
+        cause = "; ".join(
+            [c for c in (fell_cause(agents, fell), self.broken_cause if broken else "") if c]
+        )
+        info = {
+            "reward_upright": upright,
+            "reward_velocity": tracking,
+            "velocity_error": velocity_error,
+            "yaw_rate_error": yaw_rate_error,
+            "episode_seed": seed,
+        }
+        return Outcome(
+            [upright + tracking] * len(agents),
+            fell,
+            broken or any(fell),
+            cause,
+            [dict(info) for _ in agents],
+        )
+
+
+# The tasks it plays: each row states all it sets (`TaskSpec`'s defaults for the rest).
 TASKS = (
     TaskSpec(
         id="bbbench/Convoy-v0",
@@ -211,5 +282,31 @@ none)."""
         coupling=Tether(),
         version_history=TEAM_HISTORY,
         random_return=0.9912909542770169,
+    ),
+    TaskSpec(
+        id="bbbench/ConvoyTurns-v0",
+        summary="a tethered convoy of 3 steering bots (2-4) following its front bot through turns",
+        description=team_description(
+            """\
+Convoy-v0's column of tethered bots (3 by default, `n_bots` 2-4; the same tethers) made
+of steering robots, on flat ground. The front bot is commanded a velocity in [-2, 2] m/s
+(Convoy's) and a yaw rate in [-2, 2] rad/s (`PiecewiseConstantTwist`), the pair held 2-5 s;
+the others observe 0 in both slots and must follow it through the turns. The team's
+reward is `TwistReward.terms` with the most tilted bot's pitch, the team's mean forward
+velocity against the target velocity and the front bot's yaw rate against the target
+yaw rate: each step earns 0-0.1. Each bot observes the steering robot's eight values,
+the target yaw rate, the stretch of the tether ahead and of the one behind and their
+rates, then the bots ahead and behind."""
+        ),
+        robot="two-wheel-steer",
+        reward=TwistReward(),
+        group=Group(n_bots=3),
+        command=PiecewiseConstantTwist(
+            low=-2.0, high=2.0, yaw_low=-2.0, yaw_high=2.0, hold=(2.0, 5.0)
+        ),
+        scenario="convoy-turns",
+        coupling=Tether(),
+        version_history=("v0: initial release.",),
+        random_return=1.072511704615297,
     ),
 )
