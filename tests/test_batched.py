@@ -44,6 +44,8 @@ def play_parallel(task_id: str, seed: int, actions: np.ndarray, **kwargs):
         ("bbbench/MultiBalance-v1", {}),  # bots fall one by one, the others play on
         ("bbbench/Convoy-v0", {"n_bots": 2}),  # a team: one fall ends every bot
         ("bbbench/MultiBumps-v1", {"action_mode": "continuous"}),
+        ("bbbench/Swap-v0", {}),  # the steering robot: 27 actions, its own observation
+        ("bbbench/ConvoyTurns-v0", {"action_mode": "continuous"}),  # and 2 continuous ones
     ],
 )
 def test_world_k_plays_make_parallels_episode_from_seed_s_plus_k_bit_for_bit(task_id, kwargs):
@@ -51,10 +53,12 @@ def test_world_k_plays_make_parallels_episode_from_seed_s_plus_k_bit_for_bit(tas
     env = bbbench.make_batched(task_id, worlds=worlds, **kwargs)
     bots = env.n_bots
     rng = np.random.default_rng(1)
+    space = env.single_action_space
     if kwargs.get("action_mode") == "continuous":
-        actions = rng.uniform(-1, 1, (steps, worlds, bots, 1)).astype(np.float32)
+        width = space.shape[0]
+        actions = rng.uniform(-1, 1, (steps, worlds, bots, width)).astype(np.float32)
     else:
-        actions = rng.integers(0, 9, (steps, worlds, bots))
+        actions = rng.integers(0, space.n, (steps, worlds, bots))
     first, infos = env.reset(seed=seed)
     assert first.shape == (worlds, bots, env.single_observation_space.shape[0])
     assert infos["live"].all()
@@ -145,6 +149,8 @@ def test_actions_of_the_wrong_shape_are_refused():
         ("bbbench/MultiBalance-v1", "discrete"),
         ("bbbench/BeamCarry-v0", "discrete"),  # the team's episode ends at once
         ("bbbench/MultiBumps-v1", "continuous"),
+        ("bbbench/Swap-v0", "discrete"),
+        ("bbbench/ConvoyTurns-v0", "continuous"),
     ],
 )
 def test_each_world_is_torchrls_own_pettingzoo_wrapper_bit_for_bit(task_id, mode):

@@ -52,7 +52,9 @@ def test_torchrl_pettingzoo_wrapper_rolls_out_300_steps_through_falls():
     assert observations_within(rollout["next", "bot", "observation"][mask], env)
 
 
-@pytest.mark.parametrize("task_id", ["bbbench/BeamCarry-v0", "bbbench/Convoy-v0"])
+@pytest.mark.parametrize(
+    "task_id", ["bbbench/BeamCarry-v0", "bbbench/Convoy-v0", "bbbench/ConvoyTurns-v0"]
+)
 def test_torchrl_wrapper_on_a_team_task_ends_every_agent_at_once_with_one_reward(task_id):
     torch = pytest.importorskip("torch")
     from torchrl.envs.libs.pettingzoo import PettingZooWrapper
@@ -93,7 +95,7 @@ def _rllib():
     return ParallelPettingZooEnv
 
 
-@pytest.mark.parametrize("task_id", [MULTI, "bbbench/BeamCarry-v0"])
+@pytest.mark.parametrize("task_id", [MULTI, "bbbench/BeamCarry-v0", "bbbench/Swap-v0"])
 def test_rllib_parallel_pettingzoo_env_resets_steps_and_renders(task_id):
     wrapper = _rllib()
     env = wrapper(bbbench.make_parallel(task_id, n_bots=3, render_mode="rgb_array"))
