@@ -1,6 +1,7 @@
-"""Write the README's frame of each terrain task and team task (docs/images/*.png).
+"""Write the README's frame of each terrain task, team task and steering task
+(docs/images/*.png).
 
-    python scripts/terrain_frames.py [--teams]  # needs pillow: pip install 'bbbench[video]'
+    python scripts/terrain_frames.py [--teams | --steering]  # needs pillow: bbbench[video]
 
 Each frame is the env's own `rgb_array` render, 1.5 s into the first evaluation seed
 with the robot's classical controller driving (PD; the wheel-legged robot's own; the
@@ -11,7 +12,10 @@ writes it (15 s, about 10 MB), cut to its first 10 s, every other frame, 240 x 1
 colours (under 2 MB): the legged controller's first LeggedBumps-v0 episode
 (docs/images/legged-bumps.gif), and the team controller carrying the beam over the hills
 of BeamCarryBumps-v0 (docs/images/beamcarry-bumps.gif). `--teams`: the team tasks' frames
-and GIF only.
+and GIF only. `--steering`: the steering robot's tasks, each driven by its built-in
+controller (steer, steer-avoid on Swap, team on ConvoyTurns; on Swap 2 s in, as the bots
+meet), and the GIF of steer-avoid's bots passing each other on Swap-v0
+(docs/images/swap.gif).
 """
 
 from __future__ import annotations
@@ -21,10 +25,11 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import numpy as np
 from PIL import Image
 
 import bbbench
-from bbbench.policies import PDController
+from bbbench.policies import PDController, load_policy
 from bbbench.policies.controllers.legged import LeggedController
 from bbbench.policies.controllers.team import TeamController
 
@@ -69,6 +74,33 @@ def team_frames() -> None:
         print(f"wrote {path}")
 
 
+STEERING = {
+    "bbbench/SteerTracking-v0": "steer",
+    "bbbench/Waypoints-v0": "steer",
+    "bbbench/WaypointsBumps-v0": "steer",
+    "bbbench/Swap-v0": "steer-avoid",
+    "bbbench/ConvoyTurns-v0": "team",
+}
+
+
+def steering_frames() -> None:
+    for task_id, name in STEERING.items():
+        actor = load_policy(name).actor(task_id)
+        multi = bbbench.spec(task_id).multi_agent
+        env = (bbbench.make_parallel if multi else bbbench.make)(task_id, render_mode="rgb_array")
+        observations, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
+        for _ in range(200 if name == "steer-avoid" else 150):
+            if multi:
+                actions = actor(np.stack([observations[a] for a in env.agents]))
+                observations, *_ = env.step(dict(zip(env.agents, actions, strict=True)))
+            else:
+                observations, *_ = env.step(actor(observations[None])[0])
+        path = OUT / f"{task_id.split('/')[1].lower()}.png"
+        Image.fromarray(env.render()).save(path, optimize=True)
+        env.close()
+        print(f"wrote {path}")
+
+
 def gif(policy: str, task_id: str, name: str) -> None:
     """`policy`'s first evaluation episode of `task_id`, shrunk, as docs/images/`name`."""
     with tempfile.TemporaryDirectory() as folder:
@@ -90,9 +122,16 @@ def gif(policy: str, task_id: str, name: str) -> None:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--teams", action="store_true", help="the team tasks only")
-    if not parser.parse_args().teams:
+    only = parser.add_mutually_exclusive_group()
+    only.add_argument("--teams", action="store_true", help="the team tasks only")
+    only.add_argument("--steering", action="store_true", help="the steering tasks only")
+    args = parser.parse_args()
+    if not (args.teams or args.steering):
         main()
         gif("legged", "bbbench/LeggedBumps-v0", "legged-bumps.gif")
-    team_frames()
-    gif("team", "bbbench/BeamCarryBumps-v0", "beamcarry-bumps.gif")
+    if not args.steering:
+        team_frames()
+        gif("team", "bbbench/BeamCarryBumps-v0", "beamcarry-bumps.gif")
+    if not args.teams:
+        steering_frames()
+        gif("steer-avoid", "bbbench/Swap-v0", "swap.gif")

@@ -92,3 +92,35 @@ def test_the_steering_law_plays_only_the_steering_robot():
     assert "steer controls the two-wheel-steer robot" in load_policy("steer").mismatch(
         "bbbench/FlatBalance-v1"
     )
+
+
+@pytest.mark.parametrize("task_id", [*WAYPOINTS, "bbbench/Swap-v0"])
+def test_a_rendered_episode_shows_its_goals_and_plays_as_an_unrendered_one(task_id):
+    def play(render_mode):
+        multi = bbbench.spec(task_id).multi_agent
+        make = bbbench.make_parallel if multi else bbbench.make
+        env = make(task_id, render_mode=render_mode)
+        policy = load_policy("steer-avoid" if multi else "steer")
+        actor = policy.actor(task_id)
+        observations, _ = env.reset(seed=2**31)
+        rows = []
+        for step in range(120):
+            if multi:
+                actions = actor(np.stack(list(observations.values())))
+                observations, *_ = env.step(dict(zip(env.agents, actions, strict=True)))
+                rows.append(np.stack(list(observations.values())))
+            else:
+                observations, *_ = env.step(actor(observations[None])[0])
+                rows.append(observations)
+            if render_mode and step % 40 == 0:
+                assert env.render().shape[2] == 3
+        return np.stack(rows), env
+
+    plain, _ = play(None)
+    drawn, env = play("rgb_array")
+    np.testing.assert_array_equal(plain, drawn)
+    scenario = env.unwrapped.scene.scenario
+    client = env.unwrapped.scene.world.client
+    shown = [client.getBasePositionAndOrientation(body)[0][:2] for body in scenario._markers]
+    goals = scenario.goals if hasattr(scenario, "goals") else scenario.course[scenario.goal :]
+    np.testing.assert_allclose(shown, goals[: len(shown)], atol=1e-9)

@@ -314,6 +314,7 @@ class BalanceEnv(Env):
     def render(self) -> np.ndarray | None:
         if not render_ready(self):
             return None
+        self._scene.scenario.draw(self._scene)  # what the camera would not see (a course)
         if self.render_mode == "rgb_array":
             self._scene.ground.paint()
             target, yaw = self.camera()

@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pybullet
 from gymnasium import spaces
 
 from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField, box
@@ -78,6 +79,23 @@ class Swap(Scenario):
         if not isinstance(task.reward, StayUpReward):
             return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
         return None
+
+    def build(self, client: Any, bots: tuple[Any, ...]) -> None:
+        self._client = client
+        self._markers: list[int] = []  # what `draw` shows of the goals
+
+    def draw(self, scene: Any) -> None:
+        """Each bot's goal as a grey disc on the ground: bodies without mass or collision
+        shape, made at the first frame."""
+        client = self._client
+        if not self._markers:
+            disc = client.createVisualShape(
+                pybullet.GEOM_CYLINDER, radius=0.2, length=0.01, rgbaColor=(0.6, 0.6, 0.6, 1.0)
+            )
+            self._markers = [client.createMultiBody(0.0, -1, disc, (0.0, 0.0, -5.0))
+                             for _ in self.goals]  # fmt: skip
+        for body, (x, y) in zip(self._markers, self.goals, strict=True):
+            client.resetBasePositionAndOrientation(body, (x, y, 0.005), (0.0, 0.0, 0.0, 1.0))
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         pitch = self.task.initial_pitch

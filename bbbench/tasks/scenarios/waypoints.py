@@ -22,6 +22,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pybullet
 
 from bbbench.robots.layout import ObservationField, box, observation_with
 from bbbench.robots.steering import SteerState, own_values
@@ -37,6 +38,8 @@ MIN_LEG = 2.0  # m: the least distance from a waypoint to the one before
 COURSE_POINTS = 24  # more than an episode reaches: 15 s at 1.5 m/s is 11 legs of 2 m
 REACH = 0.3  # m: a waypoint is reached within this of the axle
 SEEN_DISTANCE = 2 * COURSE_RADIUS  # m: the farthest a goal can be (observed up to this)
+SHOWN = 4  # waypoints a frame shows: the goal and the ones after it
+_GOAL_COLOUR, _LATER_COLOUR = (0.9, 0.2, 0.2, 1.0), (0.6, 0.6, 0.6, 1.0)
 
 _GOAL_FIELDS = (
     ObservationField("goal_distance", "m", 0.0, SEEN_DISTANCE, "distance to the goal"),
@@ -108,6 +111,27 @@ class Waypoints(Solo):
         if not isinstance(task.reward, StayUpReward):
             return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
         return None
+
+    def build(self, client: Any, bots: tuple[Any, ...]) -> None:
+        self._client = client
+        self._markers: list[int] = []  # what `draw` shows of the course
+
+    def draw(self, scene: Any) -> None:
+        """The goal (red) and the next waypoints (grey) as discs on the ground: bodies
+        without mass or collision shape, made at the first frame."""
+        client = self._client
+        if not self._markers:
+            disc = client.createVisualShape(
+                pybullet.GEOM_CYLINDER, radius=REACH, length=0.01, rgbaColor=_LATER_COLOUR
+            )
+            self._markers = [client.createMultiBody(0.0, -1, disc, (0.0, 0.0, -5.0))
+                             for _ in range(SHOWN)]  # fmt: skip
+        for k, body in enumerate(self._markers):
+            index = min(self.goal + k, len(self.course) - 1)
+            x, y = self.course[index]
+            z = scene.ground.spawn_height(x, y) + 0.005
+            client.resetBasePositionAndOrientation(body, (x, y, z), (0.0, 0.0, 0.0, 1.0))
+            client.changeVisualShape(body, -1, rgbaColor=_GOAL_COLOUR if k == 0 else _LATER_COLOUR)
 
     def place(self, scene: Any, rng: np.random.Generator) -> None:
         """Draw the episode's course from the start stream."""
