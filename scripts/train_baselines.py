@@ -58,6 +58,18 @@ LEGGED = (
 )
 # The team tasks: PPO shared by every bot of the column, three seeds each.
 TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
+# The steering robot's tasks (issue 52): PPO on the single-bot ones, three seeds each;
+# IPPO and MAPPO on the multi-bot and team ones, at the field's budget (the campaign).
+STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
+STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
+# Each task's classical controller in the table (pd where none is named).
+CLASSICAL = {
+    **dict.fromkeys(LEGGED, "legged"),
+    **dict.fromkeys(TEAMS, "team"),
+    **dict.fromkeys(STEERING_SINGLE, "steer"),
+    "bbbench/Swap-v0": "steer-avoid",
+    "bbbench/ConvoyTurns-v0": "team",
+}
 SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
@@ -88,6 +100,11 @@ def runs() -> list[dict]:
             for algo in MARL
             for task in (*LATEST_MULTI, *TEAMS)
         ),
+        *(
+            {"tasks": [task], "algo": "ppo", "seed": seed}
+            for seed in SEEDS
+            for task in STEERING_SINGLE
+        ),
     ]
     for run in plan:
         name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
@@ -106,7 +123,7 @@ def campaign() -> list[dict]:
             "replaces": [f"{algo}-{_short(task)}-s{seed}" for seed in SEEDS],
         }
         for algo in ("ippo", "mappo")
-        for task in (*LATEST_MULTI, *TEAMS)
+        for task in (*LATEST_MULTI, *TEAMS, *STEERING_MULTI)
     ]
 
 
@@ -200,6 +217,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
     rows = [*LATEST_SINGLE, *ADDED_SINGLE, *LATEST_MULTI, *TEAMS, "generalist", *legged]
     rows += [f"{task} sac" for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
     rows += [f"{task} {algo}" for algo in MARL for task in (*LATEST_MULTI, *TEAMS)]
+    rows += [*STEERING_SINGLE, *(f"{task} {algo}" for algo in MARL for task in STEERING_MULTI)]
     if which == "legged":
         rows = legged
     for row in rows:
@@ -222,7 +240,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             name, pd = "generalist (the six before PushRecovery; by task, in that order)", ""
         else:
             scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
-            classical = "legged" if task_id in LEGGED else "team" if task_id in TEAMS else "pd"
+            classical = CLASSICAL.get(task_id, "pd")
             name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
             pd = f"{score(classical, task_id):.3f}"
         steps = records[0].get("bot_steps", records[0]["steps"])
