@@ -42,6 +42,7 @@ from bbbench.robots.balancebot import MODEL, BalanceBot, RobotModel
 from bbbench.robots.layout import (
     ENCODER_SPEED_RANGE,
     GYRO_RANGE,
+    OBSERVATION_DTYPE,
     ObservationField,
     observation_with,
     sensed,
@@ -115,14 +116,16 @@ class SteeringBot(BalanceBot):
         if forward != forward or turn != turn:
             raise ValueError("wheel speed command is NaN; expected numbers of rad/s")
         limit = self.model.wheel_speed_limit
-        forward = min(max(forward, -limit), limit)
-        turn = min(max(turn, -TURN_LIMIT), TURN_LIMIT)
-        held = (forward, turn)
+        # Clamps as conditionals, not min(max()): this runs every step (the same values).
+        forward = limit if forward > limit else -limit if forward < -limit else forward
+        turn = TURN_LIMIT if turn > TURN_LIMIT else -TURN_LIMIT if turn < -TURN_LIMIT else turn
+        held_forward, held_turn = forward, turn
         if self._delayed is not None:  # `set_action_delay`: the servos get an older pair
-            self._delayed.append(held)
-            held = self._delayed.popleft()
-        left = min(max(held[0] - held[1], -limit), limit)
-        right = min(max(held[0] + held[1], -limit), limit)
+            self._delayed.append((forward, turn))
+            held_forward, held_turn = self._delayed.popleft()
+        left, right = held_forward - held_turn, held_forward + held_turn
+        left = limit if left > limit else -limit if left < -limit else left
+        right = limit if right > limit else -limit if right < -limit else right
         pybullet.setJointMotorControlArray(
             self.body,
             self.wheel_joints,
@@ -258,6 +261,7 @@ _OWN_FIELDS = (
 OBSERVATION_LAYOUT = (*shared_layout(MODEL.wheel_speed_limit, MODEL.top_speed), *_OWN_FIELDS)
 _SIZE = len(OBSERVATION_LAYOUT)
 _DIFFERENCE_RANGE = 2 * ENCODER_SPEED_RANGE
+_PI = math.pi  # the pitch sensor's range, as layout's
 
 
 def own_values(state: SteerState) -> tuple[float, float, float]:
@@ -267,6 +271,34 @@ def own_values(state: SteerState) -> tuple[float, float, float]:
         min(max(rate, -GYRO_RANGE), GYRO_RANGE),
         min(max(difference, -_DIFFERENCE_RANGE), _DIFFERENCE_RANGE),
         state.turn_command,
+    )
+
+
+def steer_observation(
+    reading: tuple[float, float, float], command: float, target: float, state: SteerState,
+    extra: float,
+) -> np.ndarray:  # fmt: skip
+    """The robot's observation (`observation_with` of `own_values`), then one more value
+    `extra`: in one call, with the clips written out (SteerTracking's every step;
+    benchmarks/bench_steering.py). The same values as `observation_with`."""
+    pitch, pitch_rate, wheel_speed = reading
+    rate, difference = state.yaw_rate, state.wheel_speed_difference
+    return np.fromiter(
+        (
+            _PI if pitch > _PI else max(pitch, -_PI),
+            GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
+            ENCODER_SPEED_RANGE
+            if wheel_speed > ENCODER_SPEED_RANGE
+            else max(wheel_speed, -ENCODER_SPEED_RANGE),
+            command,
+            target,
+            min(max(rate, -GYRO_RANGE), GYRO_RANGE),
+            min(max(difference, -_DIFFERENCE_RANGE), _DIFFERENCE_RANGE),
+            state.turn_command,
+            extra,
+        ),
+        OBSERVATION_DTYPE,
+        _SIZE + 1,
     )
 
 

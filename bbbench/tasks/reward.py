@@ -33,6 +33,7 @@ It stays, unchanged, for the versions that published it.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 from bbbench.parameters import parameters
@@ -196,6 +197,9 @@ class TwistReward:
         for name in ("upright_share", "tail_share", "yaw_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+        # Read once per step: one attribute, not twelve (as StayUpReward's).
+        constants = tuple(getattr(self, field.name) for field in dataclasses.fields(self))
+        object.__setattr__(self, "_constants", constants)
 
     @property
     def max_step(self) -> float:
@@ -206,16 +210,16 @@ class TwistReward:
     ) -> tuple[float, float]:
         """(upright, tracking): the credit for staying up, and for tracking both targets
         while up. Both lie in [0, scale]; their sum is the step's reward."""
-        tail = self.tail_share
-        upright = self.scale * tolerance(pitch, self.pitch_bound, self.pitch_width)
+        (scale, share, pitch_bound, pitch_width, velocity_bound, velocity_width, tail,
+         tail_width, yaw_bound, yaw_width, yaw_tail_width, yaw_share) = self._constants  # fmt: skip
+        upright = scale * tolerance(pitch, pitch_bound, pitch_width)
         forward = (1.0 - tail) * tolerance(
-            velocity_error, self.velocity_bound, self.velocity_width
-        ) + tail * ramp(velocity_error, self.velocity_bound, self.tail_width)
-        turning = (1.0 - tail) * tolerance(
-            yaw_rate_error, self.yaw_rate_bound, self.yaw_rate_width
-        ) + tail * ramp(yaw_rate_error, self.yaw_rate_bound, self.yaw_rate_tail_width)
-        tracking = (1.0 - self.yaw_share) * forward + self.yaw_share * turning
-        share = self.upright_share
+            velocity_error, velocity_bound, velocity_width
+        ) + tail * ramp(velocity_error, velocity_bound, tail_width)
+        turning = (1.0 - tail) * tolerance(yaw_rate_error, yaw_bound, yaw_width) + tail * ramp(
+            yaw_rate_error, yaw_bound, yaw_tail_width
+        )
+        tracking = (1.0 - yaw_share) * forward + yaw_share * turning
         return upright * share, upright * (1.0 - share) * tracking
 
 

@@ -70,6 +70,7 @@ class Swap(Scenario):
         self._size = self._space.shape[0]
         self.goals: list[tuple[float, float]] = []
         self._live: list[int] = []  # the live bots' indices at the last observation
+        self._seen: tuple[list, list] = ([], [])  # their goals and targets then
 
     @classmethod
     def refusal(cls, task) -> str | None:
@@ -125,7 +126,7 @@ class Swap(Scenario):
         """The live bots' observations, one row each: the robot's layout, the goal, the
         neighbours (`group_observations`)."""
         self._live = list(scene.live)
-        goals, limited = self._goals(states, targets)
+        self._seen = goals, limited = self._goals(states, targets)  # `outcome` reads them
         extras = [(min(d, SEEN_DISTANCE), cos, sin) for d, cos, sin in goals]
         return group_observations(
             self.robot, states, commands, limited, self.group, self._size, extras
@@ -136,8 +137,9 @@ class Swap(Scenario):
     ) -> Outcome:
         """Each live bot's reward for its velocity towards its goal, whether it fell (a
         fall ends that bot's episode alone), and its info: the reward's two terms,
-        `velocity_error` (m/s), `goal_distance` (m) and `episode_seed`."""
-        goals, limited = self._goals(states, targets)
+        `velocity_error` (m/s), `goal_distance` (m) and `episode_seed`. The goals as
+        `observe` saw them: it runs first, on the same states."""
+        goals, limited = self._seen
         rewards, fell, infos = [], [], []
         terms = self.reward.terms
         for i, state, (distance, _, _), target in zip(
