@@ -26,6 +26,7 @@ nearest pair of the discrete table, or the clipped changes in continuous mode.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -71,7 +72,7 @@ def toward_goal(observation: np.ndarray) -> tuple[float, float]:
 def heading_for(forward: float, right: float, speed: float) -> tuple[float, float]:
     """A (velocity, yaw rate) that heads along the body-frame vector (forward, right) m/s,
     as `toward_goal` heads for a goal: turning in place when it points behind."""
-    size = (forward * forward + right * right) ** 0.5
+    size = math.sqrt(forward * forward + right * right)  # correctly rounded, as IEEE asks
     if size == 0.0:
         return 0.0, 0.0
     cos, sin = forward / size, -right / size
@@ -114,7 +115,7 @@ class Avoiding:
         for k in range(self.slots):
             at = self.first_slot + 4 * k
             r, f = float(observation[at]), float(observation[at + 1])
-            distance = (r * r + f * f) ** 0.5
+            distance = math.sqrt(r * r + f * f)
             if distance == 0.0 or distance >= radius:
                 continue  # an empty slot, or too far to matter
             weight = speed * (1.0 - distance / radius)

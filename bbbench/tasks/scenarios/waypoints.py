@@ -19,6 +19,7 @@ less for every degree it is off (at 90 degrees it is as far from target as stand
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -72,7 +73,7 @@ def bearing(state: Any, point: tuple[float, float]) -> tuple[float, float, float
     x, y, _ = state.axle
     hx, hy = state.heading
     dx, dy = point[0] - x, point[1] - y
-    distance = (dx * dx + dy * dy) ** 0.5
+    distance = math.sqrt(dx * dx + dy * dy)  # correctly rounded: the same on any CPU
     if distance == 0.0:
         return 0.0, 1.0, 0.0
     cos, sin = (hx * dx + hy * dy) / distance, (hx * dy - hy * dx) / distance
@@ -170,7 +171,7 @@ class Waypoints(Solo):
         x, y, _ = state.axle
         gx, gy = self.course[self.goal]
         dx, dy = gx - x, gy - y
-        distance = (dx * dx + dy * dy) ** 0.5
+        distance = math.sqrt(dx * dx + dy * dy)  # correctly rounded: the same on any CPU
         vx, vy = state.velocity
         toward = (vx * dx + vy * dy) / distance if distance > 0.0 else 0.0
         velocity_error = abs(toward - targets[0])
