@@ -95,7 +95,9 @@ def _rllib():
     return ParallelPettingZooEnv
 
 
-@pytest.mark.parametrize("task_id", [MULTI, "bbbench/BeamCarry-v0", "bbbench/Swap-v0"])
+@pytest.mark.parametrize(
+    "task_id", [MULTI, "bbbench/BeamCarry-v0", "bbbench/Swap-v0", "bbbench/ConvoyTurns-v0"]
+)
 def test_rllib_parallel_pettingzoo_env_resets_steps_and_renders(task_id):
     wrapper = _rllib()
     env = wrapper(bbbench.make_parallel(task_id, n_bots=3, render_mode="rgb_array"))
