@@ -79,3 +79,13 @@ def test_team_plays_both_robots_columns_and_refuses_the_rest():
     assert team.mismatch("bbbench/Convoy-v0") is None
     assert "not a team task" in team.mismatch("bbbench/Swap-v0")
     assert "wheel-legged" in team.mismatch("bbbench/LeggedBumps-v0")
+
+
+def test_team_says_which_robots_columns_it_plays(capsys):
+    from bbbench.cli import main
+
+    assert main(["eval", "team", "--task", "bbbench/Swap-v0", "--episodes", "1"]) == 2
+    error = capsys.readouterr().err
+    assert "two-wheel robot -> Discrete(9) or two-wheel-steer robot -> Discrete(27)" in error
+    assert "Swap-v0 is not a team task" in error
+    assert "Traceback" not in error

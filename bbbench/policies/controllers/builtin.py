@@ -13,7 +13,15 @@ from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
 from bbbench.policies.controllers.steer import GUIDES, Avoiding, SteerController
 from bbbench.policies.controllers.team import SteeringTeam, TeamController
-from bbbench.policies.policy import Actor, ConstantActor, PDActor, Policy, RandomActor
+from bbbench.policies.policy import (
+    Actor,
+    ConstantActor,
+    PDActor,
+    Policy,
+    RandomActor,
+    describe_space,
+)
+from bbbench.robots import ROBOTS
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
 from bbbench.tasks.scenarios import Column, Crossing
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
@@ -98,6 +106,13 @@ class TeamPolicy(TwoWheelPolicy):
             teams = [t for t in list_tasks(multi_agent=True, latest=True) if _is_team(t)]
             return f"{task_id} is not a team task; team plays {', '.join(teams)}"
         return None
+
+    def spaces_text(self) -> str:
+        spaces = " or ".join(
+            f"{robot} robot -> {describe_space(ROBOTS[robot].action_space(self.action_mode))}"
+            for robot in self.robots
+        )
+        return f"the column tasks: {spaces}"
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         task = spec(task_id)
