@@ -7,7 +7,9 @@ and the classical controller's episodes on the board (`leaderboards/results/`).
 
 `--campaign`: the tables of the field's budget (issue 50), IPPO and MAPPO at 3M world
 steps on the five latest multi-bot and team tasks, against the classical controller
-and, on the crossing tasks, the crossing controller too.
+and, on the crossing tasks, the crossing controller too. `--steering`: the steering
+robot's baselines (issue 52), PPO on its single-bot tasks and IPPO and MAPPO at 3M on
+Swap-v0 and ConvoyTurns-v0, each against its task's classical controller.
 
 A row is one method on one task, its seeds side by side; a second table sets methods
 against each other, every trained seed's episodes pooled. "P(> classical)" is rliable's
@@ -75,6 +77,25 @@ CAMPAIGN_VERSUS = tuple(
         ("MAPPO, 3M against 300k", "mappo-{}-3m", "mappo-{}"),
     )
 )
+# The steering robot's tasks: PPO on the single-bot ones, the campaign's cells on the others.
+STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
+STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
+STEERING_ROWS = (
+    *(
+        (task_id, "PPO", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
+        for task_id in STEERING_SINGLE
+    ),
+    *(
+        (task_id, f"{algo.upper()}, 3M", f"{algo}-{task_id.removeprefix('bbbench/').lower()}-3m")
+        for task_id in STEERING_MULTI
+        for algo in ("ippo", "mappo")
+    ),
+)
+STEERING_VERSUS = tuple(
+    (task_id, "MAPPO against IPPO, 3M", f"mappo-{short}-3m", f"ippo-{short}-3m")
+    for task_id in STEERING_MULTI
+    for short in [task_id.removeprefix("bbbench/").lower()]
+)
 # The crossing tasks' own controller, which the learned methods are also set against.
 CROSSING = {"bbbench/MultiBalance-v1": "crossing", "bbbench/MultiBumps-v1": "crossing"}
 CLASSICAL = {
@@ -83,6 +104,9 @@ CLASSICAL = {
     "bbbench/BeamCarry-v0": "team",
     "bbbench/BeamCarryBumps-v0": "team",
     "bbbench/Convoy-v0": "team",
+    **dict.fromkeys(STEERING_SINGLE, "steer"),
+    "bbbench/Swap-v0": "steer-avoid",
+    "bbbench/ConvoyTurns-v0": "team",
 }
 # The comparisons: (task, what is compared, the first method's stem, the second's)
 VERSUS = (
@@ -176,7 +200,7 @@ def row(
         return None
     score = {seed: float(scores(played, task_id).mean()) for seed, (played, _) in runs.items()}
     minutes = {seed: record["wall_time_s"] / 60 for seed, (_, record) in runs.items()}
-    steps = {record["bot_steps"] for _, record in runs.values()}
+    steps = {record.get("bot_steps", record["steps"]) for _, record in runs.values()}
     by_seed = " / ".join(f"{score[s]:.3f}" if s in score else "-" for s in SEEDS)
     walls = " / ".join(f"{minutes[s]:.1f}" if s in minutes else "-" for s in SEEDS)
     median_seed = sorted(score, key=score.get)[(len(score) - 1) // 2]
@@ -200,10 +224,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
-    parser.add_argument(
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument(
         "--campaign", action="store_true", help="the tables of the 3M campaign (issue 50)"
     )
+    which.add_argument(
+        "--steering", action="store_true", help="the steering robot's baselines (issue 52)"
+    )
     args = parser.parse_args()
+    rows, compared = ROWS, VERSUS
+    if args.campaign:
+        rows, compared = CAMPAIGN_ROWS, CAMPAIGN_VERSUS
+    elif args.steering:
+        rows, compared = STEERING_ROWS, STEERING_VERSUS
     head = (
         "| task | method | bot-steps | wall time, by seed | normalized, by seed | median "
         "| no fall | P(median seed > classical) [95% CI] | classical |"
@@ -214,15 +247,15 @@ def main() -> None:
         rule += "---|---:|"
     print(head)
     print(rule)
-    for task_id, method, stem in CAMPAIGN_ROWS if args.campaign else ROWS:
+    for task_id, method, stem in rows:
         line = row(args.root, args.board, task_id, method, stem, crossing=args.campaign)
         if line is not None:
             print(line)
     print()
     print("| task | compared | seeds | mean normalized, all seeds | P(first > second) [95% CI] |")
     print("|---|---|---:|---:|---|")
-    for task_id, compared, first, second in CAMPAIGN_VERSUS if args.campaign else VERSUS:
-        line = versus(args.root, task_id, compared, first, second)
+    for task_id, what, first, second in compared:
+        line = versus(args.root, task_id, what, first, second)
         if line is not None:
             print(line)
 
