@@ -200,7 +200,8 @@ def row(
         return None
     score = {seed: float(scores(played, task_id).mean()) for seed, (played, _) in runs.items()}
     minutes = {seed: record["wall_time_s"] / 60 for seed, (_, record) in runs.items()}
-    steps = {record.get("bot_steps", record["steps"]) for _, record in runs.values()}
+    # Bot-steps: a MARL run records them; a single-bot run's steps are its bot's.
+    steps = {record.get("bot_steps") or record["steps"] for _, record in runs.values()}
     by_seed = " / ".join(f"{score[s]:.3f}" if s in score else "-" for s in SEEDS)
     walls = " / ".join(f"{minutes[s]:.1f}" if s in minutes else "-" for s in SEEDS)
     median_seed = sorted(score, key=score.get)[(len(score) - 1) // 2]

@@ -106,7 +106,13 @@ def test_the_baselines_tables_are_what_their_scripts_print_from_the_files(monkey
     text = Path("docs/baselines.md").read_text()
     found = check.blocks(text)
     names = [m["name"] for m in found]
-    assert names == ["baselines table", "marl table", "campaign table", "legged table"]
+    assert names == [
+        "baselines table",
+        "marl table",
+        "campaign table",
+        "legged table",
+        "steering table",
+    ]
     for match in found:
         assert check.printed(match["command"]) == match["body"], match["name"]
     tampered = found[1]["body"].replace("0.", "9.", 1)  # one figure of the MARL table
