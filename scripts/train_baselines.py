@@ -337,7 +337,9 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     ]
     if not seeds:
         return
-    folder = args.root / cell["cell"]
+    # A working folder of its own per process: two processes may train seeds of one cell
+    # side by side (each moves its seeds' folders out and removes its own when done).
+    folder = args.root / f"{cell['cell']}-training-s{'-'.join(map(str, seeds))}"
     folder.mkdir(parents=True, exist_ok=True)
     argv = [
         "bbbench", "train", *cell["tasks"], "--algo", cell["algo"],
