@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import bbbench
 from bbbench.cli import main
 from bbbench.policies import load_policy
 from bbbench.training import MARL_TRAINABLE, recipe
@@ -48,16 +49,8 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
     import yaml
 
     table = yaml.safe_load(recipe_file(algorithm).read_text())
-    assert sorted(table) == sorted(
-        f"bbbench/{task}"
-        for task in (
-            "MultiBalance-v1",
-            "MultiBumps-v1",
-            "BeamCarry-v0",
-            "BeamCarryBumps-v0",
-            "Convoy-v0",
-        )
-    )
+    # A recipe for every latest multi-bot and team task, and for none other.
+    assert sorted(table) == bbbench.list_tasks(multi_agent=True, latest=True)
     for task_id in table:
         plan = recipe(algorithm, task_id)
         assert plan.algorithm_config().entropy_coef == 0.0

@@ -45,7 +45,6 @@ from bbbench.robots.layout import (
     OBSERVATION_DTYPE,
     ObservationField,
     observation_with,
-    sensed,
     shared_layout,
 )
 from bbbench.robots.robot import Robot
@@ -377,7 +376,22 @@ class TwoWheelSteer(Robot):
     def values(
         self, reading: tuple[float, float, float], command: float, target: float, state: SteerState
     ) -> tuple[float, ...]:
-        return (*sensed(*reading), command, target, *own_values(state))
+        # `sensed` and `own_values`, written out: the multi-bot observations call this per
+        # bot per step (benchmarks/bench_steering.py). The same values.
+        pitch, pitch_rate, wheel_speed = reading
+        rate, difference = state.yaw_rate, state.wheel_speed_difference
+        return (
+            _PI if pitch > _PI else max(pitch, -_PI),
+            GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
+            ENCODER_SPEED_RANGE
+            if wheel_speed > ENCODER_SPEED_RANGE
+            else max(wheel_speed, -ENCODER_SPEED_RANGE),
+            command,
+            target,
+            min(max(rate, -GYRO_RANGE), GYRO_RANGE),
+            min(max(difference, -_DIFFERENCE_RANGE), _DIFFERENCE_RANGE),
+            state.turn_command,
+        )
 
 
 TWO_WHEEL_STEER = TwoWheelSteer()

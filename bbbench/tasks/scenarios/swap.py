@@ -15,6 +15,7 @@ own episode and leaves the world, as on the crossings.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -27,7 +28,7 @@ from bbbench.tasks.group import Group, spawn_poses
 from bbbench.tasks.observation import group_observations
 from bbbench.tasks.reward import StayUpReward, has_fallen
 from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
-from bbbench.tasks.scenarios.waypoints import SEEN_DISTANCE, bearing
+from bbbench.tasks.scenarios.waypoints import SEEN_DISTANCE
 from bbbench.tasks.spec import TaskSpec
 
 ARRIVAL_RATE = 1.0  # 1/s: the target speed near the goal, per m from it
@@ -70,7 +71,8 @@ class Swap(Scenario):
         self._size = self._space.shape[0]
         self.goals: list[tuple[float, float]] = []
         self._live: list[int] = []  # the live bots' indices at the last observation
-        self._seen: tuple[list, list] = ([], [])  # their goals and targets then
+        # Their goals' distances, their targets and their velocities towards their goals.
+        self._seen: tuple[list, list, list] = ([], [], [])
 
     @classmethod
     def refusal(cls, task) -> str | None:
@@ -112,22 +114,36 @@ class Swap(Scenario):
         k = self.group.neighbours
         return Slots(self._own, k, len(_NEIGHBOUR_FIELDS), None)
 
-    def _goals(self, states: list[Any], targets: list[float]):
-        """Each live bot's goal (distance, cos, sin) and its arrival-limited target."""
-        goals = [bearing(state, self.goals[i]) for i, state in zip(self._live, states, strict=True)]
-        limited = [
-            min(speed, ARRIVAL_RATE * goal[0]) for speed, goal in zip(targets, goals, strict=True)
-        ]
-        return goals, limited
-
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
     ) -> np.ndarray:
-        """The live bots' observations, one row each: the robot's layout, the goal, the
-        neighbours (`group_observations`)."""
-        self._live = list(scene.live)
-        self._seen = goals, limited = self._goals(states, targets)  # `outcome` reads them
-        extras = [(min(d, SEEN_DISTANCE), cos, sin) for d, cos, sin in goals]
+        """The live bots' observations, one row each: the robot's layout (the target the
+        arrival-limited one), the goal's distance and bearing (`bearing`'s arithmetic,
+        written out: this runs every step), the neighbours (`group_observations`). What
+        `outcome` needs of the goals is kept: it runs next, on the same states."""
+        self._live = live = list(scene.live)
+        goals, rate, seen = self.goals, ARRIVAL_RATE, SEEN_DISTANCE
+        extras, limited, distances, towards = [], [], [], []
+        for i, state, speed in zip(live, states, targets, strict=True):
+            x, y, _ = state.axle
+            gx, gy = goals[i]
+            dx, dy = gx - x, gy - y
+            distance = math.sqrt(dx * dx + dy * dy)
+            if distance > 0.0:
+                hx, hy = state.heading
+                cos, sin = (hx * dx + hy * dy) / distance, (hx * dy - hy * dx) / distance
+                cos = 1.0 if cos > 1.0 else -1.0 if cos < -1.0 else cos  # rounding aside
+                sin = 1.0 if sin > 1.0 else -1.0 if sin < -1.0 else sin
+                vx, vy = state.velocity
+                towards.append((vx * dx + vy * dy) / distance)
+            else:
+                cos, sin = 1.0, 0.0
+                towards.append(0.0)
+            near = rate * distance
+            limited.append(near if near < speed else speed)
+            distances.append(distance)
+            extras.append((distance if distance < seen else seen, cos, sin))
+        self._seen = distances, limited, towards
         return group_observations(
             self.robot, states, commands, limited, self.group, self._size, extras
         )
@@ -139,16 +155,9 @@ class Swap(Scenario):
         fall ends that bot's episode alone), and its info: the reward's two terms,
         `velocity_error` (m/s), `goal_distance` (m) and `episode_seed`. The goals as
         `observe` saw them: it runs first, on the same states."""
-        goals, limited = self._seen
         rewards, fell, infos = [], [], []
         terms = self.reward.terms
-        for i, state, (distance, _, _), target in zip(
-            self._live, states, goals, limited, strict=True
-        ):
-            x, y, _ = state.axle
-            gx, gy = self.goals[i]
-            vx, vy = state.velocity
-            toward = (vx * (gx - x) + vy * (gy - y)) / distance if distance > 0.0 else 0.0
+        for state, distance, target, toward in zip(states, *self._seen, strict=True):
             velocity_error = abs(toward - target)
             upright, tracking = terms(state.pitch, velocity_error)
             down = has_fallen(state)
