@@ -165,6 +165,16 @@ class Column(Scenario):
 
     broken_cause: ClassVar[str] = "the coupling broke"  # an Outcome's cause when it does
 
+    def scored(
+        self, pitch: float, states: list[Any], target: Any
+    ) -> tuple[float, float, dict[str, float]]:
+        """The team reward's two terms from the most tilted `pitch` and the team's
+        `target`, and the errors they were scored on (info keys): the team's velocity
+        against the target velocity."""
+        velocity_error = abs(self.team_velocity(states) - target)
+        upright, velocity = self.reward.terms(pitch, velocity_error)
+        return upright, velocity, {"velocity_error": velocity_error}
+
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
     ) -> Outcome:
@@ -172,19 +182,14 @@ class Column(Scenario):
         of them at a fall of any bot or when the coupling breaks, and the cause names
         the bots that fell and a broken coupling."""
         pitch = max((state.pitch for state in states), key=abs)
-        velocity_error = abs(self.team_velocity(states) - targets[0])
-        upright, velocity = self.reward.terms(pitch, velocity_error)
+        upright, velocity, errors = self.scored(pitch, states, targets[0])
         fell = [has_fallen(state) for state in states]
         broken = self.broken()
         cause = "; ".join(
             [c for c in (fell_cause(agents, fell), self.broken_cause if broken else "") if c]
         )
-        info = {
-            "reward_upright": upright,
-            "reward_velocity": velocity,
-            "velocity_error": velocity_error,
-            "episode_seed": seed,
-        }
+        info = {"reward_upright": upright, "reward_velocity": velocity, **errors}
+        info["episode_seed"] = seed
         return Outcome(
             [upright + velocity] * len(agents),
             fell,

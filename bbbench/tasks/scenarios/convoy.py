@@ -14,8 +14,8 @@ from bbbench.portable import dot3
 from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField, box
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import Group
-from bbbench.tasks.reward import StayUpReward, TwistReward, has_fallen
-from bbbench.tasks.scenario import Outcome, fell_cause, register_scenario
+from bbbench.tasks.reward import StayUpReward, TwistReward
+from bbbench.tasks.scenario import register_scenario
 from bbbench.tasks.scenarios.column import (
     PARKED,
     TEAM_HISTORY,
@@ -228,34 +228,19 @@ class ConvoyTurns(Convoy):
         yaw_rates[0, 0] = min(max(yaw_rate, -GYRO_RANGE), GYRO_RANGE)
         return np.concatenate([rows[:, :own], yaw_rates, rows[:, own:]], axis=1)
 
-    def outcome(
-        self, agents: list[str], states: list[Any], targets: list[Any], seed: int
-    ) -> Outcome:
-        """The team's reward for every bot (the class's docstring), and the team's end at
-        a fall or a broken tether, as Convoy's."""
-        velocity, yaw_rate = targets[0]
-        pitch = max((state.pitch for state in states), key=abs)
+    def scored(
+        self, pitch: float, states: list[Any], target: Any
+    ) -> tuple[float, float, dict[str, float]]:
+        """`TwistReward.terms` (the class's docstring): the team's velocity against the
+        target velocity, the front bot's yaw rate against the target yaw rate."""
+        velocity, yaw_rate = target
         velocity_error = abs(self.team_velocity(states) - velocity)
         yaw_rate_error = abs(states[0].yaw_rate - yaw_rate)
         upright, tracking = self.reward.terms(pitch, velocity_error, yaw_rate_error)
-        fell = [has_fallen(state) for state in states]
-        broken = self.broken()
-        cause = "; ".join(
-            [c for c in (fell_cause(agents, fell), self.broken_cause if broken else "") if c]
-        )
-        info = {
-            "reward_upright": upright,
-            "reward_velocity": tracking,
-            "velocity_error": velocity_error,
-            "yaw_rate_error": yaw_rate_error,
-            "episode_seed": seed,
-        }
-        return Outcome(
-            [upright + tracking] * len(agents),
-            fell,
-            broken or any(fell),
-            cause,
-            [dict(info) for _ in agents],
+        return (
+            upright,
+            tracking,
+            {"velocity_error": velocity_error, "yaw_rate_error": yaw_rate_error},
         )
 
 

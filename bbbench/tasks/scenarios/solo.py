@@ -3,7 +3,7 @@ plays, a row each (`TASKS`), the two-wheel bot's and the wheel-legged robot's.""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -26,6 +26,14 @@ class Solo(Scenario):
 
     name = "solo"
     summary = "one bot alone, at the origin heading along +y"
+    scans_ground: ClassVar[bool] = True  # observes the height scan when the task asks
+
+    @classmethod
+    def refusal(cls, task) -> str | None:
+        refused = super().refusal(task)
+        if refused is None and task.height_scan and not cls.scans_ground:
+            return f"{task.id}: the {cls.name!r} scenario observes no height scan"
+        return refused
 
     def __init__(self, task) -> None:
         super().__init__(task)

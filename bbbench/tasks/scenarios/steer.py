@@ -39,20 +39,12 @@ class Steer(Solo):
     robots = ("two-wheel-steer",)
     metrics = ("velocity_error", "yaw_rate_error")
     steers = True
+    scans_ground = False
 
     def __init__(self, task) -> None:
         super().__init__(task)
         self.layout = (*self.robot.layout(), TARGET_YAW_RATE)
         self._space = box(self.layout)
-
-    @classmethod
-    def refusal(cls, task) -> str | None:
-        refused = super().refusal(task)
-        if refused:
-            return refused
-        if task.height_scan:
-            return f"{task.id}: the {cls.name!r} scenario observes no height scan"
-        return None
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int

@@ -92,6 +92,7 @@ class Waypoints(Solo):
     summary = "one steering bot driving through a seeded course of waypoints"
     robots = ("two-wheel-steer",)
     metrics = ("velocity_error", "waypoints_per_minute")
+    scans_ground = False
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -107,8 +108,6 @@ class Waypoints(Solo):
         refused = super().refusal(task)
         if refused:
             return refused
-        if task.height_scan:
-            return f"{task.id}: the {cls.name!r} scenario observes no height scan"
         if not isinstance(task.reward, StayUpReward):
             return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
         return None
