@@ -18,6 +18,7 @@ import bbbench
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.robots.layout import INDEX
 from bbbench.tasks.group import MAX_BOTS, NEIGHBOUR_FIELDS, Group, spawn_poses
+from bbbench.tasks.observation import neighbour_layout
 
 MULTI = "bbbench/MultiBalance-v0"
 BUMPS = "bbbench/MultiBumps-v0"
@@ -487,14 +488,14 @@ def test_wrong_constructors_say_which_to_use():
 
 def test_docstring_table_matches_the_neighbour_block():
     doc = MultiBalanceEnv.__doc__
-    group = Group()
-    low, high = group.bounds()
-    for k, name in enumerate(NEIGHBOUR_FIELDS):
+    first = neighbour_layout(Group())[: len(NEIGHBOUR_FIELDS)]  # the nearest neighbour's
+    for k, (name, field) in enumerate(zip(NEIGHBOUR_FIELDS, first, strict=True)):
         row = next(line for line in doc.splitlines() if f"| {5 + k} + 4k |" in line)
         cells = [cell.strip() for cell in row.strip().strip("|").split("|")]
         assert cells[1] == name
-        assert float(cells[2]) == low[k]
-        assert float(cells[3]) == high[k]
+        assert field.name.endswith(name)
+        assert float(cells[2]) == field.low
+        assert float(cells[3]) == field.high
     assert "MultiBalance: v0: initial release." in doc
 
 

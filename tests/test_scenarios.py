@@ -16,14 +16,13 @@ import cloudpickle
 import numpy as np
 import pybullet
 import pytest
-from gymnasium import spaces
 from pettingzoo.test import parallel_api_test
 
 import bbbench
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation.play import MultiEpisode
+from bbbench.robots.layout import ObservationField
 from bbbench.tasks.group import Group
-from bbbench.tasks.observation import agent_observation_space
 from bbbench.tasks.scenarios import SCENARIOS, Crossing, Scenario, Solo
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE
@@ -45,13 +44,12 @@ class Ball(Crossing):
 
     def __init__(self, task) -> None:
         super().__init__(task)
-        single = agent_observation_space(self.robot, task.group)
         reach = task.group.neighbour_range
-        self._space = spaces.Box(
-            low=np.concatenate([single.low, [-reach, -reach]]).astype(np.float32),
-            high=np.concatenate([single.high, [reach, reach]]).astype(np.float32),
+        self.layout = (
+            *self.layout,
+            ObservationField("ball_right", "m", -reach, reach, "the ball: to the right"),
+            ObservationField("ball_forward", "m", -reach, reach, "the ball: ahead"),
         )
-        self._size = single.shape[0]
         self.ball = None
 
     def build(self, client, bots) -> None:
@@ -68,9 +66,6 @@ class Ball(Crossing):
         height = scene.ground.spawn_height(x, y) + BALL_RADIUS
         self._client.resetBasePositionAndOrientation(self.ball, (x, y, height), (0, 0, 0, 1))
         self._client.resetBaseVelocity(self.ball, (0, 0, 0), (0, 0, 0))
-
-    def observation_space(self):
-        return self._space
 
     def _ball(self) -> complex:
         (x, y, _), _ = self._client.getBasePositionAndOrientation(self.ball)
@@ -231,3 +226,21 @@ def test_every_task_of_the_suite_is_on_a_declared_track_and_an_undeclared_one_is
     )
     with pytest.raises(ValueError, match=r"no track ranks the wheel-legged robot's multi-bot"):
         track_of(legged_group)
+
+
+@pytest.mark.parametrize("task_id", bbbench.list_tasks(latest=True))
+def test_a_scenarios_layout_names_every_value_a_bot_observes(task_id):
+    task = SUITE[task_id]
+    scenario = task.scenario_class(task)
+    names = [field.name for field in scenario.layout]
+    assert len(set(names)) == len(names)
+    assert all(field.low < field.high and field.meaning for field in scenario.layout)
+    if task.multi_agent:
+        env = bbbench.make_parallel(task_id)
+        observations, _ = env.reset(seed=0)
+        widths = {len(observation) for observation in observations.values()}
+    else:
+        env = bbbench.make(task_id)
+        widths = {len(env.reset(seed=0)[0])}
+    env.close()
+    assert widths == {len(names)}

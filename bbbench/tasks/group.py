@@ -60,12 +60,6 @@ class Group:
                 f"heading_jitter must be in [0, pi/2) rad, got {self.heading_jitter!r}"
             )
 
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Low and high of the neighbour block, bot by bot."""
-        one = np.array([self.neighbour_range] * 2 + [NEIGHBOUR_SPEED_RANGE] * 2, dtype=np.float64)
-        high = np.tile(one, self.neighbours)
-        return -high, high
-
 
 def spawn_poses(rng: np.random.Generator, group: Group) -> list[tuple[tuple[float, float], float]]:
     """Each bot's start (x, y) and yaw, drawn from `rng`.

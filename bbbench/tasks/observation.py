@@ -5,23 +5,34 @@ documents the layout)."""
 from __future__ import annotations
 
 import numpy as np
-from gymnasium import spaces
 
 from bbbench.robots import Robot
-from bbbench.robots.layout import OBSERVATION_DTYPE
+from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField
 from bbbench.tasks.group import NEIGHBOUR_SPEED_RANGE, Group, nearest_others
 
 
-def agent_observation_space(robot: Robot, group: Group) -> spaces.Box:
-    """One bot's observation space in a multi-bot task: the robot's single-bot layout,
-    then its neighbours' (`Group.bounds`)."""
-    single = robot.observation_space()
-    low, high = group.bounds()
-    return spaces.Box(
-        low=np.concatenate([single.low, low]).astype(OBSERVATION_DTYPE),
-        high=np.concatenate([single.high, high]).astype(OBSERVATION_DTYPE),
-        dtype=OBSERVATION_DTYPE,
-    )
+def neighbour_layout(group: Group) -> tuple[ObservationField, ...]:
+    """The fields of a bot's neighbour block: its `group.neighbours` nearest others within
+    `group.neighbour_range`, nearest first, 4 values each in the bot's own frame; a slot
+    without a neighbour reads 0."""
+    reach, top = group.neighbour_range, NEIGHBOUR_SPEED_RANGE
+    return tuple(
+        field
+        for k in range(1, group.neighbours + 1)
+        for field in (
+            ObservationField(f"neighbour{k}_right", "m", -reach, reach,
+                             f"the {_ordinal(k)} nearest other bot: how far to the right"),
+            ObservationField(f"neighbour{k}_forward", "m", -reach, reach, "how far ahead"),
+            ObservationField(f"neighbour{k}_right_velocity", "m/s", -top, top,
+                             "its velocity minus this bot's, to the right"),
+            ObservationField(f"neighbour{k}_forward_velocity", "m/s", -top, top,
+                             "the same, ahead"),
+        )
+    )  # fmt: skip
+
+
+def _ordinal(k: int) -> str:
+    return {1: "1st", 2: "2nd", 3: "3rd"}.get(k, f"{k}th")
 
 
 def group_observations(

@@ -11,7 +11,7 @@ stepping, reading); the scenario owns:
 |-------------------------------------|----------------------------------------------------|
 | extra bodies and constraints        | `build(client, bots)`                              |
 | the starting poses                  | `starts(rng)`; its bodies: `move_clear`, `place`   |
-| the observation and its space       | `observation_space()`, `observe`                   |
+| the observation's fields and values | `layout` (its space and docs' tables), `observe`   |
 | each step's outcome                 | `outcome`: an `Outcome` (rewards, falls, its end)  |
 | the per-episode metrics             | `metrics`: info keys averaged per bot-step         |
 | what becomes of a bot that has ended | `leave(scene, indices)`                           |
@@ -41,6 +41,7 @@ import numpy as np
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.robots.layout import ObservationField, box
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import MIN_BOTS
 from bbbench.tasks.reward import TwistReward
@@ -239,13 +240,20 @@ class Scenario(abc.ABC):
 
     # -- observations -------------------------------------------------------------
 
-    @abc.abstractmethod
+    # Every field of one agent's observation, in order: set by `__init__`. The space is
+    # made from it, and the docs' observation tables are printed from it.
+    layout: tuple[ObservationField, ...]
+
     def observation_space(self) -> spaces.Box:
-        """One agent's observation space (the same object every call).
+        """One agent's observation space, made from `layout` (the same object every call).
 
         `observe` runs once after every reset and every step, before `outcome`: a
         scenario reads its own bodies there, once a step, and keeps what `outcome` and
         `before_step` need."""
+        space = self.__dict__.get("_space")
+        if space is None:
+            space = self.__dict__["_space"] = box(self.layout)
+        return space
 
     @abc.abstractmethod
     def observe(

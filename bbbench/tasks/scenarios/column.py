@@ -11,7 +11,6 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from gymnasium import spaces
 
 from bbbench.parameters import is_real
 from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField
@@ -71,14 +70,7 @@ class Column(Scenario):
         super().__init__(task)
         self.coupling = task.coupling
         self.spacing = self.coupling_spacing(task.coupling)
-        own = self.robot.layout()
-        fields = own + self.coupling_layout + NEIGHBOUR_LAYOUT
-        self._space = spaces.Box(
-            low=np.array([f.low for f in fields], dtype=OBSERVATION_DTYPE),
-            high=np.array([f.high for f in fields], dtype=OBSERVATION_DTYPE),
-            dtype=OBSERVATION_DTYPE,
-        )
-        self.layout = fields
+        self.layout = self.robot.layout() + self.coupling_layout + NEIGHBOUR_LAYOUT
         self._bodies: tuple[int, ...] = ()
         self._client_id = -1
 
@@ -117,9 +109,6 @@ class Column(Scenario):
         return [row] * self.n_bots  # one schedule: the team's
 
     # -- observations ----------------------------------------------------------------
-
-    def observation_space(self) -> spaces.Box:
-        return self._space
 
     def slots(self) -> Slots:
         """The robot's own values and the coupling's, then the bots ahead and behind,

@@ -11,7 +11,7 @@ import pybullet
 
 from bbbench.parameters import parameters
 from bbbench.portable import dot3
-from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField, box
+from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import Group
 from bbbench.tasks.reward import StayUpReward, TwistReward
@@ -214,7 +214,6 @@ class ConvoyTurns(Convoy):
         super().__init__(task)
         own = len(self.robot.layout())
         self.layout = (*self.layout[:own], TARGET_YAW_RATE, *self.layout[own:])
-        self._space = box(self.layout)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int

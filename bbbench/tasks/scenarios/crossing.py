@@ -6,11 +6,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from bbbench.tasks.commands import FORWARD_TARGETS
 from bbbench.tasks.group import Group, spawn_poses
-from bbbench.tasks.observation import agent_observation_space, group_observations
+from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, stay_up_history, step_outcome
 from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
 from bbbench.tasks.spec import TaskSpec
@@ -32,16 +31,13 @@ class Crossing(Scenario):
     def __init__(self, task) -> None:
         super().__init__(task)
         self.group = task.group
-        self._space = agent_observation_space(self.robot, task.group)
-        self._size = self._space.shape[0]
+        self.layout = self.robot.layout() + neighbour_layout(task.group)
+        self._size = len(self.layout)
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         pitch = self.task.initial_pitch
         poses = spawn_poses(rng, self.group)
         return poses, list(rng.uniform(-pitch, pitch, size=self.group.n_bots))
-
-    def observation_space(self) -> spaces.Box:
-        return self._space
 
     def slots(self) -> Slots:
         """The robot's own values, then the K nearest neighbours' 4 values each."""

@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-from gymnasium import spaces
 
 from bbbench.robots.layout import SCAN_OFFSETS, observe
 from bbbench.tasks.commands import FORWARD_TARGETS, SPEED_TARGETS, VELOCITY_TARGETS
@@ -37,15 +36,12 @@ class Solo(Scenario):
 
     def __init__(self, task) -> None:
         super().__init__(task)
-        self._space = self.robot.observation_space(task.height_scan)
+        self.layout = self.robot.layout(task.height_scan)
         self._reward_of = step_outcome
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         pitch = self.task.initial_pitch
         return [((0.0, 0.0), 0.0)], [rng.uniform(-pitch, pitch)]
-
-    def observation_space(self) -> spaces.Box:
-        return self._space
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from bbbench.robots.layout import GYRO_RANGE, ObservationField, box
+from bbbench.robots.layout import GYRO_RANGE, ObservationField
 from bbbench.robots.steering import steer_observation
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.reward import TwistReward, twist_outcome
@@ -44,7 +44,6 @@ class Steer(Solo):
     def __init__(self, task) -> None:
         super().__init__(task)
         self.layout = (*self.robot.layout(), TARGET_YAW_RATE)
-        self._space = box(self.layout)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int

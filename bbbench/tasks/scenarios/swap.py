@@ -20,12 +20,11 @@ from typing import Any
 
 import numpy as np
 import pybullet
-from gymnasium import spaces
 
-from bbbench.robots.layout import OBSERVATION_DTYPE, ObservationField, box
+from bbbench.robots.layout import ObservationField
 from bbbench.tasks.commands import SPEED_TARGETS
-from bbbench.tasks.group import Group, spawn_poses
-from bbbench.tasks.observation import group_observations
+from bbbench.tasks.group import NEIGHBOUR_FIELDS, Group, spawn_poses
+from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, has_fallen
 from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
 from bbbench.tasks.scenarios.waypoints import SEEN_DISTANCE
@@ -39,7 +38,6 @@ _GOAL_FIELDS = (
     ObservationField("goal_cos", "", -1.0, 1.0, "cosine of the goal's bearing (1: dead ahead)"),
     ObservationField("goal_sin", "", -1.0, 1.0, "sine of the goal's bearing (+: to the left)"),
 )
-_NEIGHBOUR_FIELDS = ("right", "forward", "right_velocity", "forward_velocity")
 
 
 @register_scenario
@@ -60,15 +58,9 @@ class Swap(Scenario):
     def __init__(self, task) -> None:
         super().__init__(task)
         self.group = task.group
-        low, high = task.group.bounds()
-        own = box((*self.robot.layout(), *_GOAL_FIELDS))
-        self._space = spaces.Box(
-            low=np.concatenate([own.low, low]).astype(OBSERVATION_DTYPE),
-            high=np.concatenate([own.high, high]).astype(OBSERVATION_DTYPE),
-            dtype=OBSERVATION_DTYPE,
-        )
-        self._own = own.shape[0]
-        self._size = self._space.shape[0]
+        self._own = len(self.robot.layout()) + len(_GOAL_FIELDS)
+        self.layout = (*self.robot.layout(), *_GOAL_FIELDS, *neighbour_layout(task.group))
+        self._size = len(self.layout)
         self.goals: list[tuple[float, float]] = []
         self._live: list[int] = []  # the live bots' indices at the last observation
         # Their goals' distances, their targets and their velocities towards their goals.
@@ -106,13 +98,10 @@ class Swap(Scenario):
         self.goals = [(-x, -y) for (x, y), _ in poses]
         return poses, list(rng.uniform(-pitch, pitch, size=self.group.n_bots))
 
-    def observation_space(self) -> spaces.Box:
-        return self._space
-
     def slots(self) -> Slots:
         """The robot's own values and the goal, then the K nearest neighbours' 4 values."""
         k = self.group.neighbours
-        return Slots(self._own, k, len(_NEIGHBOUR_FIELDS), None)
+        return Slots(self._own, k, len(NEIGHBOUR_FIELDS), None)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pybullet
 
-from bbbench.robots.layout import ObservationField, box, observation_with
+from bbbench.robots.layout import ObservationField, observation_with
 from bbbench.robots.steering import SteerState, own_values
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.reward import StayUpReward, has_fallen
@@ -97,7 +97,6 @@ class Waypoints(Solo):
     def __init__(self, task) -> None:
         super().__init__(task)
         self.layout = (*self.robot.layout(), *_GOAL_FIELDS)
-        self._space = box(self.layout)
         self.course: list[tuple[float, float]] = []
         self.goal = 0  # the index of the first point not reached
         self._reached = False  # whether the last observed step reached a point
