@@ -1,7 +1,7 @@
-"""Write the README's frame of each terrain task, team task and steering task
-(docs/images/*.png).
+"""Write the frame of each task for the README and the site's task pages
+(docs/images/*.png), and their GIFs.
 
-    python scripts/terrain_frames.py [--teams | --steering]  # needs pillow: bbbench[video]
+    python scripts/terrain_frames.py [--teams | --steering | --balance]  # needs bbbench[video]
 
 Each frame is the env's own `rgb_array` render, 1.5 s into the first evaluation seed
 with the robot's classical controller driving (PD; the wheel-legged robot's own; the
@@ -15,7 +15,9 @@ of BeamCarryBumps-v0 (docs/images/beamcarry-bumps.gif). `--teams`: the team task
 and GIF only. `--steering`: the steering robot's tasks, each driven by its built-in
 controller (steer, steer-avoid on Swap, team on ConvoyTurns; on Swap 2 s in, as the bots
 meet), and the GIF of steer-avoid's bots passing each other on Swap-v0
-(docs/images/swap.gif).
+(docs/images/swap.gif). `--balance`: the flat, pushed and crossing tasks (PD; the
+crossing controller on the multi-bot ones), and the GIF of the crossing controller's bots
+on MultiBalance-v1 (docs/images/multibalance.gif).
 """
 
 from __future__ import annotations
@@ -83,8 +85,20 @@ STEERING = {
 }
 
 
-def steering_frames() -> None:
-    for task_id, name in STEERING.items():
+# The balance and crossing tasks (the site's task pages): each with its classical controller.
+BALANCE = {
+    "bbbench/FlatBalance-v1": "pd",
+    "bbbench/VelocityTracking-v1": "pd",
+    "bbbench/NoisySensors-v1": "pd",
+    "bbbench/PushRecovery-v0": "pd",
+    "bbbench/MultiBalance-v1": "crossing",
+    "bbbench/MultiBumps-v1": "crossing",
+}
+
+
+def frames(tasks: dict[str, str]) -> None:
+    """A frame of each task, with its policy (a built-in's name) driving."""
+    for task_id, name in tasks.items():
         actor = load_policy(name).actor(task_id)
         multi = bbbench.spec(task_id).multi_agent
         env = (bbbench.make_parallel if multi else bbbench.make)(task_id, render_mode="rgb_array")
@@ -125,13 +139,18 @@ if __name__ == "__main__":
     only = parser.add_mutually_exclusive_group()
     only.add_argument("--teams", action="store_true", help="the team tasks only")
     only.add_argument("--steering", action="store_true", help="the steering tasks only")
+    only.add_argument("--balance", action="store_true", help="the balance and crossing tasks")
     args = parser.parse_args()
-    if not (args.teams or args.steering):
+    everything = not (args.teams or args.steering or args.balance)
+    if everything:
         main()
         gif("legged", "bbbench/LeggedBumps-v0", "legged-bumps.gif")
-    if not args.steering:
+    if everything or args.teams:
         team_frames()
         gif("team", "bbbench/BeamCarryBumps-v0", "beamcarry-bumps.gif")
-    if not args.teams:
-        steering_frames()
+    if everything or args.steering:
+        frames(STEERING)
         gif("steer-avoid", "bbbench/Swap-v0", "swap.gif")
+    if everything or args.balance:
+        frames(BALANCE)
+        gif("crossing", "bbbench/MultiBalance-v1", "multibalance.gif")

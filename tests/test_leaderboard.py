@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
@@ -556,28 +555,6 @@ def test_the_metadata_of_an_added_submission_is_checked_like_a_written_one(board
 
 
 # -- the page, in a real browser (headless Chromium; .ci/run installs it) -----------
-
-
-@pytest.fixture(scope="module")
-def chromium():
-    """A headless Chromium driven by Selenium. Skipped where Chromium is not installed,
-    unless BBBENCH_REQUIRE_BROWSER is set (as .ci/run sets it): then it fails."""
-    browser, driver = shutil.which("chromium"), shutil.which("chromedriver")
-    if not (browser and driver):
-        if os.environ.get("BBBENCH_REQUIRE_BROWSER"):
-            pytest.fail("Chromium and chromedriver are required (apt-get install chromium ...)")
-        pytest.skip("needs chromium and chromium-driver (Debian packages)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = browser
-    for argument in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-        options.add_argument(argument)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    session = webdriver.Chrome(service=Service(executable_path=driver), options=options)
-    yield session
-    session.quit()
 
 
 def rows_of(table) -> list[str]:

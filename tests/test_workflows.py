@@ -87,3 +87,13 @@ def test_pull_requests_check_with_the_readmes_install_and_main_publishes():
     assert "actions/upload-artifact@" in text
     assert "actions/deploy-pages@" in text
     assert "refs/heads/main" in text
+
+
+def test_main_publishes_the_site_built_strict_with_the_board_inside():
+    text = LEADERBOARD.read_text()
+    publish = text.split("  publish:\n", 1)[1].split("  deploy:\n", 1)[0]
+    assert "run: mkdocs build --strict\n" in publish
+    assert "path: site/\n" in publish  # mkdocs.yml's site_dir, the board copied in
+    assert "site_dir: site\n" in (ROOT / "mkdocs.yml").read_text()
+    for watched in ('"docs/**"', '"mkdocs.yml"', '"leaderboards/**"'):
+        assert watched in text.split("push:", 1)[1].split("workflow_dispatch", 1)[0]

@@ -221,12 +221,13 @@ def robustness_panels(entries: Sequence[dict[str, Any]]) -> list[dict[str, Any]]
     return panels
 
 
-README_FIGURE = "../docs/images/robustness.svg"  # beside the board: the project's README's
+README_FIGURE = "../docs/images/robustness.svg"  # beside the board: the robustness guide's
 
 
 def readme_robustness_figure(document: dict[str, Any]) -> str | None:
-    """The main README's robustness figure: PD, LQR and the best-ranked PPO entry of the
-    single-bot track on every axis, with 95% intervals; None without them."""
+    """The robustness guide's figure (docs/guides/robustness.md): PD, LQR and the
+    best-ranked PPO entry of the single-bot track on every axis, with 95% intervals; None
+    without them."""
     entries = next(t for t in document["tracks"] if t["track"] == "single")["entries"]
     profiled = [e for e in entries if e["robustness"] is not None]
     chosen = [e for slug in ("pd", "lqr") for e in profiled if e["slug"] == slug]

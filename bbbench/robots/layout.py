@@ -91,6 +91,23 @@ HEIGHT_SCAN_LAYOUT = tuple(
 )
 
 
+def fields_markdown(fields: Sequence[ObservationField]) -> str:
+    """`fields` as a Markdown table (Num, Observation, Min, Max, Unit, Meaning): the
+    robots' docstrings and the site's task pages print their layouts with it."""
+    rows = (
+        f"| {i} | {field.name} | {field.low:.5g} | {field.high:.5g} | {field.unit} | "
+        f"{field.meaning} |"
+        for i, field in enumerate(fields)
+    )
+    return "\n".join(
+        (
+            "| Num | Observation | Min | Max | Unit | Meaning |",
+            "|-----|-------------|-----|-----|------|---------|",
+            *rows,
+        )
+    )
+
+
 def box(fields: tuple[ObservationField, ...]) -> spaces.Box:
     """The Box of an observation made of `fields`, in order."""
     return spaces.Box(

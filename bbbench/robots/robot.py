@@ -127,6 +127,10 @@ class Robot:
         """The action and observation spaces as Markdown tables, for its tasks' docstrings."""
         raise NotImplementedError
 
+    def actions_markdown(self) -> str:
+        """The action spaces (every mode) in Markdown, for the site's task pages."""
+        raise NotImplementedError
+
     def describe_layout(self, height_scan: bool = False) -> str:
         """'Box(5,) (two-wheel: pitch, ..., target_velocity)': for error messages."""
         fields = self.layout(height_scan)

@@ -44,6 +44,7 @@ from bbbench.robots.layout import (
     GYRO_RANGE,
     OBSERVATION_DTYPE,
     ObservationField,
+    fields_markdown,
     observation_with,
     shared_layout,
 )
@@ -301,25 +302,14 @@ def steer_observation(
     )
 
 
-def interface_markdown() -> str:
-    """The robot's action and observation spaces as Markdown tables."""
+def actions_markdown() -> str:
+    """The robot's action spaces, in Markdown: both modes, and the discrete table."""
     discrete = [
         "| Index | Forward change (rad/s) | Turning change (rad/s) |",
         "|-------|------------------------|------------------------|",
         *(f"| {i} | {f:g} | {t:g} |" for i, (f, t) in enumerate(DISCRETE_ACTIONS)),
     ]
-    observations = [
-        "| Num | Observation | Min | Max | Unit | Meaning |",
-        "|-----|-------------|-----|-----|------|---------|",
-        *(
-            f"| {i} | {field.name} | {field.low:.5g} | {field.high:.5g} | {field.unit} | "
-            f"{field.meaning} |"
-            for i, field in enumerate(OBSERVATION_LAYOUT)
-        ),
-    ]
     return f"""\
-## Action Space
-
 `discrete` (the default): `Discrete({len(DISCRETE_ACTIONS)})`, a change of the forward
 command and of the turning command at once. `continuous`: `Box(-1, 1, (2,), float32)`, the
 forward change scaled to at most {MAX_WHEEL_SPEED_CHANGE:g} rad/s and the turning change to
@@ -328,14 +318,22 @@ at most {MAX_TURN_CHANGE:g} rad/s. The forward command is clamped to
 each wheel (forward - turning on the left, forward + turning on the right) to
 +-{MODEL.wheel_speed_limit:g} rad/s.
 
-{chr(10).join(discrete)}
+{chr(10).join(discrete)}"""
+
+
+def interface_markdown() -> str:
+    """The robot's action and observation spaces as Markdown tables."""
+    return f"""\
+## Action Space
+
+{actions_markdown()}
 
 ## Observation Space
 
 `Box({_SIZE},)` of `float32` (a task appends its own fields): the five values every
 robot's tasks share, then the robot's own.
 
-{chr(10).join(observations)}"""
+{fields_markdown(OBSERVATION_LAYOUT)}"""
 
 
 class TwoWheelSteer(Robot):
@@ -362,6 +360,9 @@ class TwoWheelSteer(Robot):
 
     def interface_markdown(self) -> str:
         return interface_markdown()
+
+    def actions_markdown(self) -> str:
+        return actions_markdown()
 
     def observe(
         self,

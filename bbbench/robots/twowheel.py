@@ -101,6 +101,20 @@ class TwoWheel(Robot):
     def own_layout(self) -> tuple[ObservationField, ...]:
         return OBSERVATION_LAYOUT
 
+    def actions_markdown(self) -> str:
+        table = [
+            "| Num | Change of commanded wheel speed (rad/s) |",
+            "|-----|-----------------------------------------|",
+            *(f"| {i} | {change:g} |" for i, change in enumerate(WHEEL_SPEED_CHANGES)),
+        ]
+        return (
+            f'`action_mode="discrete"` (default): `Discrete({len(WHEEL_SPEED_CHANGES)})`, '
+            "a change of the commanded wheel speed per step (the tutorial's table). "
+            '`action_mode="continuous"`: `Box(-1, 1, (1,), float32)`, scaled to a change '
+            f"of -{MAX_WHEEL_SPEED_CHANGE:g} to {MAX_WHEEL_SPEED_CHANGE:g} rad/s. The "
+            f"command is clamped to +-{MODEL.wheel_speed_limit:g} rad/s.\n\n" + "\n".join(table)
+        )
+
     def observe(
         self,
         reading: tuple[float, float, float],

@@ -47,6 +47,7 @@ from bbbench.robots.layout import (
     ENCODER_SPEED_RANGE,
     GYRO_RANGE,
     ObservationField,
+    fields_markdown,
     observation_with,
     sensed,
     shared_layout,
@@ -207,9 +208,8 @@ def _legs_observed(state: LeggedState) -> list[float]:
     return [h if v > h else lo if v < lo else v for v, lo, h in zip(values, _LOW, _HIGH)]  # noqa: B905
 
 
-def interface_markdown() -> str:
-    """The robot's action and observation spaces as Markdown tables, from the layouts in
-    this module: its tasks' docstrings and docs/robots.md carry them (tests check both)."""
+def actions_markdown() -> str:
+    """The robot's action space, in Markdown, from the layouts in this module."""
     legs = LEGGED_MODEL.legs
     actions = [
         "| Num | Action | -1 | +1 | Unit |",
@@ -224,18 +224,7 @@ def interface_markdown() -> str:
             for i, name in list(enumerate(ACTION_LAYOUT))[4:]
         ),
     ]
-    observations = [
-        "| Num | Observation | Min | Max | Unit | Meaning |",
-        "|-----|-------------|-----|-----|------|---------|",
-        *(
-            f"| {i} | {field.name} | {field.low:.5g} | {field.high:.5g} | {field.unit} | "
-            f"{field.meaning} |"
-            for i, field in enumerate(OBSERVATION_LAYOUT)
-        ),
-    ]
     return f"""\
-## Action Space
-
 `Box(-1, 1, (6,), float32)`, continuous only. A leg value v aims its joint at the
 centre of its range plus v times half the range (-1 and +1 are the range's ends; the
 standing pose is 0); a target beyond the range is clipped to it, never refused. A wheel
@@ -243,7 +232,16 @@ value changes that wheel's commanded speed by v rad/s, as on the two-wheel bot: 
 lie in [-1, 1] (outside, or NaN anywhere, raises `ValueError`), and the command is
 clamped to +-{LEGGED_MODEL.wheel_speed_limit:g} rad/s.
 
-{chr(10).join(actions)}
+{chr(10).join(actions)}"""
+
+
+def interface_markdown() -> str:
+    """The robot's action and observation spaces as Markdown tables, from the layouts in
+    this module: its tasks' docstrings and docs/robots.md carry them (tests check both)."""
+    return f"""\
+## Action Space
+
+{actions_markdown()}
 
 ## Observation Space
 
@@ -253,7 +251,7 @@ are in the robot's own frame against gravity; readings a sensor would saturate a
 clipped to its range. `height_scan=True` appends the 11 ground heights ahead, as on
 the two-wheel bot.
 
-{chr(10).join(observations)}"""
+{fields_markdown(OBSERVATION_LAYOUT)}"""
 
 
 class WheelLegged(Robot):
@@ -280,6 +278,9 @@ class WheelLegged(Robot):
 
     def interface_markdown(self) -> str:
         return interface_markdown()
+
+    def actions_markdown(self) -> str:
+        return actions_markdown()
 
     def observe(
         self,

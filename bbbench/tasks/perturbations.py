@@ -15,7 +15,8 @@ its default makes the very same task, and so the same fingerprint. A task withou
 perturbations behaves as it did before they existed (tests/test_perturbations.py).
 
 The axes, their units, ranges and the reasons for the standard grids are tabled in the
-single-bot env's docstring (`bbbench.envs.balance.BalanceEnv`) and the README.
+single-bot env's docstring (`bbbench.envs.balance.BalanceEnv`) and the robustness guide
+(docs/guides/robustness.md).
 
 Adding a perturbation is one component here, listed in `PERTURBATIONS`, and its test (a
 `RobotSetting` when it sets one value on each bot).
@@ -269,8 +270,8 @@ def unit(keyword: str, task: Any = None) -> str:
 
 
 def axes_markdown() -> str:
-    """The table of the axes, and why each grid: the README and `BalanceEnv`'s docstring
-    hold it verbatim (tests/test_perturbations.py)."""
+    """The table of the axes, and why each grid: the robustness guide and `BalanceEnv`'s
+    docstring hold it verbatim (tests/test_perturbations.py)."""
     rows = [
         "| keyword | unit | default | accepted | standard grid |",
         "|---|---|---|---|---|",

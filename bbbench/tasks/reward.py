@@ -110,6 +110,20 @@ class StayUpReward:
         """The most one step earns."""
         return self.scale
 
+    def formula(self) -> str:
+        """The step's reward with this reward's numbers, as the docs print it."""
+        tail = self.tail_share
+        return (
+            f"upright  = tolerance(|pitch|, {self.pitch_bound:g} rad, {self.pitch_width:g} rad)\n"
+            f"near     = tolerance(|velocity error|, {self.velocity_bound:g} m/s, "
+            f"{self.velocity_width:g} m/s)\n"
+            f"toward   = ramp(|velocity error|, {self.velocity_bound:g} m/s, "
+            f"{self.tail_width:g} m/s)\n"
+            f"tracking = {1 - tail:g} * near + {tail:g} * toward\n"
+            f"reward   = {self.scale:g} * upright * ({self.upright_share:g} + "
+            f"{1 - self.upright_share:g} * tracking)"
+        )
+
     def terms(self, pitch: float, velocity_error: float) -> tuple[float, float]:
         """(upright, velocity): the credit for staying up, and for tracking the target
         while up. Both lie in [0, scale]; their sum is the step's reward."""
@@ -151,6 +165,10 @@ class RewardWeights:
     def max_step(self) -> float:
         """The most one step earns."""
         return self.upright
+
+    def formula(self) -> str:
+        """The step's reward with these weights, as the docs print it."""
+        return f"reward = {self.upright:g} * (1 - |pitch|) - {self.velocity:g} * |velocity error|"
 
     def terms(self, pitch: float, velocity_error: float) -> tuple[float, float]:
         """(upright, velocity): 0.1 * (1 - |pitch|) and -0.1 * |velocity error|."""
@@ -204,6 +222,24 @@ class TwistReward:
     @property
     def max_step(self) -> float:
         return self.scale
+
+    def formula(self) -> str:
+        """The step's reward with this reward's numbers, as the docs print it."""
+        tail, yaw = self.tail_share, self.yaw_share
+        return (
+            f"upright  = tolerance(|pitch|, {self.pitch_bound:g} rad, {self.pitch_width:g} rad)\n"
+            f"forward  = {1 - tail:g} * tolerance(|v error|, {self.velocity_bound:g} m/s, "
+            f"{self.velocity_width:g} m/s)\n"
+            f"           + {tail:g} * ramp(|v error|, {self.velocity_bound:g} m/s, "
+            f"{self.tail_width:g} m/s)\n"
+            f"turning  = {1 - tail:g} * tolerance(|yaw rate error|, {self.yaw_rate_bound:g} "
+            f"rad/s, {self.yaw_rate_width:g} rad/s)\n"
+            f"           + {tail:g} * ramp(|yaw rate error|, {self.yaw_rate_bound:g} rad/s, "
+            f"{self.yaw_rate_tail_width:g} rad/s)\n"
+            f"tracking = {1 - yaw:g} * forward + {yaw:g} * turning\n"
+            f"reward   = {self.scale:g} * upright * ({self.upright_share:g} + "
+            f"{1 - self.upright_share:g} * tracking)"
+        )
 
     def terms(
         self, pitch: float, velocity_error: float, yaw_rate_error: float
