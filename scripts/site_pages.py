@@ -100,7 +100,8 @@ def glance(task: TaskSpec, scenario) -> str:
             f"the {track.label} track ([leaderboard](../leaderboard/index.html#{track.name}))",
         ),
     ]
-    return "\n".join(["| | |", "|---|---|", *(f"| {key} | {value} |" for key, value in rows)])
+    lines = (f"| {key} | {value} |" for key, value in rows)
+    return "\n".join(["| At a glance | |", "|---|---|", *lines])
 
 
 def rules(task: TaskSpec, scenario) -> str:
@@ -208,9 +209,9 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
     scenario = task.scenario_class(task)
     picture = frame(task)
     gif = GIFS.get(task.name)
-    pictures = [f"![{task.id}](../images/{picture})" if picture else ""]
+    pictures = [f"![{task.id}](../images/{picture}){{ width=360 }}" if picture else ""]
     if gif:
-        pictures.append(f"![{task.id}, an episode](../images/{gif})")
+        pictures.append(f"![{task.id}, an episode](../images/{gif}){{ width=360 }}")
     observation = fields_markdown(scenario.layout)
     scan = (
         "\n\nWith `height_scan=True` the vector goes on with the ground's heights ahead "
@@ -221,8 +222,8 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
     parts = [
         f"# {task.name}",
         GENERATED,
-        " ".join(p for p in pictures if p),
         f"**{task.summary[0].upper()}{task.summary[1:]}.**",
+        " ".join(p for p in pictures if p),
         glance(task, scenario),
         "## Description",
         task.description.strip() or task.summary + ".",
