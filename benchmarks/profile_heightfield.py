@@ -7,7 +7,7 @@ Each round draws the next episode's terrain once (outside the timed part), then
 times `HeightfieldBody.show` alone, the one pybullet call that replaces the
 heights in place (`createCollisionShape(..., replaceHeightfieldIndex=...)`), and
 prints its mean. Under `perf` the report names the pybullet functions that take
-the time (docs/performance.md, "Targets not reached").
+the time (docs/performance.md, "Terrain resets").
 """
 
 from __future__ import annotations
