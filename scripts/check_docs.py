@@ -10,7 +10,8 @@ A generated block is marked in the Markdown by the command that prints it:
     <!-- marl table: end -->
 
 Each command is run again and its output compared with the block; `--write` puts the
-output in place instead. Exit 1, naming the blocks that differ.
+output in place instead. The site's task pages (scripts/site_pages.py) are checked, or
+written, with them. Exit 1, naming the blocks and pages that differ.
 """
 
 from __future__ import annotations
@@ -62,7 +63,11 @@ def main(argv: list[str] | None = None) -> int:
             path.write_text(text)
     for problem in stale:
         print(problem, file=sys.stderr)
-    return 1 if stale and not args.write else 0
+    pages = subprocess.run(
+        [sys.executable, str(Path(__file__).with_name("site_pages.py"))]
+        + (["--write"] if args.write else [])
+    ).returncode
+    return 1 if (stale or pages) and not args.write else 0
 
 
 if __name__ == "__main__":

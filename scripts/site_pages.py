@@ -27,6 +27,7 @@ from bbbench.robots import FALL_TILT
 from bbbench.robots.layout import fields_markdown
 from bbbench.tasks.group import MIN_BOTS
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
+from bbbench.tasks.scenario import Scenario
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE, list_tasks
 from bbbench.tasks.tracks import TRACKS, track_of
@@ -105,7 +106,14 @@ def glance(task: TaskSpec, scenario) -> str:
 
 
 def rules(task: TaskSpec, scenario) -> str:
-    doc = inspect.cleandoc(type(scenario).__doc__ or "")
+    """The scenario's rules as its classes state them, the most general first (Column's
+    start and team reward, then BeamCarry's beam), then the reward's formula and the end."""
+    own = [
+        inspect.cleandoc(cls.__dict__["__doc__"])
+        for cls in reversed(type(scenario).__mro__)
+        if issubclass(cls, Scenario) and cls is not Scenario and cls.__dict__.get("__doc__")
+    ]
+    doc = "\n\n".join(textwrap.fill(" ".join(part.split()), 88) for part in own)
     tilt = FALL_TILT * 180 / 3.141592653589793
     end = (
         f"An episode ends when a bot's torso tilts past {FALL_TILT:g} rad ({tilt:.0f} deg) "
@@ -118,7 +126,7 @@ def rules(task: TaskSpec, scenario) -> str:
     )
     reward = task.reward
     return (
-        f"{textwrap.fill(' '.join(doc.split()), 88)}\n\n"
+        f"{doc}\n\n"
         f"**Reward** (`{type(reward).__name__}`), each step, "
         + ("the team's, the same for every bot" if scenario.team else "per bot")
         + f":\n\n"
