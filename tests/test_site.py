@@ -209,3 +209,15 @@ def test_a_screenshot_of_a_task_page_shows_its_picture(chromium, served):
     frame = chromium.find_element("css selector", "article img")
     assert frame.size["width"] > 200
     assert chromium.execute_script("return arguments[0].naturalWidth", frame) > 0  # loaded
+
+
+def test_the_readme_is_a_front_page_whose_links_all_resolve():
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= 200
+    assert "<!-- ci: main-command -->" in text
+    assert "<!-- ci: test-command -->" in text
+    assert "mkdocs serve" in text
+    links = re.findall(r"\]\(((?!https?://)[^)#\s]+)", text)
+    assert len(links) > 10
+    missing = [link for link in links if not (ROOT / link).exists()]
+    assert missing == []
