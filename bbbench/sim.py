@@ -23,6 +23,17 @@ with c_output_silenced():  # pybullet prints its build time when imported
     from pybullet_utils.bullet_client import BulletClient
 
 GRAVITY = 9.81  # m/s^2
+
+
+class _Client(BulletClient):
+    """A `BulletClient` that can be collected after an interrupted connect. pybullet_utils'
+    `__del__` reads `_client`, which `__init__` sets only once `pybullet.connect` returns:
+    a Ctrl-C during the connect left an object whose collection printed a traceback
+    ("no attribute '_client'") beside the command's one line. -1 is "not connected"."""
+
+    _client = -1
+
+
 SOLVER_ITERATIONS = 10
 
 
@@ -121,7 +132,7 @@ class World:
     def _connect(self) -> BulletClient:
         if not self.gui:
             with c_output_silenced():  # and "argv[0]=" when it connects
-                client = BulletClient(connection_mode=pybullet.DIRECT)
+                client = _Client(connection_mode=pybullet.DIRECT)
         else:
             check_display()
             # pybullet allows one GUI per process; ask before it fails half-way.
@@ -131,7 +142,7 @@ class World:
                     "per process: close() the other human-rendering env first, or use "
                     'render_mode="rgb_array"'
                 )
-            client = BulletClient(connection_mode=pybullet.GUI)
+            client = _Client(connection_mode=pybullet.GUI)
             World._gui_world_open = True
             # The side panels cost frames and hide the robot; the follow camera does the rest.
             client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)

@@ -443,3 +443,13 @@ def test_commands_print_no_pybullet_banner():
         assert "pybullet build time" not in text
         assert "argv[0]" not in text
     assert done.stderr == ""
+
+
+def test_a_world_whose_connect_was_interrupted_is_collected_without_a_traceback(capsys):
+    from bbbench.sim import _Client
+
+    half_made = _Client.__new__(_Client)  # as a Ctrl-C inside pybullet.connect leaves it
+    half_made._pid = os.getpid()
+    half_made.__del__()  # pybullet_utils' own: it read `_client`, which was never set
+    del half_made
+    assert capsys.readouterr().err == ""
