@@ -1,6 +1,10 @@
 """Collection through the batched env, with the policy in the loop, against the bare env.
 
     python benchmarks/bench_batched.py [--worlds 16] [--world-steps 16000] [--rounds 2]
+    python benchmarks/bench_batched.py --memory
+
+With `--memory`, the resident memory a world adds, for the tasks that set
+`bbbench.envs.batched.WORLD_MEMORY_MIB` (the largest, rounded up); no timing.
 
 MultiBalance-v1 (4 bots), every bot driven by the PD baseline (its law in one numpy pass
 over the rows, for every route), so that every route plays the same kind of episodes
@@ -133,12 +137,58 @@ def batched(worlds: int, world_steps: int, workers: int) -> float:
     return bot_steps / seconds
 
 
+MEMORY_TASKS = (
+    "bbbench/MultiBalance-v1",
+    "bbbench/MultiBumps-v1",
+    "bbbench/BeamCarryBumps-v0",
+    "bbbench/Swap-v0",
+)
+
+
+def _resident_mib() -> float:
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    raise RuntimeError("no VmRSS in /proc/self/status: --memory needs Linux")
+
+
+def _world_memory(task: str, worlds: int, out) -> None:
+    """MiB of resident memory each world after the first adds, reset and held open (in a
+    fresh process, so that no other task's freed blocks are reused)."""
+    import bbbench
+
+    held = [bbbench.make_parallel(task)]
+    held[0].reset(seed=0)
+    before = _resident_mib()
+    for seed in range(1, worlds + 1):
+        held.append(bbbench.make_parallel(task))
+        held[-1].reset(seed=seed)
+    out.put((_resident_mib() - before) / worlds)
+
+
+def world_memory(worlds: int = 8) -> dict[str, float]:
+    context = multiprocessing.get_context("spawn")
+    report = {}
+    for task in MEMORY_TASKS:
+        out = context.Queue()
+        process = context.Process(target=_world_memory, args=(task, worlds, out))
+        process.start()
+        report[task] = round(out.get(), 1)
+        process.join()
+    return report
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, default=16)
     parser.add_argument("--world-steps", type=int, default=16_000)
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--memory", action="store_true", help="MiB a world, no timing")
     args = parser.parse_args()
+    if args.memory:
+        print(json.dumps({"mib_a_world": world_memory()}, indent=2))
+        return
     torch.set_num_threads(1)
     routes = {
         "bare_1_core": lambda: bare(args.world_steps),

@@ -43,8 +43,9 @@ from gymnasium.vector import AutoresetMode
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import list_tasks, spec
 
-# MiB a world takes, measured (docs/performance.md): 30 for MultiBalance-v1, 39 for a
-# world with terrain; a batch whose worlds would not fit in the machine is refused.
+# MiB a world takes, measured (docs/performance.md, "Several bots"): 29 for
+# MultiBalance-v1, 39 for a world with terrain; a batch whose worlds would not fit in the
+# machine is refused.
 WORLD_MEMORY_MIB = 40
 
 # How worker processes start: forked where the platform can (in milliseconds, and from any

@@ -176,7 +176,8 @@ class MlpActor:
         twice the bound. None when a row is that close (or NaN): the defined network
         then decides every row.
 
-        The same actions at a third of the cost (docs/performance.md).
+        The same actions at 0.4 of the cost (15.2 µs a call at batch 1, against 38.6 for
+        the defined network: docs/performance.md).
         """
         out, error = self.estimate(observations)
         if out.shape[1] > 1:

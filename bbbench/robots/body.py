@@ -23,9 +23,10 @@ from bbbench.sim import bullet_client_id
 # Only wheel contacts closer than this (m) reach the solver. A rolling wheel leaves
 # its last contact points behind it, rising only slowly off the ground (a cycloid
 # starts vertically); Bullet keeps them for several steps, and the solver iterated
-# over up to 4 per wheel. Measured (docs/performance.md): 0 makes driving cheapest
-# but bumpy ground becomes a train of small impacts (the PD baseline fell on 9/20
-# Bumps seeds, against 1/20 with Bullet's default); 1 mm keeps most of the speed.
+# over up to 4 per wheel. Measured when the terrain tasks were tuned (commit 15a0c26):
+# 0 makes driving cheapest but bumpy ground becomes a train of small impacts (the PD
+# baseline fell on 9/20 Bumps seeds, against 1/20 with Bullet's default, 3/20 at 1-2
+# mm); 1 mm keeps most of the speed.
 WHEEL_CONTACT_PROCESSING_THRESHOLD = 0.001
 
 # (group, mask) of a dynamic body's links as pybullet loads them: collide with everything.
