@@ -17,6 +17,9 @@ _STYLE = {
     "svg.hashsalt": "bbbench",
     "svg.fonttype": "none",
     "font.family": "sans-serif",
+    # matplotlib lays text out in its bundled DejaVu Sans whatever this lists, and writes
+    # the whole list into every <text> of the SVG: one name keeps each label short.
+    "font.sans-serif": ["DejaVu Sans"],
     "font.size": 9,
     "axes.spines.top": False,
     "axes.spines.right": False,
@@ -82,7 +85,8 @@ def performance_profiles(profiles: Sequence[tuple[str, np.ndarray]]) -> str:
         colors = _colors(len(profiles))
         for i, ((name, fractions), color) in enumerate(zip(profiles, colors, strict=True)):
             style = ("-", "--")[i // 20 % 2]  # past 20 entries, colours come back dashed
-            axes.plot(THRESHOLDS, fractions, style, color=color, label=name, linewidth=1.6)
+            xs, ys = _corners(THRESHOLDS, np.asarray(fractions))
+            axes.plot(xs, ys, style, color=color, label=name, linewidth=1.6)
         axes.set_xlabel("normalized score threshold \N{GREEK SMALL LETTER TAU}")
         axes.set_ylabel("fraction of episodes > \N{GREEK SMALL LETTER TAU}")
         axes.set_ylim(-0.02, 1.02)
@@ -90,6 +94,19 @@ def performance_profiles(profiles: Sequence[tuple[str, np.ndarray]]) -> str:
         if profiles:  # an empty track draws empty axes, without matplotlib's warning
             axes.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
         return _svg(figure)
+
+
+def _corners(xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points of a polyline where it changes direction: a profile is flat over most
+    thresholds, and each point a flat run's middle adds is a line of SVG that draws
+    nothing (matplotlib simplifies paths of 128 points or more only). The line drawn is
+    the same, and so is its dash pattern, which runs along the path's length."""
+    if len(ys) < 3:
+        return xs, ys
+    slopes = np.diff(ys) / np.diff(xs)
+    keep = np.ones(len(ys), dtype=bool)
+    keep[1:-1] = slopes[1:] != slopes[:-1]
+    return xs[keep], ys[keep]
 
 
 def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) -> str:
@@ -115,7 +132,7 @@ def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) 
                 yerr=[lows, highs],
                 color=color,
                 label=entry["submission"]["name"],
-                error_kw={"elinewidth": 0.8, "capsize": 1.5},
+                error_kw={"elinewidth": 0.8, "capsize": 0},
             )
         labels = [task_id.removeprefix("bbbench/") for task_id in task_ids]
         axes.set_xticks(positions, labels, rotation=25, ha="right")
