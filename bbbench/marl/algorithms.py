@@ -46,7 +46,10 @@ def mask_advantage(group: str, batch: TensorDictBase, normalize: bool) -> Tensor
     return batch
 
 
-class MaskedIppo(Ippo):
+class MaskedAdvantage:
+    """Mixed in before BenchMARL's IPPO or MAPPO: its advantages masked (and, with
+    `normalize_advantage`, normalized over the playing rows) after its own GAE."""
+
     def __init__(self, normalize_advantage: bool, **kwargs):
         super().__init__(**kwargs)
         self.normalize_advantage = normalize_advantage
@@ -56,14 +59,12 @@ class MaskedIppo(Ippo):
         return mask_advantage(group, batch, self.normalize_advantage)
 
 
-class MaskedMappo(Mappo):
-    def __init__(self, normalize_advantage: bool, **kwargs):
-        super().__init__(**kwargs)
-        self.normalize_advantage = normalize_advantage
+class MaskedIppo(MaskedAdvantage, Ippo):
+    pass
 
-    def process_batch(self, group: str, batch: TensorDictBase) -> TensorDictBase:
-        batch = super().process_batch(group, batch)
-        return mask_advantage(group, batch, self.normalize_advantage)
+
+class MaskedMappo(MaskedAdvantage, Mappo):
+    pass
 
 
 @dataclasses.dataclass
