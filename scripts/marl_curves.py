@@ -26,11 +26,13 @@ import json
 from pathlib import Path
 
 import numpy as np
+from marl_tables import CLASSICAL
 
 from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.marl_eval import ENVIRONMENT
 from bbbench.evaluation.results import normalized
+from bbbench.files import write_atomic
 from bbbench.policies import load_policy
 from bbbench.tasks.suite import spec
 from bbbench.training import evaluation_seeds
@@ -49,7 +51,8 @@ SLOPE_WINDOW = 1_000_000  # world steps: the end of a curve its slope is measure
 
 
 def classical(task_id: str) -> str:
-    return "team" if spec(task_id).scenario_class.team else "pd"
+    """The built-in controller the task's learned methods are set against."""
+    return CLASSICAL[task_id]
 
 
 def cell_runs(root: Path, stem: str) -> dict[int, list[dict]]:
@@ -161,6 +164,28 @@ def marl_eval_curves(runs: dict[int, list[dict]], finals: dict[int, list[float] 
     return data
 
 
+def parse_cell(
+    parser: argparse.ArgumentParser, root: Path, text: str
+) -> tuple[tuple[str, str], str]:
+    """`METHOD=STEM TASK` as ((task, method), stem), or the parser's one-line error."""
+    named, _, task = text.partition(" ")
+    method, _, stem = named.partition("=")
+    if not (method and stem and task):
+        parser.error(
+            f"--cells {text!r}: expected METHOD=STEM TASK, "
+            "e.g. 'ippo=ippo-swap-v0-3m bbbench/Swap-v0'"
+        )
+    if task not in CLASSICAL:
+        parser.error(
+            f"--cells {text!r}: {task} has no classical controller here; "
+            f"one of {', '.join(CLASSICAL)}"
+        )
+    if not cell_runs(root, stem):
+        expected = ", ".join(str(root / f"{stem}-s{seed}" / "curve.json") for seed in SEEDS)
+        parser.error(f"--cells {text!r}: no run found; expected one of {expected}")
+    return (task, method), stem
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=Path("baselines"))
@@ -172,17 +197,15 @@ def main() -> None:
         help="METHOD=STEM TASK: other runs' folders (<STEM>-s<seed>) instead of the campaign's",
     )
     args = parser.parse_args()
+    if not args.out.is_dir():
+        parser.error(f"--out {args.out}: no such directory; give an existing one")
     cells = {
         (task, method): f"{method}-{task.removeprefix('bbbench/').lower()}-{BUDGET}"
         for task in TASKS
         for method in METHODS
     }
     if args.cells:
-        cells = {}
-        for text in args.cells:
-            named, _, task = text.partition(" ")
-            method, _, stem = named.partition("=")
-            cells[(task, method)] = stem
+        cells = dict(parse_cell(parser, args.root, text) for text in args.cells)
     data: dict = {}
     for task_id in dict.fromkeys(task for task, _ in cells):
         curves = {}
@@ -197,7 +220,7 @@ def main() -> None:
             continue
         line = controller_line(task_id)
         target = args.out / f"marl-curves-{task_id.removeprefix('bbbench/').lower()}.svg"
-        target.write_bytes(figure(task_id, curves, line))
+        write_atomic(target, figure(task_id, curves, line))
         print(f"\n{task_id} ({classical(task_id)} on the same seeds: {line:.3f}), {target}\n")
         print("| method | world steps | IQM [95% CI] |")
         print("|---|---:|---|")

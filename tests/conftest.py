@@ -181,13 +181,15 @@ def assert_acts_as_predict(path: Path, model, steps: int = 200, **load) -> None:
 
 def load_script(name: str):
     """`scripts/<name>.py` as a module (registered under its name: a dataclass there
-    looks its module up)."""
+    looks its module up), with scripts/ on `sys.path` as when Python runs it, so that it
+    imports its neighbours as it does there."""
     import importlib.util
     import sys
 
-    found = importlib.util.spec_from_file_location(
-        name, Path(__file__).resolve().parents[1] / "scripts" / f"{name}.py"
-    )
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    if str(scripts) not in sys.path:
+        sys.path.append(str(scripts))
+    found = importlib.util.spec_from_file_location(name, scripts / f"{name}.py")
     module = importlib.util.module_from_spec(found)
     sys.modules[name] = module
     found.loader.exec_module(module)

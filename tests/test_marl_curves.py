@@ -93,3 +93,39 @@ def test_the_end_of_a_curve_gives_its_slope_and_the_budget_it_points_to():
     assert curves.budget_to_reach(points, 0.55, slope) is None  # above the line already
     assert curves.budget_to_reach(points, 0.7, -0.01) is None  # not rising
     assert curves.end_slope(points[:2]) == pytest.approx(0.0)  # two points at least
+
+
+def test_each_task_is_set_against_its_own_classical_controller():
+    curves = load_script("marl_curves")
+    assert curves.classical("bbbench/MultiBalance-v1") == "pd"
+    assert curves.classical("bbbench/Convoy-v0") == "team"
+    assert curves.classical("bbbench/ConvoyTurns-v0") == "team"
+    assert curves.classical("bbbench/Swap-v0") == "steer-avoid"  # not the team's or PD
+
+
+@pytest.mark.parametrize(
+    ("cells", "said"),
+    [
+        (None, "--out {out}: no such directory"),
+        ("ippo=ippo-x", "expected METHOD=STEM TASK"),
+        ("ippo=ippo-x bbbench/Nope-v0", "bbbench/Nope-v0 has no classical controller"),
+        (f"ippo=ippo-y {TASK}", "no run found; expected one of {root}/ippo-y-s0/curve.json"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2_with_nothing_written(
+    tmp_path, monkeypatch, capsys, cells, said
+):
+    curves = load_script("marl_curves")
+    fake_runs(tmp_path, "ippo-x", {0: [40.0, 80.0]})
+    out = tmp_path / ("missing" if cells is None else "images")
+    if cells is not None:
+        out.mkdir()
+    argv = ["marl_curves.py", "--root", str(tmp_path), "--out", str(out)]
+    argv += ["--cells", cells or f"ippo=ippo-x {TASK}"]
+    monkeypatch.setattr("sys.argv", argv)
+    with pytest.raises(SystemExit) as stopped:
+        curves.main()
+    assert stopped.value.code == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert said.format(out=out, root=tmp_path) in error
+    assert not out.exists() or not any(out.iterdir())
