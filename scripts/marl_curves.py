@@ -26,14 +26,13 @@ import json
 from pathlib import Path
 
 import numpy as np
-from marl_tables import CLASSICAL
 
 from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.marl_eval import ENVIRONMENT
 from bbbench.evaluation.results import normalized
 from bbbench.files import write_atomic
-from bbbench.policies import load_policy
+from bbbench.policies import classical_controller, load_policy
 from bbbench.tasks.suite import spec
 from bbbench.training import evaluation_seeds
 
@@ -48,11 +47,6 @@ METHODS = ("ippo", "mappo")
 SEEDS = (0, 1, 2)
 BUDGET = "3m"
 SLOPE_WINDOW = 1_000_000  # world steps: the end of a curve its slope is measured over
-
-
-def classical(task_id: str) -> str:
-    """The built-in controller the task's learned methods are set against."""
-    return CLASSICAL[task_id]
 
 
 def cell_runs(root: Path, stem: str) -> dict[int, list[dict]]:
@@ -105,7 +99,7 @@ def controller_line(task_id: str) -> float:
     """The classical controller's normalized return on the curve's training seeds,
     aggregated as the curve is: the IQM of its episodes."""
     player = LockstepPlayer(
-        actors={task_id: load_policy(classical(task_id)).actor(task_id)},
+        actors={task_id: load_policy(classical_controller(task_id)).actor(task_id)},
         action_mode="discrete",
         sampled=False,
     )
@@ -128,7 +122,8 @@ def figure(task_id: str, curves: dict[str, list[dict]], line: float) -> bytes:
         axes.fill_between(
             steps, [p["ci"][0] for p in points], [p["ci"][1] for p in points], alpha=0.25
         )
-    axes.axhline(line, color="black", linestyle="--", label=f"{classical(task_id)} controller")
+    controller = classical_controller(task_id)
+    axes.axhline(line, color="black", linestyle="--", label=f"{controller} controller")
     axes.set_xlabel("world steps (millions)")
     axes.set_ylabel("normalized return (IQM, 95% CI)")
     axes.set_title(f"{task_id.removeprefix('bbbench/')}: training seeds")
@@ -175,11 +170,10 @@ def parse_cell(
             f"--cells {text!r}: expected METHOD=STEM TASK, "
             "e.g. 'ippo=ippo-swap-v0-3m bbbench/Swap-v0'"
         )
-    if task not in CLASSICAL:
-        parser.error(
-            f"--cells {text!r}: {task} has no classical controller here; "
-            f"one of {', '.join(CLASSICAL)}"
-        )
+    try:
+        classical_controller(task)
+    except ValueError as error:
+        parser.error(f"--cells {text!r}: {error}")
     if not cell_runs(root, stem):
         expected = ", ".join(str(root / f"{stem}-s{seed}" / "curve.json") for seed in SEEDS)
         parser.error(f"--cells {text!r}: no run found; expected one of {expected}")
@@ -221,7 +215,8 @@ def main() -> None:
         line = controller_line(task_id)
         target = args.out / f"marl-curves-{task_id.removeprefix('bbbench/').lower()}.svg"
         write_atomic(target, figure(task_id, curves, line))
-        print(f"\n{task_id} ({classical(task_id)} on the same seeds: {line:.3f}), {target}\n")
+        controller = classical_controller(task_id)
+        print(f"\n{task_id} ({controller} on the same seeds: {line:.3f}), {target}\n")
         print("| method | world steps | IQM [95% CI] |")
         print("|---|---:|---|")
         for method, points in curves.items():
@@ -233,7 +228,7 @@ def main() -> None:
                 )
         print(
             f"\n| method | IQM at the end | slope, last {SLOPE_WINDOW:,} steps (per M) "
-            f"| reaches {classical(task_id)} at |"
+            f"| reaches {classical_controller(task_id)} at |"
         )
         print("|---|---:|---:|---|")
         for method, points in curves.items():

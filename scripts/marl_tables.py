@@ -29,6 +29,7 @@ import numpy as np
 
 from bbbench.evaluation import stats
 from bbbench.evaluation.results import normalized
+from bbbench.policies import classical_controller
 from bbbench.tasks.suite import spec
 
 SEEDS = (0, 1, 2)
@@ -98,16 +99,6 @@ STEERING_VERSUS = tuple(
 )
 # The crossing tasks' own controller, which the learned methods are also set against.
 CROSSING = {"bbbench/MultiBalance-v1": "crossing", "bbbench/MultiBumps-v1": "crossing"}
-CLASSICAL = {
-    "bbbench/MultiBalance-v1": "pd",
-    "bbbench/MultiBumps-v1": "pd",
-    "bbbench/BeamCarry-v0": "team",
-    "bbbench/BeamCarryBumps-v0": "team",
-    "bbbench/Convoy-v0": "team",
-    **dict.fromkeys(STEERING_SINGLE, "steer"),
-    "bbbench/Swap-v0": "steer-avoid",
-    "bbbench/ConvoyTurns-v0": "team",
-}
 # The comparisons: (task, what is compared, the first method's stem, the second's)
 VERSUS = (
     (
@@ -208,7 +199,7 @@ def row(
     played = [episode for episodes_, _ in runs.values() for episode in episodes_]
     whole = np.mean([episode["success"] for episode in played])
     median_played = runs[median_seed][0]
-    columns = [against(board, CLASSICAL[task_id], task_id, median_played)]
+    columns = [against(board, classical_controller(task_id), task_id, median_played)]
     if crossing:
         known = task_id in CROSSING
         columns.append(

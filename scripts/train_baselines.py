@@ -35,6 +35,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
 from bbbench.training.beside import described
 
@@ -62,14 +63,6 @@ TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0
 # IPPO and MAPPO on the multi-bot and team ones, at the field's budget (the campaign).
 STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
-# Each task's classical controller in the table (pd where none is named).
-CLASSICAL = {
-    **dict.fromkeys(LEGGED, "legged"),
-    **dict.fromkeys(TEAMS, "team"),
-    **dict.fromkeys(STEERING_SINGLE, "steer"),
-    "bbbench/Swap-v0": "steer-avoid",
-    "bbbench/ConvoyTurns-v0": "team",
-}
 SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
@@ -240,7 +233,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             name, pd = "generalist (the six before PushRecovery; by task, in that order)", ""
         else:
             scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
-            classical = CLASSICAL.get(task_id, "pd")
+            classical = classical_controller(task_id)
             name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
             pd = f"{score(classical, task_id):.3f}"
         steps = records[0].get("bot_steps", records[0]["steps"])

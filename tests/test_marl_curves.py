@@ -95,20 +95,12 @@ def test_the_end_of_a_curve_gives_its_slope_and_the_budget_it_points_to():
     assert curves.end_slope(points[:2]) == pytest.approx(0.0)  # two points at least
 
 
-def test_each_task_is_set_against_its_own_classical_controller():
-    curves = load_script("marl_curves")
-    assert curves.classical("bbbench/MultiBalance-v1") == "pd"
-    assert curves.classical("bbbench/Convoy-v0") == "team"
-    assert curves.classical("bbbench/ConvoyTurns-v0") == "team"
-    assert curves.classical("bbbench/Swap-v0") == "steer-avoid"  # not the team's or PD
-
-
 @pytest.mark.parametrize(
     ("cells", "said"),
     [
         (None, "--out {out}: no such directory"),
         ("ippo=ippo-x", "expected METHOD=STEM TASK"),
-        ("ippo=ippo-x bbbench/Nope-v0", "bbbench/Nope-v0 has no classical controller"),
+        ("ippo=ippo-x bbbench/Nope-v0", "unknown task 'bbbench/Nope-v0'"),
         (f"ippo=ippo-y {TASK}", "no run found; expected one of {root}/ippo-y-s0/curve.json"),
     ],
 )

@@ -249,10 +249,8 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
 def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed():
     """The classical controller's play (a fifth of its actions random): the pitch spreads
     over hundredths of a radian there, not over the tenths of bots falling at random."""
-    from bbbench.training.benchmarl.train import classical_controller, observation_statistics
+    from bbbench.training.benchmarl.train import observation_statistics
 
-    assert classical_controller("bbbench/MultiBalance-v1") == "pd"
-    assert classical_controller(TASK) == "team"
     mean, std = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
     again = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
     assert mean.tobytes() == again[0].tobytes()
@@ -260,6 +258,16 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     assert mean.shape == std.shape == (17,)
     assert std[0] < 0.1  # pitch, rad
     assert (std > 0).all()
+
+
+def test_the_steering_robot_normalizer_is_measured_under_its_own_controller():
+    """On Swap-v0 the statistics come from `steer-avoid`: PD's nine actions are read by
+    the steering robot as other ones (index 3 x forward + turn), its bots fall, and the
+    pitch then spreads over 0.30 rad (measured), as under random play."""
+    from bbbench.training.benchmarl.train import observation_statistics
+
+    _, std = observation_statistics("bbbench/Swap-v0", {}, seed=0)
+    assert std[0] < 0.15  # pitch, rad: 0.10 under steer-avoid
 
 
 @pytest.mark.slow

@@ -297,3 +297,19 @@ def test_the_command_refuses_weights_that_do_not_fit_with_one_line_and_exit_2(
 def test_refusals_are_policy_errors():
     assert issubclass(RefusedForSafety, PolicyError)
     assert str(RefusedForSafety("x")).startswith("refused for safety")
+
+
+def test_each_task_has_a_classical_controller_that_plays_it():
+    from bbbench.policies import classical_controller
+
+    for task_id in bbbench.list_tasks():
+        name = classical_controller(task_id)
+        assert load_policy(name).mismatch(task_id) is None, (task_id, name)
+    assert classical_controller("bbbench/MultiBalance-v1") == "pd"
+    assert classical_controller("bbbench/BeamCarry-v0") == "team"
+    assert classical_controller("bbbench/LeggedBumps-v0") == "legged"
+    assert classical_controller("bbbench/Waypoints-v0") == "steer"
+    assert classical_controller("bbbench/Swap-v0") == "steer-avoid"
+    assert classical_controller("bbbench/ConvoyTurns-v0") == "team"
+    with pytest.raises(ValueError, match="unknown task 'bbbench/Nope-v0'"):
+        classical_controller("bbbench/Nope-v0")

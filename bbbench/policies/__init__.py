@@ -15,6 +15,7 @@ from bbbench.policies.policy import fitting_tasks
 from bbbench.policies.registry import (
     BUILTIN_POLICIES,
     Policy,
+    classical_controller,
     load_policy,
     register_policy,
 )
@@ -25,6 +26,7 @@ __all__ = [
     "Policy",
     "PolicyError",
     "RefusedForSafety",
+    "classical_controller",
     "export_onnx",
     "export_zip",
     "fitting_tasks",

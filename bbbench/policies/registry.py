@@ -25,6 +25,7 @@ from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.policy import Policy, describe_space
 from bbbench.policies.sb3.policy import SB3ZipPolicy
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics, read_statistics
+from bbbench.tasks.suite import spec
 
 
 def _reference() -> Policy:
@@ -60,6 +61,24 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "zero": ZeroPolicy,
     **{name: functools.partial(SB3ZipPolicy, path) for name, path in TERRAIN_POLICIES.items()},
 }
+
+
+def classical_controller(task_id: str) -> str:
+    """The built-in controller of a task: the one its learned baselines are set against
+    (docs/baselines.md) and whose play a MARL recipe's observation statistics are measured
+    on. The wheel-legged robot's controller on its tasks, the team controller on the team
+    tasks, `steer-avoid` on Swap, `steer` on the steering robot's other tasks, PD on the
+    rest. Raises ValueError for an unknown task."""
+    task = spec(task_id)
+    if task.robot == "wheel-legged":
+        return "legged"
+    if task.scenario_class.team:
+        return "team"
+    if task.scenario == "swap":
+        return "steer-avoid"
+    if task.robot == "two-wheel-steer":
+        return "steer"
+    return "pd"
 
 
 def register_policy(name: str, factory: Callable[[], Policy]) -> None:

@@ -45,7 +45,7 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
 from bbbench.marl.models import NeighbourEncoderModel
-from bbbench.policies import load_policy, onnx_bytes
+from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
@@ -62,12 +62,6 @@ CHECKPOINT_RULE = "last"  # the policy written: the last one, never a lucky best
 # on, and the share of its actions replaced by random ones (to visit recoveries too).
 STATISTICS_STEPS = 2000
 STATISTICS_EPSILON = 0.2
-
-
-def classical_controller(task_id: str) -> str:
-    """The built-in controller the board ranks a multi-bot task against: the team
-    controller on the team tasks, PD on the others."""
-    return "team" if bbbench.spec(task_id).scenario_class.team else "pd"
 
 
 def observation_statistics(
