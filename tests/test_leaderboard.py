@@ -282,16 +282,33 @@ def test_a_tampered_aggregate_is_always_caught(board):
 
 
 def test_figures_are_compared_only_under_the_pinned_plotting_stack(board, monkeypatch):
-    page = board / "index.html"
-    page.write_text(page.read_text().replace("<svg", "<svg data-other-matplotlib", 1))
-    assert leaderboard.check(board, BOARD, workers=1).problems != []
+    figure = board / "figures" / "single-per-task.svg"
+    figure.write_text(figure.read_text().replace("<svg", "<svg data-other-matplotlib", 1))
+    problems = leaderboard.check(board, BOARD, workers=1).problems
+    assert problems == [
+        f"{board}: figures missing or not as the rebuild draws them: figures/single-per-task.svg"
+    ]
     monkeypatch.setitem(leaderboard.checking.PLOTTING_STACK, "matplotlib", "0.0.1")
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.problems == []
+    figures = 3 * 4  # three tracks, each with its four figures
     assert checked.notes == [
-        "figures not compared (index.html): they are drawn byte for byte by matplotlib 0.0.1 "
+        f"{figures} figures not compared: they are drawn byte for byte by matplotlib 0.0.1 "
         f"only, and this is matplotlib {leaderboard.checking.plotting_stack()['matplotlib']}"
     ]
+
+
+def test_the_page_shows_each_figure_from_its_own_file(board):
+    page = (board / "index.html").read_text()
+    assert "<svg" not in page
+    figures = sorted((board / "figures").glob("*.svg"))
+    assert len(figures) == 3 * 4
+    for figure in figures:
+        assert f'<img src="figures/{figure.name}"' in page
+        svg = figure.read_text()
+        assert svg.startswith("<svg")
+        assert svg.endswith("</svg>\n")
+        assert svg.count("<path") > 5
 
 
 def test_the_pinned_plotting_stack_is_the_constraints_files():
@@ -355,13 +372,18 @@ def test_check_names_a_task_whose_behaviour_changed(board, monkeypatch):
     assert all("fingerprint is now 0123456789abcdef" in problem for problem in problems)
 
 
-def test_check_names_an_edited_page_and_a_stale_result(board):
+def test_check_names_an_edited_page_and_a_stale_result_and_figure(board):
     page = board / "index.html"
     page.write_text(page.read_text().replace("bbbench leaderboard", "my leaderboard", 1))
     (board / "results" / "gone.json").write_text("{}")
+    (board / "figures" / "gone-robustness.svg").write_text("<svg/>")
     problems = leaderboard.check(board, BOARD, workers=1).problems
     assert any("index.html: differs from the rebuild from line" in p for p in problems)
     assert any("gone.json: no submission 'gone'" in p for p in problems)
+    assert any("gone-robustness.svg: not drawn any more" in p for p in problems)
+    leaderboard.build(board, BOARD, workers=1)
+    assert not (board / "results" / "gone.json").exists()
+    assert not (board / "figures" / "gone-robustness.svg").exists()
 
 
 def test_add_plays_only_the_new_submission(board):
@@ -564,6 +586,8 @@ def rows_of(table) -> list[str]:
 
 
 def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
+    from selenium.webdriver.support.wait import WebDriverWait
+
     hostile = submission(name="<img src=x onerror=alert(1)>", notes="</script><b>bold</b>")
     write_submission(board, "hostile", hostile)
     document = leaderboard.build(board, BOARD, workers=1).document
@@ -590,10 +614,16 @@ def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
         assert "<img src=x onerror=alert(1)>" in row.text
         for plot in ("interval-estimates", "performance-profiles", "per-task", "robustness"):
             figure = chromium.find_element("id", f"{track['track']}-{plot}")
-            svg = figure.find_element("css selector", "svg")
-            assert svg.size["width"] > 200
-            assert svg.size["height"] > 100
-            assert len(svg.find_elements("css selector", "path")) > 5
+            image = figure.find_element("css selector", "img")
+            chromium.execute_script("arguments[0].scrollIntoView()", image)  # loaded lazily
+            WebDriverWait(chromium, 10).until(
+                lambda driver, image=image: driver.execute_script(
+                    "return arguments[0].complete", image
+                )
+            )
+            assert chromium.execute_script("return arguments[0].naturalWidth", image) > 200
+            assert image.size["width"] > 200
+            assert image.size["height"] > 100
     errors = [e for e in chromium.get_log("browser") if e["level"] == "SEVERE"]
     assert errors == []
 

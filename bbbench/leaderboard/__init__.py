@@ -10,6 +10,7 @@ A leaderboard folder (`leaderboards/` in the repository) holds:
                                          (`bbbench.evaluation.profile`)
     bbbench-v0.json                      the ranked board (docs/leaderboard-schema.json)
     README.md, index.html                the board as people read it
+    figures/<track>-<name>.svg           the page's figures
 
 Everything but `submissions/` is generated, with the same bytes on every build
 (no dates, fixed bootstrap seeds, deterministic SVG), so `check` can compute it

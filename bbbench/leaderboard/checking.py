@@ -19,7 +19,7 @@ from bbbench.evaluation.harness import play_draws
 from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
-from bbbench.leaderboard.page import README_FIGURE
+from bbbench.leaderboard.page import is_figure
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, read_submissions
 from bbbench.tasks.suite import spec
 
@@ -34,7 +34,6 @@ from bbbench.tasks.suite import spec
 SPOT_BUDGET = 1000
 # The figures' bytes are the same for one matplotlib only: the version constraints.txt pins.
 PLOTTING_STACK = {"matplotlib": "3.11.2"}
-FIGURE_FILES = ("index.html", README_FIGURE)  # the board's files that hold figures
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,16 +97,14 @@ def check(
     }
     built = generate(root, board, cache=not full, on_episodes=on_episodes, keys=keys, **play)
     notes = []
-    files = built.files
     stack = plotting_stack()
-    skipped = [name for name in files if name in FIGURE_FILES]
-    if stack != PLOTTING_STACK and skipped:
-        files = {name: data for name, data in files.items() if name not in FIGURE_FILES}
+    skipped = [] if stack == PLOTTING_STACK else [name for name in built.files if is_figure(name)]
+    if skipped:
         notes.append(
-            f"figures not compared ({', '.join(skipped)}): they are drawn byte for byte by "
+            f"{len(skipped)} figures not compared: they are drawn byte for byte by "
             f"{_versions(PLOTTING_STACK)} only, and this is {_versions(stack)}"
         )
-    problems = changed + differences(root, files)
+    problems = changed + differences(root, built.files, skip=skipped)
     rescored = [entry.submission.slug for entry in built.scored if entry.played]
     spot_checked = 0
     if not full and not problems:

@@ -3,17 +3,29 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
-from bbbench.leaderboard.generation import RESULTS
+from bbbench.leaderboard.generation import RESULTS, stale
+from bbbench.leaderboard.page import is_figure
 
 
-def differences(root: Path, files: dict[str, bytes], limit: int = 12) -> list[str]:
-    """Each generated file against the one checked in: where they differ, readably."""
-    problems = []
+def differences(
+    root: Path, files: dict[str, bytes], skip: Collection[str] = (), limit: int = 12
+) -> list[str]:
+    """Each generated file against the one checked in (but those in `skip`): where they
+    differ, readably; the figures that differ, in one line after the rest (they draw
+    what the data says)."""
+    problems, figures = [], []
     for name, rebuilt in files.items():
+        if name in skip:
+            continue
         path = root / name
+        if is_figure(name):
+            if not path.is_file() or path.read_bytes() != rebuilt:
+                figures.append(name)
+            continue
         if not path.is_file():
             problems.append(f"{path}: missing (the rebuild writes it)")
             continue
@@ -28,11 +40,13 @@ def differences(root: Path, files: dict[str, bytes], limit: int = 12) -> list[st
             problems += found or [f"{path}: same data, other bytes (formatting)"]
         else:
             problems.append(_first_line_difference(path, recorded, rebuilt))
-    problems += [
-        f"{path}: no submission {path.stem!r} any more (the rebuild removes it)"
-        for path in sorted((root / RESULTS).glob("*.json"))
-        if f"{RESULTS}/{path.name}" not in files
-    ]
+    if figures:
+        problems.append(
+            f"{root}: figures missing or not as the rebuild draws them: {', '.join(figures)}"
+        )
+    for path in stale(root, files):
+        gone = f"no submission {path.stem!r}" if path.parent.name == RESULTS else "not drawn"
+        problems.append(f"{path}: {gone} any more (the rebuild removes it)")
     if len(problems) > limit:
         problems = [*problems[:limit], f"... and {len(problems) - limit} more differences"]
     return problems

@@ -12,7 +12,7 @@ from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
 from bbbench.files import write_all_atomic
 from bbbench.leaderboard.board import Board, Scored, leaderboard_document, profile_file, score
-from bbbench.leaderboard.page import README_FIGURE, page, readme_robustness_figure
+from bbbench.leaderboard.page import FIGURES, README_FIGURE, page, readme_robustness_figure
 from bbbench.leaderboard.submissions import Submission, read_submissions
 from bbbench.leaderboard.views import markdown, with_baselines
 
@@ -87,7 +87,7 @@ def _files(scored: list[Scored], board: Board) -> Built:
     files = {
         DOCUMENT: dumps(document).encode(),
         "README.md": markdown(document).encode(),
-        "index.html": page(document, results).encode(),
+        **{name: text.encode() for name, text in page(document, results).items()},
         **{f"{RESULTS}/{slug}.json": dumps(doc).encode() for slug, doc in results.items()},
         **{f"{RESULTS}/{name}": dumps(doc).encode() for name, doc in profiles.items()},
     }
@@ -108,13 +108,21 @@ def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Bui
 
 def write(root: Path, files: dict[str, bytes]) -> None:
     """Replace the generated files of the board in `root` by `files`, all at once; remove
-    the results of submissions that are gone."""
-    (root / RESULTS).mkdir(parents=True, exist_ok=True)
-    stale = [
-        path
-        for path in sorted((root / RESULTS).glob("*.json"))
-        if f"{RESULTS}/{path.name}" not in files
-    ]
+    those no build writes any more (the results of submissions that are gone, the
+    figures of a track gone)."""
+    for folder in (RESULTS, FIGURES):
+        (root / folder).mkdir(parents=True, exist_ok=True)
+    gone = stale(root, files)
     write_all_atomic({root / name: data for name, data in files.items()})
-    for path in stale:
+    for path in gone:
         path.unlink()
+
+
+def stale(root: Path, files: dict[str, bytes]) -> list[Path]:
+    """The generated files in `root` that are not among `files`: a build removes them."""
+    return [
+        path
+        for folder, pattern in ((RESULTS, "*.json"), (FIGURES, "*.svg"))
+        for path in sorted((root / folder).glob(pattern))
+        if f"{folder}/{path.name}" not in files
+    ]

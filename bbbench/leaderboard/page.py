@@ -1,8 +1,10 @@
-"""The leaderboard's page, index.html: one self-contained HTML file (inline CSS, JS and
-SVG; no CDN), drawn from the leaderboard document and the entries' results documents
-(the score distributions). Every string a submission wrote is escaped; the cells are
-written as `bbbench.leaderboard.views` writes them for the Markdown page and the
-terminal."""
+"""The leaderboard's page, index.html, and its figures: one HTML file (inline CSS and JS;
+no CDN) that shows each figure from an SVG file beside it (figures/<track>-<name>.svg),
+drawn from the leaderboard document and the entries' results documents (the score
+distributions). The figures stay out of the page's text so that the page loads at once
+and a figure's file changes only when what it draws does. Every string a submission
+wrote is escaped; the cells are written as `bbbench.leaderboard.views` writes them for
+the Markdown page and the terminal."""
 
 from __future__ import annotations
 
@@ -45,7 +47,7 @@ td small{color:#57606a}tr.details td{text-align:left;background:#fbfcfd;white-sp
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em;margin:.4em 0}
 dt{font-weight:600}dd{margin:0;overflow-wrap:anywhere}
 figure{margin:1.5em 0}figcaption{color:#57606a;margin-bottom:.4em}
-figure svg{max-width:100%;height:auto}
+figure img{max-width:100%;height:auto}
 """
 
 _SCRIPT = """
@@ -222,6 +224,12 @@ def robustness_panels(entries: Sequence[dict[str, Any]]) -> list[dict[str, Any]]
 
 
 README_FIGURE = "../docs/images/robustness.svg"  # beside the board: the robustness guide's
+FIGURES = "figures"  # the page's figures, one SVG file each, beside index.html
+
+
+def is_figure(name: str) -> bool:
+    """Whether the board's file `name` (a path inside its folder) is a figure."""
+    return name == README_FIGURE or name.startswith(f"{FIGURES}/")
 
 
 def readme_robustness_figure(document: dict[str, Any]) -> str | None:
@@ -237,62 +245,28 @@ def readme_robustness_figure(document: dict[str, Any]) -> str | None:
     return plots.svg_text(plots.score_curves(robustness_panels(chosen), columns=4))
 
 
-def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> str:
-    """index.html: the tables, sortable; an entry's metadata on click; the figures."""
+def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> dict[str, str]:
+    """index.html (the tables, sortable; an entry's metadata on click) and its figures:
+    path inside the board's folder -> text."""
+    files = {}
     sections = []
     for track in document["tracks"]:
-        entries = track["entries"]
-        ranked = [t["task"] for t in track["tasks"] if t["ranked"]]
-        profiles = [
-            (
-                e["submission"]["name"],
-                performance_profile(results[e["slug"]], ranked, plots.THRESHOLDS),
+        figures_html = ""
+        for name, caption, svg in _figures(track, results):
+            path = f"{FIGURES}/{track['track']}-{name}.svg"
+            files[path] = svg + "\n"
+            figures_html += (
+                f'<figure class="plot" id="{_e(track["track"])}-{name}">'
+                f"<figcaption>{_e(caption)}</figcaption>"
+                f'<img src="{_e(path)}" alt="{_e(caption)}" loading="lazy" '
+                f'width="{_size(svg, "width")}" height="{_size(svg, "height")}"></figure>'
             )
-            for e in entries
-        ]
-        figures = [
-            (
-                "interval-estimates",
-                "Overall: IQM of normalized scores over the ranked tasks, with 95% intervals.",
-                plots.interval_estimates(entries),
-            ),
-            (
-                "performance-profiles",
-                "Score distributions: the fraction of episodes (averaged over the ranked tasks) "
-                "whose normalized score is above each threshold.",
-                plots.performance_profiles(profiles),
-            ),
-            (
-                "per-task",
-                "Per task: the normalized score of the mean return, with its 95% interval.",
-                plots.per_task_scores(entries, columns(track)),
-            ),
-        ]
-        profiled = [entry for entry in entries if entry["robustness"] is not None]
-        if profiled:
-            played = sorted({task_name(entry["robustness"]["task"]) for entry in profiled})
-            figures.append(
-                (
-                    "robustness",
-                    f"Robustness profiles on {' and '.join(played)} (each entry on the first it "
-                    "fits): the normalized score (20 evaluation seeds) at each value of each "
-                    "perturbation's standard grid; the dotted line is the task as built.",
-                    plots.svg_text(
-                        plots.score_curves(robustness_panels(profiled), columns=4, bands=False)
-                    ),
-                )
-            )
-        figures_html = "".join(
-            f'<figure class="plot" id="{track["track"]}-{name}">'
-            f"<figcaption>{_e(caption)}</figcaption>{svg}</figure>"
-            for name, caption, svg in figures
-        )
         sections.append(
             f'<section id="track-{_e(track["track"])}"><h2>{_e(track["title"].capitalize())}</h2>'
             f"{_table(track)}{figures_html}</section>"
         )
     intro = " ".join(HOW_TO_READ.replace("**", "").replace("`", "").split())
-    return (
+    files["index.html"] = (
         "<!DOCTYPE html>\n"
         '<html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
@@ -304,3 +278,57 @@ def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> str
         "an entry for its details.</p>"
         f"<p>{_e(intro)}</p>{''.join(sections)}<script>{_SCRIPT}</script></body></html>\n"
     )
+    return files
+
+
+def _figures(
+    track: dict[str, Any], results: Mapping[str, dict[str, Any]]
+) -> list[tuple[str, str, str]]:
+    """A track's figures: (name, caption, SVG text)."""
+    entries = track["entries"]
+    ranked = [t["task"] for t in track["tasks"] if t["ranked"]]
+    profiles = [
+        (e["submission"]["name"], performance_profile(results[e["slug"]], ranked, plots.THRESHOLDS))
+        for e in entries
+    ]
+    figures = [
+        (
+            "interval-estimates",
+            "Overall: IQM of normalized scores over the ranked tasks, with 95% intervals.",
+            plots.interval_estimates(entries),
+        ),
+        (
+            "performance-profiles",
+            "Score distributions: the fraction of episodes (averaged over the ranked tasks) "
+            "whose normalized score is above each threshold.",
+            plots.performance_profiles(profiles),
+        ),
+        (
+            "per-task",
+            "Per task: the normalized score of the mean return, with its 95% interval.",
+            plots.per_task_scores(entries, columns(track)),
+        ),
+    ]
+    profiled = [entry for entry in entries if entry["robustness"] is not None]
+    if profiled:
+        played = sorted({task_name(entry["robustness"]["task"]) for entry in profiled})
+        figures.append(
+            (
+                "robustness",
+                f"Robustness profiles on {' and '.join(played)} (each entry on the first it "
+                "fits): the normalized score (20 evaluation seeds) at each value of each "
+                "perturbation's standard grid; the dotted line is the task as built.",
+                plots.svg_text(
+                    plots.score_curves(robustness_panels(profiled), columns=4, bands=False)
+                ),
+            )
+        )
+    return figures
+
+
+def _size(svg: str, attribute: str) -> str:
+    """The figure's width or height in CSS pixels, from its `<svg>` tag's points, so
+    that the page keeps each figure's place before it loads."""
+    tag = svg[: svg.index(">")]
+    points = float(tag.split(f' {attribute}="', 1)[1].split("pt", 1)[0])
+    return str(round(points * 4 / 3))
