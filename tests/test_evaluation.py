@@ -364,3 +364,20 @@ def test_bad_input_is_a_one_line_error_with_exit_code_2(capsys, argv, expected):
     assert err.startswith("bbbench: error:")
     assert len(err.strip().splitlines()) == 1
     assert stdout == ""
+
+
+def test_a_policy_is_refused_on_a_task_it_cannot_play_before_anything_is_played():
+    """PD's nine actions mean other ones to the steering robot: `evaluate` in Python
+    refuses, as the command does, rather than score them."""
+    from bbbench.policies import PolicyError
+
+    played = []
+    with pytest.raises(PolicyError, match="SteerTracking-v0 plays the two-wheel-steer robot"):
+        evaluate(
+            load_policy("pd"),
+            ["bbbench/FlatBalance-v1", "bbbench/SteerTracking-v0"],
+            episodes=1,
+            workers=1,
+            on_result=lambda n, results: played.append(n),
+        )
+    assert played == []

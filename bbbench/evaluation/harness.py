@@ -34,12 +34,7 @@ def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list
     `ValueError` for an unknown ID; `PolicyError` otherwise."""
     if requested:
         task_ids = list(dict.fromkeys(spec(task_id).id for task_id in requested))
-        unfit = [(task_id, policy.mismatch(task_id)) for task_id in task_ids]
-        unfit = [reason for _, reason in unfit if reason]
-        if unfit:
-            raise PolicyError(
-                f"{policy.name} ({policy.spaces_text()}) cannot play: {'; '.join(unfit)}"
-            )
+        check_fits(policy, task_ids)
         return task_ids
     task_ids = fitting_tasks(policy)
     if not task_ids:
@@ -48,6 +43,13 @@ def select_tasks(policy: Policy, requested: Sequence[str] | None = None) -> list
             f"{policy.name} ({policy.spaces_text()}) fits no task of the suite: {wants}"
         )
     return task_ids
+
+
+def check_fits(policy: Policy, task_ids: Sequence[str]) -> None:
+    """`PolicyError` naming each of `task_ids` the policy cannot play, and why."""
+    unfit = [reason for task_id in dict.fromkeys(task_ids) if (reason := policy.mismatch(task_id))]
+    if unfit:
+        raise PolicyError(f"{policy.name} ({policy.spaces_text()}) cannot play: {'; '.join(unfit)}")
 
 
 def evaluate(
@@ -99,9 +101,11 @@ def play_tasks(
     """The episodes of `evaluate`, for task specs: the suite's, or variants of them (a
     perturbation, another difficulty or number of bots: `bbbench sweep`), all on one pool
     of workers. Each task plays its first `episodes` eval seeds, or `seeds[i]` (any of
-    its eval seeds, in any order: an episode depends on its seed alone)."""
+    its eval seeds, in any order: an episode depends on its seed alone). `PolicyError`
+    for a task the policy cannot play, before anything is played."""
     if episodes is not None and episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
+    check_fits(policy, [task.id for task in tasks])
     if seeds is None:
         seeds = [list(task.eval_seeds[:episodes]) for task in tasks]
     # Fixed groups of consecutive seeds, whatever the workers: the same groups, the same bytes.
