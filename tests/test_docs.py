@@ -117,3 +117,21 @@ def test_the_baselines_tables_are_what_their_scripts_print_from_the_files(monkey
         assert check.printed(match["command"]) == match["body"], match["name"]
     tampered = found[1]["body"].replace("0.", "9.", 1)  # one figure of the MARL table
     assert tampered != check.printed(found[1]["command"])
+
+
+def test_the_robots_page_names_each_robots_tasks():
+    from bbbench.robots import ROBOTS
+    from bbbench.tasks.suite import list_tasks, spec
+
+    page = (Path(__file__).parents[1] / "docs" / "robots.md").read_text()
+    rows = {
+        cells[0].strip("`"): cells[1]
+        for cells in (
+            [cell.strip() for cell in line.strip().strip("|").split("|")]
+            for line in page.split("| robot | tasks |")[1].split("\n\n")[0].splitlines()[2:]
+        )
+    }
+    assert sorted(rows) == sorted(ROBOTS)
+    for robot, listed in rows.items():
+        names = {spec(task_id).name for task_id in list_tasks() if spec(task_id).robot == robot}
+        assert set(listed.split(", ")) == names, robot
