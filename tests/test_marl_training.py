@@ -14,7 +14,7 @@ import pytest
 
 import bbbench
 from bbbench.cli import main
-from bbbench.policies import load_policy
+from bbbench.policies import classical_controller, load_policy
 from bbbench.training import MARL_TRAINABLE, recipe
 from bbbench.training.recipe_files import recipe_file
 from bbbench.training.sb3.recipes import recipes
@@ -211,6 +211,7 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
     curve = json.loads((alone.parent / "curve.json").read_text())["points"]
     assert [point["steps"] for point in curve] == [200, 400]
     assert record["checkpoint_rule"] == "last"
+    assert record["observation_statistics"]["controller"] == classical_controller(TASK)
     assert record["trainings_beside"]["samples"] >= 2  # counted at its start and its end
     assert record["kept"] == curve[-1]
     assert record["workers"] == 2

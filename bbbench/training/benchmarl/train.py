@@ -249,6 +249,11 @@ def train_marl(
         "eval_freq": eval_freq,
         "evaluation_seeds": {task_id: evaluation_seeds(task_id)},
         "checkpoint_rule": CHECKPOINT_RULE,
+        "observation_statistics": {
+            "controller": classical_controller(task_id),
+            "world_steps": STATISTICS_STEPS,
+            "random_share": STATISTICS_EPSILON,
+        },
         "kept": callback.curve[-1],
         "wall_time_s": round(seconds, 1),
         "trainings_beside": beside.record(),
