@@ -262,32 +262,3 @@ def test_a_twist_command_holds_each_pair_for_its_drawn_duration():
     assert command.top_target == 0.8
     with pytest.raises(ValueError, match="yaw_low <= yaw_high"):
         PiecewiseConstantTwist(yaw_low=1.0, yaw_high=-1.0)
-
-
-@pytest.mark.parametrize("task_id", ["bbbench/SteerTracking-v0", "bbbench/ConvoyTurns-v0"])
-def test_a_rendered_steering_episode_plays_as_an_unrendered_one(task_id):
-    """(The waypoint tasks and Swap-v0 are held to it in tests/test_waypoints.py, with
-    their goals' markers.)"""
-    import bbbench
-    from bbbench.policies import classical_controller, load_policy
-
-    def play(render_mode):
-        multi = bbbench.spec(task_id).multi_agent
-        env = (bbbench.make_parallel if multi else bbbench.make)(task_id, render_mode=render_mode)
-        actor = load_policy(classical_controller(task_id)).actor(task_id)
-        observations, _ = env.reset(seed=5)
-        rows = []
-        for step in range(120):
-            if multi:
-                actions = actor(np.stack(list(observations.values())))
-                observations, *_ = env.step(dict(zip(env.agents, actions, strict=True)))
-                rows.append(np.stack(list(observations.values())))
-            else:
-                observations, *_ = env.step(actor(observations[None])[0])
-                rows.append(observations)
-            if render_mode and step % 40 == 0:
-                assert env.render().shape[2] == 3
-        env.close()
-        return np.stack(rows)
-
-    np.testing.assert_array_equal(play(None), play("rgb_array"))
