@@ -7,7 +7,7 @@ import gymnasium as gym
 import pytest
 
 import bbbench
-from bbbench.cli import main
+from conftest import one_line_exit_2
 
 
 @pytest.mark.parametrize(
@@ -28,10 +28,8 @@ def test_the_command_refuses_a_policy_off_its_robot_in_one_line(
 ):
     out = tmp_path / "results.json"
     argv = ["eval", policy, "--task", task, "--episodes", "1", "--json", str(out)]
-    assert main(argv) == 2
-    error = capsys.readouterr().err
+    error = one_line_exit_2(capsys, *argv)
     assert expected in error
-    assert error.count("\n") == 1
     assert "Traceback" not in error
     assert list(tmp_path.iterdir()) == []
 
