@@ -15,6 +15,7 @@ from bbbench.cli.common import (
     say_normalization,
 )
 from bbbench.policies import PolicyError, load_policy
+from bbbench.portable import total
 
 
 def add_parser(commands) -> None:
@@ -90,7 +91,7 @@ def run(args: argparse.Namespace) -> None:
     print(
         f"mean return{per_bot} {statistics.fmean(returns):.2f} of at most {spec.max_return:g}; "
         f"mean length {statistics.fmean(lengths):.0f} of {spec.max_episode_steps} steps; "
-        f"{sum(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
+        f"{total(n == spec.max_episode_steps for n in lengths)}/{len(lengths)} "
         f"episodes reached the time limit"
     )
     if args.video is not None:

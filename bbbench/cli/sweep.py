@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         write_atomic(args.plot, _plot(document, labels, Path(args.plot).suffix.lower()))
         args.written.append(args.plot)
         print(f"wrote {args.plot}")
-    missing = sum(
+    missing = total(
         len(point["missing"])
         for entry in document["policies"]
         for task in entry["tasks"]

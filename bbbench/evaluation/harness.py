@@ -13,6 +13,7 @@ from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import document
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import Policy, fitting_tasks
+from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 
@@ -131,7 +132,7 @@ def play_tasks(
         for seed, episode in zip(task_seeds, played, strict=True)
         if episode is None
     ]
-    steps = sum(episode.length for played in results for episode in played if episode is not None)
+    steps = total(episode.length for played in results for episode in played if episode is not None)
     return Played(results, missing, steps)
 
 

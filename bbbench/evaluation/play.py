@@ -22,6 +22,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from bbbench.portable import total
+
 _NAN = "the policy's output is NaN"
 
 Act = Callable[[np.ndarray, list | None], list]
@@ -246,13 +248,13 @@ class MultiEpisode:
             for agent, down in zip(agents, outcome.fell, strict=True):
                 if down:
                     fell[agent] = steps
-            falls += sum(outcome.fell)
+            falls += total(outcome.fell)
             if team and outcome.over:
                 cause = outcome.cause
             yield MultiStep(steps, observations, rewards)
         self.result = PlayedEpisode(
             self.seed,
-            sum(returns.values()) / len(returns),
+            total(returns.values()) / len(returns),
             steps,
             falls,
             _means(names, sums, bot_steps),

@@ -30,6 +30,7 @@ from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
 from bbbench.evaluation.sweep import robustness, variant
 from bbbench.policies.policy import Policy
+from bbbench.portable import total
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal, unit
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import spec
@@ -158,7 +159,7 @@ def summary(axes: Sequence[dict[str, Any]]) -> dict[str, Any]:
     point of all (with its axis and value)."""
     worst = min(axes, key=lambda block: block["worst_case"])
     return {
-        "score": sum(block["score"] for block in axes) / len(axes),
+        "score": total(block["score"] for block in axes) / len(axes),
         "worst_case": worst["worst_case"],
         "worst_axis": worst["axis"],
         "worst_value": worst["worst_value"],

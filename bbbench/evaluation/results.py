@@ -16,6 +16,7 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import stats
 from bbbench.evaluation.episodes import PlayedEpisode
+from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 
 SCHEMA = "bbbench-results/1"
@@ -52,8 +53,8 @@ def aggregate(task: TaskSpec, episodes: Sequence[PlayedEpisode]) -> dict[str, An
         "mean_ci": list(mean_ci),
         "iqm": stats.iqm(returns),
         "iqm_ci": list(stats.stratified_bootstrap_ci([returns], stats.iqm)),
-        "success_rate": sum(e.success for e in episodes) / len(episodes),
-        "failures": sum(e.failure is not None for e in episodes),
+        "success_rate": total(e.success for e in episodes) / len(episodes),
+        "failures": total(e.failure is not None for e in episodes),
         **{  # the scenario's metrics, each the mean over episodes
             name: stats.mean([e.metrics[name] for e in episodes]) for name in episodes[0].metrics
         },

@@ -33,6 +33,7 @@ from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
 from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
 from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
 from bbbench.policies import Policy
+from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 from bbbench.tasks.tracks import TRACKS, Track, track_of
@@ -188,13 +189,13 @@ def score(
                 robustness = profile(
                     policy, workers, backend, address, on_result, protocol, track.profiled_on
                 )
-                profiled += sum(len(records) for records in stored_records(robustness))
+                profiled += total(len(records) for records in stored_records(robustness))
             profiles[track.name] = robustness
         scored.append(
             Scored(
                 submission,
                 results_document(policy, results),
-                sum(len(played[t]) for t in pending) + profiled,
+                total(len(played[t]) for t in pending) + profiled,
                 profiles,
             )
         )

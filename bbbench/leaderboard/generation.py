@@ -15,6 +15,7 @@ from bbbench.leaderboard.board import Board, Scored, leaderboard_document, profi
 from bbbench.leaderboard.page import FIGURES, README_FIGURE, page, readme_robustness_figure
 from bbbench.leaderboard.submissions import Submission, read_submissions
 from bbbench.leaderboard.views import markdown, with_baselines
+from bbbench.portable import total
 
 DOCUMENT = "bbbench-v0.json"
 RESULTS = "results"
@@ -91,10 +92,10 @@ def _files(scored: list[Scored], board: Board) -> Built:
         **{f"{RESULTS}/{slug}.json": dumps(doc).encode() for slug, doc in results.items()},
         **{f"{RESULTS}/{name}": dumps(doc).encode() for name, doc in profiles.items()},
     }
-    episodes = sum(
+    episodes = total(
         block["aggregate"]["episodes"] for doc in results.values() for block in doc["tasks"]
-    ) + sum(len(records) for doc in profiles.values() for records in stored_records(doc))
-    return Built(files, document, sum(entry.played for entry in scored), episodes, scored)
+    ) + total(len(records) for doc in profiles.values() for records in stored_records(doc))
+    return Built(files, document, total(entry.played for entry in scored), episodes, scored)
 
 
 def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Built:

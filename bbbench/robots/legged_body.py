@@ -15,6 +15,7 @@ from typing import NamedTuple
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from bbbench.portable import total
 from bbbench.robots.balancebot import tilt_from_quaternion
 from bbbench.robots.body import Body, WheeledModel, rolling_radius, urdf_parts
 
@@ -124,7 +125,7 @@ def read_legged_model(urdf_path: Path = URDF_PATH) -> LeggedModel:
         ),
         torso_mass=float(links["torso"].find("inertial/mass").get("value")),
         wheel_mass=float(links["left_wheel"].find("inertial/mass").get("value")),
-        mass=sum(masses),
+        mass=total(masses),
     )
 
 

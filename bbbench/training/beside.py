@@ -19,6 +19,8 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+from bbbench.portable import total
+
 FOLDER = "bbbench-trainings"
 EVERY_S = 5.0
 
@@ -54,7 +56,7 @@ class Beside:
         counts = self.counts or [0]
         return {
             "most": max(counts),
-            "mean": round(sum(counts) / len(counts), 2),
+            "mean": round(total(counts) / len(counts), 2),
             "samples": len(self.counts),
         }
 

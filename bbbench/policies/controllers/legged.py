@@ -39,6 +39,7 @@ import math
 import numpy as np
 
 from bbbench.policies.controllers.pd import PDController
+from bbbench.portable import total
 from bbbench.robots.wheel_legged import (
     LEG_JOINT_NAMES,
     LEGGED_MODEL,
@@ -68,9 +69,9 @@ def balance_pitch(model: LeggedModel, hip: float, knee: float) -> float:
         (2 * link_mass, (0.5 * (knee_at[0] + axle[0]), 0.5 * (knee_at[1] + axle[1]))),
         (2 * model.wheel_mass, axle),
     ]
-    mass = sum(m for m, _ in parts)
-    ahead = sum(m * p[0] for m, p in parts) / mass - axle[0]
-    above = sum(m * p[1] for m, p in parts) / mass - axle[1]
+    mass = total(m for m, _ in parts)
+    ahead = total(m * p[0] for m, p in parts) / mass - axle[0]
+    above = total(m * p[1] for m, p in parts) / mass - axle[1]
     # Leaning forward by p moves a point (ahead, above) of the torso's frame forward by
     # ahead cos p + above sin p: zero at p = -atan(ahead / above).
     return -math.atan2(ahead, above)

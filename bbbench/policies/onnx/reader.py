@@ -36,6 +36,7 @@ from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.file_policy import MAX_PARAMETERS
 from bbbench.policies.onnx.operators import OPERATORS
+from bbbench.portable import total
 
 MAX_FILE_BYTES = 64 * 2**20  # 10M float32 parameters are 40 MB
 MAX_NODES = 1000
@@ -78,7 +79,7 @@ def check_safety(model, where: str) -> int:
     for node in graph.node:
         _check_node(where, node)
         tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
-        declared += sum(len(a.floats) + len(a.ints) for a in node.attribute)
+        declared += total(len(a.floats) + len(a.ints) for a in node.attribute)
     for tensor_name, tensor in tensors:  # every size and location before any value is decoded
         declared += _check_tensor(where, tensor_name, tensor)
         if declared > MAX_PARAMETERS:

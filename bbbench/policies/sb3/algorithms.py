@@ -26,6 +26,7 @@ from typing import Any
 from gymnasium import spaces
 
 from bbbench.policies.sb3 import extract
+from bbbench.portable import total
 
 NetArch = list[int] | dict[str, list[int]] | None
 
@@ -45,7 +46,7 @@ class Family:
 def _mlp_parameters(inputs: int, layers: list[int], outputs: int) -> int:
     """Weights and biases of Linear layers inputs -> layers... -> outputs (0: no head)."""
     widths = [inputs, *layers, *([outputs] if outputs else [])]
-    return sum(a * b + b for a, b in itertools.pairwise(widths))
+    return total(a * b + b for a, b in itertools.pairwise(widths))
 
 
 def _actor_critic_parameters(observations, actions, discrete, pi, vf, qf, kwargs, use_sde):

@@ -27,6 +27,7 @@ import numpy as np
 
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.file_policy import MAX_PARAMETERS
+from bbbench.portable import total
 
 CAST_TO_FLOAT32 = ("float16", "bfloat16", "float64")
 
@@ -77,7 +78,7 @@ def _check_records(path: Path, raw: bytes) -> None:
             f"{path}: 'policy.pth' has compressed records {compressed[:3]}; torch.save stores "
             f"them uncompressed"
         )
-    if sum(record.file_size for record in records) > len(raw):
+    if total(record.file_size for record in records) > len(raw):
         raise PolicyError(f"{path}: 'policy.pth' records claim more bytes than it holds")
 
 

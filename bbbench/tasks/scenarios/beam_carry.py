@@ -11,6 +11,7 @@ import numpy as np
 import pybullet
 
 from bbbench.parameters import parameters
+from bbbench.portable import total
 from bbbench.robots.layout import GYRO_RANGE, ObservationField
 from bbbench.tasks.group import Group
 from bbbench.tasks.reward import StayUpReward
@@ -184,7 +185,7 @@ class BeamCarry(Column):
         matrix = pybullet.getMatrixFromQuaternion(orientation)
         right, forward, up = matrix[0::3], matrix[1::3], matrix[2::3]
         self._beam_pitch = math.asin(max(-1.0, min(1.0, forward[2])))
-        self._beam_pitch_rate = sum(w * r for w, r in zip(spin, right, strict=True))
+        self._beam_pitch_rate = total(w * r for w, r in zip(spin, right, strict=True))
         horizontal = math.hypot(forward[0], forward[1]) or 1.0
         self._beam_velocity = (velocity[0] * forward[0] + velocity[1] * forward[1]) / horizontal
         if self._placed:  # at reset

@@ -10,7 +10,7 @@ import numpy as np
 import pybullet
 
 from bbbench.parameters import parameters
-from bbbench.portable import dot3
+from bbbench.portable import dot3, total
 from bbbench.robots.layout import GYRO_RANGE, OBSERVATION_DTYPE, ObservationField
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import Group
@@ -186,7 +186,7 @@ class Convoy(Column):
         return any(stretch > limit for _, stretch, _ in self._tethers)
 
     def team_velocity(self, states: list[Any]) -> float:
-        return sum(state.forward_velocity for state in states) / len(states)
+        return total(state.forward_velocity for state in states) / len(states)
 
 
 TARGET_YAW_RATE = ObservationField(
