@@ -257,7 +257,11 @@ def test_a_forged_episode_is_caught_when_the_spot_check_draws_it(board):
     forge(board, "pd", task_id, seed)
     every = leaderboard.check(board, BOARD, workers=1, spot=10_000)  # draws them all
     assert len(every.problems) == 1
-    assert every.problems[0].startswith(f"pd: {task_id} seed {seed}: recorded return ")
+    assert every.problems[0].startswith("1 of ")
+    assert (
+        "replayed episodes differ from their records, returns by at most 1 " in (every.problems[0])
+    )
+    assert f"(first: pd: {task_id} seed {seed}: recorded return " in every.problems[0]
     # Drawn at random: caught when its record is drawn (pd's 20 of its 80 here), and only
     # then.
     caught = []
@@ -279,6 +283,49 @@ def test_a_tampered_aggregate_is_always_caught(board):
         assert len(problems.problems) == 1
         assert "random.single.profile.json.axes[" in problems.problems[0]
         assert ".aggregate.mean: checked in" in problems.problems[0]
+
+
+def test_numbers_that_differ_are_said_in_one_line(board):
+    """A machine that does not reproduce the board moves many numbers in the last bits:
+    the check says how many, in how many files, and by how much, in one line."""
+    for name in ("pd.json", "random.json"):
+        path = board / "results" / name
+        document = json.loads(path.read_text())
+        for block in document["tasks"]:
+            block["aggregate"]["mean"] += 2.8e-14
+        path.write_text(dumps(document))
+    (problem,) = leaderboard.check(board, BOARD, workers=1).problems
+    assert problem.startswith("10 numbers in 2 files differ from the checked-in board, by at")
+    assert "at most 2.84e-14 (first: results/pd.json.tasks[bbbench/Bumps-v0].aggregate.mean" in (
+        problem
+    )
+
+
+def test_a_board_made_on_another_build_is_checked_and_said(board, monkeypatch):
+    """The platform block names the build a document was made on; it is not compared, and
+    the check says which builds it set side by side."""
+    here = leaderboard.checking.machine.record()
+    elsewhere = {**here, "python": "3.13.0", "pybullet_build": "source"}
+    monkeypatch.setattr(leaderboard.checking.machine, "record", lambda: elsewhere)
+    checked = leaderboard.check(board, BOARD, workers=1)
+    assert checked.problems == []
+    assert checked.notes == [
+        f"the board was built on Python {here['python']}, numpy {here['numpy']}, pybullet "
+        f"{here['pybullet']} from its wheel; this check ran on Python 3.13.0, numpy "
+        f"{here['numpy']}, pybullet {here['pybullet']} built from source, and reproduces it"
+    ]
+    monkeypatch.undo()  # the board is built again here, one episode forged
+    task_id = "bbbench/FlatBalance-v0"
+    forge(board, "pd", task_id, bbbench.spec(task_id).eval_seeds[0])
+    monkeypatch.setattr(leaderboard.checking.machine, "record", lambda: elsewhere)
+    problems = leaderboard.check(board, BOARD, workers=1, spot=10_000).problems
+    assert problems[0] == (
+        f"this machine (Python 3.13.0, numpy {here['numpy']}, pybullet {here['pybullet']} built "
+        f"from source) does not reproduce the board; the board was built on Python "
+        f"{here['python']}, numpy {here['numpy']}, pybullet {here['pybullet']} from its wheel. "
+        f"What differs:"
+    )
+    assert problems[1].startswith("1 of ")
 
 
 def test_figures_are_compared_only_under_the_pinned_plotting_stack(board, monkeypatch):

@@ -2,7 +2,8 @@
 
 `docs/results-schema.json` is its JSON Schema. The document holds no
 timestamps, host names or timings: the same policy file on the same seeds with
-the same code gives the same bytes (`dumps`).
+the same code gives the same bytes (`dumps`), on every machine but for its
+`platform` block, which names the Python, numpy and pybullet build it ran on.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any
 import numpy as np
 
 import bbbench
-from bbbench.evaluation import stats
+from bbbench.evaluation import machine, stats
 from bbbench.evaluation.episodes import PlayedEpisode
 from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
@@ -98,6 +99,8 @@ def document(
         "policy": policy,
         "deterministic": deterministic,
         "statistics": stats.method(),
+        # Where it was made: the same bytes on every build but for this block.
+        "platform": machine.record(),
         "tasks": [
             {
                 "task": task.id,

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 import bbbench
-from bbbench.evaluation import PlayedEpisode, evaluate, results_document, stats
+from bbbench.evaluation import PlayedEpisode, evaluate, machine, results_document, stats
 from bbbench.evaluation.profile import (
     PROTOCOL,
     Protocol,
@@ -320,6 +320,7 @@ def leaderboard_document(scored: Sequence[Scored], board: Board) -> dict[str, An
         "harness_version": HARNESS_VERSION,
         "pybullet_version": package_metadata.version("pybullet"),
         "statistics": {**stats.method(), "ranking": RANK_RULE},
+        "platform": machine.record(),
         "tracks": [_track(track, scored, board) for track in TRACKS if board.track_tasks(track)],
     }
 

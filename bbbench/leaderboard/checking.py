@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from bbbench.evaluation import machine
 from bbbench.evaluation.harness import play_draws
 from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
@@ -111,6 +112,19 @@ def check(
         others = [entry for entry in built.scored if not entry.played]
         rng = np.random.default_rng() if rng is None else rng
         problems, spot_checked = _spot_check(others, board, spot, rng, on_episodes, play)
+    made_on, here = recorded.get("platform"), machine.record()
+    if made_on != here:
+        built_on = f"the board was built on {machine.described(made_on)}"
+        if problems:
+            problems.insert(
+                0,
+                f"this machine ({machine.described(here)}) does not reproduce "
+                f"the board; {built_on}. What differs:",
+            )
+        else:
+            notes.append(
+                f"{built_on}; this check ran on {machine.described(here)}, and reproduces it"
+            )
     return Checked(
         problems,
         len(submissions),
@@ -180,15 +194,33 @@ def _spot_check(
         on_result=None if on_episodes is None else lambda n, _: on_episodes(n),
         **play,
     )
-    problems = []
+    differ = []
     for (_, task, seed, slug, record), episode in zip(draws, played, strict=True):
         replay = None if episode is None else episode.record()
         if replay != record:
-            problems.append(
-                f"{slug}: {_stratum(task)} seed {seed}: recorded {_said(record)}, "
-                f"replayed {_said(replay)}"
-            )
-    return problems, len(draws)
+            differ.append((f"{slug}: {_stratum(task)} seed {seed}", record, replay))
+    return ([] if not differ else [_episodes_differ(differ, len(draws))]), len(draws)
+
+
+def _episodes_differ(
+    differ: list[tuple[str, dict[str, Any], dict[str, Any] | None]], replayed: int, shown: int = 3
+) -> str:
+    """One line for the replayed episodes that differ from their records: how many, by
+    how much at most (return, length), and the first few."""
+    returns = [
+        abs(replay["return"] - record["return"])
+        for _, record, replay in differ
+        if replay is not None
+    ]
+    by = f", returns by at most {max(returns):.3g}" if returns else ""
+    first = "; ".join(
+        f"{where}: recorded {_said(record)}, replayed {_said(replay)}"
+        for where, record, replay in differ[:shown]
+    )
+    return (
+        f"{len(differ)} of {replayed} replayed episodes differ from their records{by} "
+        f"(first: {first})"
+    )
 
 
 def _shares(entries: int, budget: int, rng: np.random.Generator) -> list[int]:

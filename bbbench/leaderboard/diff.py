@@ -15,9 +15,12 @@ def differences(
     root: Path, files: dict[str, bytes], skip: Collection[str] = (), limit: int = 12
 ) -> list[str]:
     """Each generated file against the one checked in (but those in `skip`): where they
-    differ, readably; the figures that differ, in one line after the rest (they draw
-    what the data says)."""
-    problems, figures = [], []
+    differ, readably; the numbers that differ, in one line (how many, in how many files,
+    by how much at most: a machine that does not reproduce the board moves many in the
+    last bits); the figures that differ, in one line after the rest (they draw what the
+    data says). A JSON document's `platform` block, which names the build it was made on,
+    is not compared."""
+    problems, figures, numbers = [], [], {}
     for name, rebuilt in files.items():
         if name in skip:
             continue
@@ -34,12 +37,19 @@ def differences(
             continue
         if name.endswith(".json"):
             try:
-                found = _json_differences(json.loads(recorded), json.loads(rebuilt), name)
+                old, new = (_unplaced(json.loads(text)) for text in (recorded, rebuilt))
             except ValueError:
-                found = [f"{name}: not valid JSON"]
-            problems += found or [f"{path}: same data, other bytes (formatting)"]
+                problems.append(f"{name}: not valid JSON")
+                continue
+            if old == new and not _same_layout(recorded, rebuilt):
+                problems.append(f"{path}: same data, other bytes (formatting)")
+            found = _json_differences(old, new, name)
+            numbers.update({where: pair for where, pair in found if pair is not None})
+            problems += [where for where, pair in found if pair is None]
         else:
             problems.append(_first_line_difference(path, recorded, rebuilt))
+    if numbers:
+        problems.append(numbers_differ(numbers))
     if figures:
         problems.append(
             f"{root}: figures missing or not as the rebuild draws them: {', '.join(figures)}"
@@ -52,6 +62,46 @@ def differences(
     return problems
 
 
+def numbers_differ(numbers: dict[str, tuple[float, float]], shown: int = 3) -> str:
+    """One line for numbers that differ (where -> (checked in, rebuilt)): how many, in how
+    many files, the largest difference, and the first few."""
+    files = {where.split(".json", 1)[0] for where in numbers}
+    gaps = {where: abs(new - old) for where, (old, new) in numbers.items()}
+    first = "; ".join(
+        f"{where}: checked in {old!r}, rebuilt {new!r}"
+        for where, (old, new) in list(numbers.items())[:shown]
+    )
+    return (
+        f"{len(numbers)} numbers in {len(files)} files differ from the checked-in board, by "
+        f"at most {max(gaps.values()):.3g} (first: {first})"
+    )
+
+
+def _unplaced(document: Any) -> Any:
+    """A JSON document without its `platform` block (where it was made)."""
+    if isinstance(document, dict):
+        return {key: value for key, value in document.items() if key != "platform"}
+    return document
+
+
+def _same_layout(recorded: bytes, rebuilt: bytes) -> bool:
+    """Whether two documents written with indent=2 are the same text once their top-level
+    platform blocks are left out."""
+    return _unplaced_lines(recorded) == _unplaced_lines(rebuilt)
+
+
+def _unplaced_lines(text: bytes) -> list[str]:
+    kept, inside = [], False
+    for line in text.decode(errors="replace").splitlines():
+        if line.startswith('  "platform": {'):
+            inside = True
+        elif inside:
+            inside = not line.startswith("  }")
+        else:
+            kept.append(line)
+    return kept
+
+
 def _label(item: Any, index: int) -> str:
     if isinstance(item, dict):
         for key in ("slug", "task", "track", "seed"):
@@ -60,14 +110,18 @@ def _label(item: Any, index: int) -> str:
     return str(index)
 
 
-def _json_differences(old: Any, new: Any, path: str) -> list[str]:
+def _json_differences(
+    old: Any, new: Any, path: str
+) -> list[tuple[str, tuple[float, float] | None]]:
+    """Where two JSON documents differ: (where and what, None), or for two numbers that
+    differ (where, (checked in, rebuilt))."""
     if isinstance(old, dict) and isinstance(new, dict):
         found = []
         for key in [*old, *(k for k in new if k not in old)]:
             if key not in new:
-                found.append(f"{path}.{key}: checked in, not in the rebuild")
+                found.append((f"{path}.{key}: checked in, not in the rebuild", None))
             elif key not in old:
-                found.append(f"{path}.{key}: in the rebuild, not checked in")
+                found.append((f"{path}.{key}: in the rebuild, not checked in", None))
             else:
                 found += _json_differences(old[key], new[key], f"{path}.{key}")
         return found
@@ -75,16 +129,23 @@ def _json_differences(old: Any, new: Any, path: str) -> list[str]:
         old_labels = [_label(item, i) for i, item in enumerate(old)]
         new_labels = [_label(item, i) for i, item in enumerate(new)]
         if old_labels != new_labels:
-            return [
-                f"{path}: checked in [{', '.join(old_labels)}], rebuilt [{', '.join(new_labels)}]"
-            ]
+            listed = f"checked in [{', '.join(old_labels)}], rebuilt [{', '.join(new_labels)}]"
+            return [(f"{path}: {listed}", None)]
         found = []
         for label, a, b in zip(old_labels, old, new, strict=True):
             found += _json_differences(a, b, f"{path}[{label}]")
         return found
+    if _number(old) and _number(new) and old != new:
+        return [(path, (old, new))]
     if old != new or type(old) is not type(new):
-        return [f"{path}: checked in {json.dumps(old)[:60]}, rebuilt {json.dumps(new)[:60]}"]
+        return [
+            (f"{path}: checked in {json.dumps(old)[:60]}, rebuilt {json.dumps(new)[:60]}", None)
+        ]
     return []
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _first_line_difference(path: Path, recorded: bytes, rebuilt: bytes) -> str:
