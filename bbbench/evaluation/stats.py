@@ -11,7 +11,9 @@ interval depends on its own scores only, not on which other tasks ran.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import hashlib
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -141,3 +143,128 @@ def _draw_counts(rng: np.random.Generator, size: int, reps: int) -> np.ndarray:
     replacement per resample."""
     draws = rng.integers(size, size=(reps, size)) + size * np.arange(reps)[:, None]
     return np.bincount(draws.ravel(), minlength=reps * size).reshape(reps, size).astype(float)
+
+
+# A method is its runs (training seeds): rliable's protocol, with every episode counted.
+RANKED_RUNS = 3  # a learned method with fewer runs is listed, not ranked
+IQM_RUNS = 5  # from this many runs the point estimate is the IQM over runs x tasks
+METHOD_RULE = (
+    "a run's score on a task is its mean normalized score over every evaluation episode, "
+    "falls included; a method's score is the mean over its runs x tasks, or their IQM "
+    f"(the mean of the middle half) from {IQM_RUNS} runs on; its 95% interval is a "
+    "two-level stratified bootstrap: per task, runs drawn with replacement, then each drawn "
+    "run's episodes; P(X > Y) is the probability that a run of X scores above a run of Y "
+    "on a task (ties half), averaged over tasks, with its interval from the same bootstrap"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Runs:
+    """A method's normalized episode scores on a set of tasks: per task, an array of shape
+    (runs, episodes), the same runs in the same order on every task."""
+
+    scores: tuple[np.ndarray, ...]
+    seed: int = BOOTSTRAP_SEED  # the method's own draws (`method_seed`)
+
+    def __post_init__(self) -> None:
+        if not self.scores:
+            raise ValueError("a method needs scores on at least one task")
+        shapes = [np.shape(task) for task in self.scores]
+        if any(len(shape) != 2 or 0 in shape for shape in shapes):
+            raise ValueError(f"each task's scores are (runs, episodes), got shapes {shapes}")
+        if len({shape[0] for shape in shapes}) != 1:
+            raise ValueError(f"every task needs the same runs, got shapes {shapes}")
+
+    @property
+    def runs(self) -> int:
+        return np.shape(self.scores[0])[0]
+
+    def run_scores(self) -> np.ndarray:
+        """(runs, tasks): each run's mean over its episodes of each task."""
+        return np.stack(
+            [np.asarray(task, dtype=np.float64).mean(axis=1) for task in self.scores], 1
+        )
+
+    def point(self) -> float:
+        return float(_aggregate(self.run_scores()[None])[0])
+
+    def resampled(self, reps: int = BOOTSTRAP_REPS) -> np.ndarray:
+        """(reps, runs, tasks): the run scores of `reps` two-level resamples."""
+        return _resampled_run_scores(self, reps)
+
+    def interval(self, reps: int = BOOTSTRAP_REPS) -> tuple[float, float]:
+        return _percentiles(_aggregate(self.resampled(reps)))
+
+
+def method_seed(name: str) -> int:
+    """The seed of a method's bootstrap draws, from its name: the draws of two methods are
+    independent, and neither depends on which other methods are on the board."""
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
+
+
+def _aggregate(run_scores: np.ndarray) -> np.ndarray:
+    """(reps, runs, tasks) -> (reps,): the mean over runs x tasks, or the IQM from
+    `IQM_RUNS` runs on."""
+    flat = run_scores.reshape(run_scores.shape[0], -1)
+    return iqm(flat, axis=-1) if run_scores.shape[1] >= IQM_RUNS else flat.mean(axis=-1)
+
+
+def _percentiles(values: np.ndarray) -> tuple[float, float]:
+    tail = (1.0 - CONFIDENCE) / 2.0
+    low, high = np.quantile(values, [tail, 1.0 - tail])
+    return float(low), float(high)
+
+
+_RESAMPLED: dict[tuple, np.ndarray] = {}  # one method's draws, reused by its comparisons
+
+
+def _resampled_run_scores(method: Runs, reps: int) -> np.ndarray:
+    key = (
+        method.seed,
+        reps,
+        *(hashlib.sha256(np.ascontiguousarray(t)).digest() for t in method.scores),
+    )
+    if key not in _RESAMPLED:
+        if len(_RESAMPLED) > 256:
+            _RESAMPLED.clear()
+        rng = np.random.default_rng(method.seed)
+        tasks = []
+        for task in method.scores:
+            task = np.asarray(task, dtype=np.float64)
+            runs, episodes = task.shape
+            means = np.empty((reps, runs))
+            for start in range(0, reps, _CHUNK):
+                count = min(_CHUNK, reps - start)
+                drawn_runs = rng.integers(runs, size=(count, runs))
+                drawn_episodes = rng.integers(episodes, size=(count, runs, episodes))
+                means[start : start + count] = task[drawn_runs[..., None], drawn_episodes].mean(-1)
+            tasks.append(means)
+        resampled = np.stack(tasks, axis=2)
+        resampled.flags.writeable = False
+        _RESAMPLED[key] = resampled
+    return _RESAMPLED[key]
+
+
+def run_improvement(
+    x: Runs, y: Runs, reps: int = BOOTSTRAP_REPS
+) -> tuple[float, tuple[float, float]]:
+    """P(X > Y) over runs: per task, the probability that a run of X scores above a run of
+    Y (ties half), averaged over tasks; with its interval from each method's two-level
+    resamples (drawn independently, from each method's own seed)."""
+    if len(x.scores) != len(y.scores):
+        raise ValueError("X and Y need scores on the same tasks")
+    point = float(_run_wins(x.run_scores()[None], y.run_scores()[None])[0])
+    return point, _percentiles(_run_wins(x.resampled(reps), y.resampled(reps)))
+
+
+def _run_wins(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(reps, runs_x, tasks) and (reps, runs_y, tasks) -> (reps,)."""
+    upper, lower = x[:, :, None, :], y[:, None, :, :]
+    wins = (upper > lower) + 0.5 * (upper == lower)
+    return wins.mean(axis=(1, 2, 3))
+
+
+def ranks(beaten_by: dict[str, list[str]]) -> dict[str, int]:
+    """Ranks that do not chain: a method's rank is 1 plus the number of methods that beat
+    it (`beaten_by[m]`: the methods whose P(other > m) has its interval above 0.5)."""
+    return {name: 1 + len(others) for name, others in beaten_by.items()}
