@@ -75,18 +75,27 @@ def runs() -> list[dict]:
     """Every baseline, in the order they are trained: the generalist and one seed of
     everything first."""
     ppo = [{"tasks": [task], "algo": "ppo"} for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
-    multi = [{"tasks": [task], "algo": "ppo", "seed": 0} for task in LATEST_MULTI]
-    generalist = {"tasks": list(LATEST_SINGLE), "algo": "ppo", "seed": 0, "generalist": True}
+    multi = [{"tasks": [task], "algo": "ppo"} for task in LATEST_MULTI]
+    generalist = {"tasks": list(LATEST_SINGLE), "algo": "ppo", "generalist": True}
     plan = [
-        generalist,
+        {**generalist, "seed": 0},
         *({**run, "seed": 0} for run in ppo),
-        *multi,
+        *({**run, "seed": 0} for run in multi),
         *({**run, "seed": seed} for seed in SEEDS[1:] for run in ppo),
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in LEGGED),
         *({"tasks": [task], "algo": "sac", "seed": 0} for task in LEGGED),
         *({"tasks": [task], "algo": "ppo", "seed": seed} for seed in SEEDS for task in TEAMS),
         # A second family on the single-bot track: SAC, seed 0, continuous actions.
         *({"tasks": [task], "algo": "sac", "seed": 0} for task in (*LATEST_SINGLE, *ADDED_SINGLE)),
+        # A method is its seeds (issue 65): the second and third seed of the runs above
+        # that had one.
+        *(
+            {"tasks": [task], "algo": "sac", "seed": seed}
+            for seed in SEEDS[1:]
+            for task in (*LATEST_SINGLE, *ADDED_SINGLE, *LEGGED)
+        ),
+        *({**run, "seed": seed} for seed in SEEDS[1:] for run in multi),
+        *({**generalist, "seed": seed} for seed in SEEDS[1:]),
         *(
             {"tasks": [task], "algo": algo, "seed": seed}
             for seed in SEEDS
