@@ -349,7 +349,8 @@ def test_video_writes_the_first_episode(tmp_path, capsys, task_id, suffix, shape
     (["pd", "--task", "bbbench/FlatBalanse-v0"], "Did you mean 'bbbench/FlatBalance-v0'"),
     (["pd", "--episodes", "0"], "--episodes must be at least 1, got 0"),
     (["pd", "--episodes", "-3"], "--episodes must be at least 1, got -3"),
-    (["pd", "--episodes", "101"], "--episodes 101: the tasks have 100 eval seeds each"),
+    (["pd", "--episodes", "101"], "--episodes 101: the tasks have 100 evaluation seeds each"),
+    (["pd", "--seeds", "test"], "--seeds 'test': the public seeds are 'evaluation' (what the"),
     (["pd", "--workers", "0"], "--workers must be at least 1"),
     (["pd", "--address", "10.0.0.1:6379"], "use it with --backend ray"),
     (["pd", "--json", "/no/such/dir/out.json"], "no directory /no/such/dir"),
@@ -364,6 +365,27 @@ def test_bad_input_is_a_one_line_error_with_exit_code_2(capsys, argv, expected):
     assert err.startswith("bbbench: error:")
     assert len(err.strip().splitlines()) == 1
     assert stdout == ""
+
+
+def test_validation_seeds_are_played_on_request_and_said_in_the_document(tmp_path, capsys):
+    """`--seeds validation` plays each task's validation seeds, which no board scores: the
+    document names the split and the seeds, and its episodes are those a Gymnasium loop
+    plays on them."""
+    out = tmp_path / "validation.json"
+    code, _, _ = run_cli(
+        capsys, "pd", "--task", "bbbench/FlatBalance-v1", "--episodes", "2", "--workers", "1",
+        "--seeds", "validation", "--json", str(out),
+    )  # fmt: skip
+    assert code == 0
+    document = json.loads(out.read_text())
+    spec = bbbench.spec("bbbench/FlatBalance-v1")
+    assert document["split"] == "validation"
+    (block,) = document["tasks"]
+    assert block["seeds"] == list(spec.validation_seeds[:2])
+    assert [episode["seed"] for episode in block["episodes"]] == block["seeds"]
+    on_eval = evaluate(load_policy("pd"), [spec.id], episodes=2, workers=1).document
+    assert "split" not in on_eval
+    assert on_eval["tasks"][0]["episodes"] != block["episodes"]
 
 
 def test_a_policy_is_refused_on_a_task_it_cannot_play_before_anything_is_played():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import subprocess
 import sys
@@ -108,6 +109,20 @@ def test_reset_without_a_seed_plays_training_seeds_never_eval_seeds():
         assert len(eval_seeds) >= 100
         assert not set(eval_seeds) & set(drawn)
         assert all(seed not in TRAINING_SEEDS for seed in eval_seeds)
+
+
+def test_validation_seeds_are_public_and_apart_from_training_and_evaluation_seeds():
+    for task_id in bbbench.list_tasks():
+        spec = bbbench.spec(task_id)
+        assert len(spec.validation_seeds) == 100
+        assert spec.seeds("validation") == spec.validation_seeds
+        assert spec.seeds() == spec.eval_seeds
+        assert not set(spec.validation_seeds) & set(spec.eval_seeds)
+        assert all(seed not in TRAINING_SEEDS for seed in spec.validation_seeds)
+    with pytest.raises(ValueError, match="must lie outside the training and evaluation seeds"):
+        dataclasses.replace(bbbench.spec(TASKS[0]), validation_seeds=(5,))
+    with pytest.raises(ValueError, match="the seeds are 'evaluation' or 'validation', got 'test'"):
+        bbbench.spec(TASKS[0]).seeds("test")
 
 
 def test_an_episode_seed_decides_the_episode_whoever_asks():

@@ -22,6 +22,7 @@ from bbbench.cli.common import (
 )
 from bbbench.files import check_distinct_outputs, check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
+from bbbench.tasks.spec import SEED_SPLITS
 
 
 def add_parser(commands) -> None:
@@ -38,7 +39,14 @@ def add_parser(commands) -> None:
     evaluate.add_argument(
         "--task", action="extend", nargs="+", metavar="ID", help="task ID(s); default: all it fits"
     )
-    add_play_options(evaluate, episodes="the first N eval seeds of each task (default: all)")
+    add_play_options(evaluate, episodes="the first N seeds of each task (default: all)")
+    evaluate.add_argument(
+        "--seeds",
+        default="evaluation",
+        metavar="SPLIT",
+        help="which public seeds to play: evaluation (default: what the board scores) or "
+        "validation (disjoint from them and from the training seeds: make choices there)",
+    )
     add_contract_options(evaluate)
     evaluate.add_argument("--json", metavar="OUT", help="write the results document here")
     evaluate.add_argument(
@@ -86,6 +94,11 @@ def _checked(args: argparse.Namespace):
     from bbbench.evaluation.video import check_video_path  # lazy: bbbench.evaluation.video
 
     check_play_options(args)
+    if args.seeds not in SEED_SPLITS:
+        raise UsageError(
+            f"--seeds {args.seeds!r}: the public seeds are 'evaluation' (what the board "
+            f"scores) or 'validation' (to make choices on)"
+        )
     cores = default_workers()
     if args.workers is not None and args.workers > cores and not args.address:
         # evaluate() caps them; the command says so
@@ -115,9 +128,11 @@ def _checked(args: argparse.Namespace):
     except (PolicyError, ValueError) as error:
         raise UsageError(str(error)) from None
     say_normalization(policy)
-    most = min(len(bbbench.spec(task_id).eval_seeds) for task_id in task_ids)
+    most = min(len(bbbench.spec(task_id).seeds(args.seeds)) for task_id in task_ids)
     if args.episodes is not None and args.episodes > most:
-        raise UsageError(f"--episodes {args.episodes}: the tasks have {most} eval seeds each")
+        raise UsageError(
+            f"--episodes {args.episodes}: the tasks have {most} {args.seeds} seeds each"
+        )
     return policy, task_ids, args.episodes or most
 
 
@@ -146,6 +161,7 @@ def _played(args: argparse.Namespace, policy, task_ids: list[str], per_task: int
                 address=args.address,
                 stochastic=args.stochastic,
                 on_result=lambda count, played: progress.advance(bar, count),
+                split=args.seeds,
             )
         except PolicyError as error:  # its network cannot be built for a task's spaces
             raise UsageError(str(error)) from None
@@ -177,7 +193,7 @@ def _reported(args: argparse.Namespace, policy, task_ids: list[str], result) -> 
         print(f"wrote {args.marl_eval} (marl-eval's raw data)")
     if args.video is not None:
         task_id = task_ids[0]
-        seed = bbbench.spec(task_id).eval_seeds[0]
+        seed = bbbench.spec(task_id).seeds(args.seeds)[0]
         frames = record_episode(policy, task_id, seed, args.video, stochastic=args.stochastic)
         args.written.append(args.video)
         print(f"wrote {args.video}: {task_id}, episode seed {seed}, {frames} frames")

@@ -62,10 +62,13 @@ def evaluate(
     address: str | None = None,
     stochastic: bool = False,
     on_result: Callable[[int, list[PlayedEpisode] | None], None] | None = None,
+    split: str = "evaluation",
 ) -> Evaluation:
     """Play the first `episodes` eval seeds (default: all) of each task, each episode
     seeded with `reset(seed=s)`, on `workers` processes (default: every core) of the
-    local machine or of Ray; aggregate them into the results document.
+    local machine or of Ray; aggregate them into the results document. `split=
+    "validation"` plays the tasks' validation seeds instead (`TaskSpec.seeds`): the ones
+    to make choices on.
 
     Single-bot episodes run in groups of `LOCKSTEP` consecutive seeds, side by
     side, so the policy's network runs once per step for the group.
@@ -74,9 +77,13 @@ def evaluate(
     """
     # A policy that observes the ground ahead plays every task with the height scan on.
     tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in task_ids]
-    played = play_tasks(policy, tasks, episodes, workers, backend, address, stochastic, on_result)
+    seeds = [list(task.seeds(split)[:episodes]) for task in tasks]
+    played = play_tasks(
+        policy, tasks, episodes, workers, backend, address, stochastic, on_result, seeds
+    )
     results = dict(zip(task_ids, played.episodes, strict=True))
-    return Evaluation(results_document(policy, results, stochastic), played.missing, played.steps)
+    document = results_document(policy, results, stochastic, split)
+    return Evaluation(document, played.missing, played.steps)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,7 +109,7 @@ def play_tasks(
     """The episodes of `evaluate`, for task specs: the suite's, or variants of them (a
     perturbation, another difficulty or number of bots: `bbbench sweep`), all on one pool
     of workers. Each task plays its first `episodes` eval seeds, or `seeds[i]` (any of
-    its eval seeds, in any order: an episode depends on its seed alone). `PolicyError`
+    its public seeds, in any order: an episode depends on its seed alone). `PolicyError`
     for a task the policy cannot play, before anything is played."""
     if episodes is not None and episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
@@ -140,16 +147,19 @@ def results_document(
     policy: Policy,
     results: Mapping[str, Sequence[PlayedEpisode | None]],
     stochastic: bool = False,
+    split: str = "evaluation",
 ) -> dict[str, Any]:
     """The results document of `policy`'s episodes: `results[task_id]` holds the episodes
-    on the task's first eval seeds, in order (None for one that is missing)."""
+    on the task's first seeds of `split` (eval seeds by default), in order (None for one
+    that is missing)."""
     tasks = [spec(task_id).with_height_scan(policy.height_scan) for task_id in results]
     played = list(results.values())
     seeds = [
-        list(task.eval_seeds[: len(episodes)]) for task, episodes in zip(tasks, played, strict=True)
+        list(task.seeds(split)[: len(episodes)])
+        for task, episodes in zip(tasks, played, strict=True)
     ]
     deterministic = not (stochastic or policy.random_actions)
-    return document(policy.record(), tasks, seeds, played, deterministic)
+    return document(policy.record(), tasks, seeds, played, deterministic, split)
 
 
 def play_draws(

@@ -88,9 +88,11 @@ def document(
     seeds: Sequence[Sequence[int]],
     results: Sequence[Sequence[PlayedEpisode | None]],
     deterministic: bool,
+    split: str = "evaluation",
 ) -> dict[str, Any]:
     """The whole results document; `results[i][j]` is task i's episode on `seeds[i][j]`,
-    None if it is missing (its worker died twice)."""
+    None if it is missing (its worker died twice); `split` names the tasks' seeds played
+    (the validation seeds' documents say so: no board takes them)."""
     played = [[r for r in task_results if r is not None] for task_results in results]
     return {
         "schema": SCHEMA,
@@ -98,6 +100,8 @@ def document(
         "harness_version": HARNESS_VERSION,
         "policy": policy,
         "deterministic": deterministic,
+        # Only on validation seeds: documents of the evaluation seeds keep their bytes.
+        **({"split": split} if split != "evaluation" else {}),
         "statistics": stats.method(),
         # Where it was made: the same bytes on every build but for this block.
         "platform": machine.record(),

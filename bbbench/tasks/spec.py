@@ -24,11 +24,16 @@ from bbbench.tasks.scenario import SCENARIOS, Scenario
 from bbbench.tasks.sensors import PerfectSensors, SensorModel
 from bbbench.terrain import FlatGround, HeightfieldTerrain
 
-# The train/test split (Procgen's, applied to terrain and commands): an episode
-# is decided by one integer seed. reset() without a seed plays a training seed;
-# every task's public evaluation seeds lie outside that range.
+# The train/validation/test split (Procgen's, applied to terrain and commands, with seeds
+# to tune on that are neither): an episode is decided by one integer seed. reset()
+# without a seed plays a training seed; every task's public evaluation seeds lie outside
+# that range, and its public validation seeds outside both. Hyperparameters, gains,
+# checkpoints and calibrations are chosen on training or validation seeds, never on the
+# evaluation seeds the board scores.
 TRAINING_SEEDS = range(2**31)
 EVAL_SEEDS = tuple(range(2**31, 2**31 + 100))
+VALIDATION_SEEDS = tuple(range(2**31 + 2**30, 2**31 + 2**30 + 100))
+SEED_SPLITS = ("evaluation", "validation")  # `TaskSpec.seeds`, `bbbench eval --seeds`
 
 
 class SeedStreams(NamedTuple):
@@ -59,6 +64,7 @@ _OPTIONS_ADDED_LATER = {
     "perturbations": (),
     "robot": "two-wheel",
     "coupling": None,
+    "validation_seeds": VALIDATION_SEEDS,
 }
 
 
@@ -131,6 +137,9 @@ class TaskSpec:
     physics_substeps: int = 1  # pybullet sub-steps per env step
     max_episode_steps: int = 1500  # time limit (truncation)
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
+    # Seeds to make choices on (a recipe's hyperparameters, a controller's gains, a
+    # checkpoint, a calibration), disjoint from the training and evaluation seeds.
+    validation_seeds: tuple[int, ...] = VALIDATION_SEEDS
     group: Group | None = None  # several bots in one world (a PettingZoo task), or one
     # The observation ends with ground heights ahead of the bot (`robots/layout.py`).
     height_scan: bool = False
@@ -191,6 +200,13 @@ class TaskSpec:
             raise ValueError(f"{self.id}: eval_seeds must not repeat")
         if any(seed in TRAINING_SEEDS for seed in self.eval_seeds):
             raise ValueError(f"{self.id}: eval_seeds must lie outside the training seeds")
+        if len(set(self.validation_seeds)) != len(self.validation_seeds) or any(
+            seed in TRAINING_SEEDS or seed in self.eval_seeds for seed in self.validation_seeds
+        ):
+            raise ValueError(
+                f"{self.id}: validation_seeds must not repeat and must lie outside the "
+                f"training and evaluation seeds"
+            )
         if self.height_scan is not False and self.height_scan is not True:
             raise ValueError(f"height_scan must be True or False, got {self.height_scan!r}")
         if self.height_scan and self.group is not None:
@@ -278,6 +294,16 @@ class TaskSpec:
     def max_return(self) -> float:
         """The best possible episode return (per bot): every step upright and on target."""
         return self.reward.max_step * self.max_episode_steps
+
+    def seeds(self, split: str = "evaluation") -> tuple[int, ...]:
+        """The task's public seeds of a split: 'evaluation' (what the board scores) or
+        'validation' (what choices are made on)."""
+        if split not in SEED_SPLITS:
+            raise ValueError(
+                f"the seeds are {' or '.join(map(repr, SEED_SPLITS))}, got {split!r}: "
+                f"choose on 'validation', score on 'evaluation'"
+            )
+        return self.eval_seeds if split == "evaluation" else self.validation_seeds
 
     @property
     def spec_hash(self) -> str:
