@@ -388,7 +388,7 @@ def test_check_names_a_swapped_policy_file(board, tmp_path):
 
 
 def test_check_names_a_submission_added_without_a_rebuild(board):
-    write_submission(board, "twin", submission(name="Twin"))
+    write_submission(board, "twin", submission(name="Stand", builtin="stand"))
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.rescored == ["twin"]
     assert "submissions/twin: a submission that is not on the board" in checked.problems[0]
@@ -435,32 +435,35 @@ def test_check_names_an_edited_page_and_a_stale_result_and_figure(board):
 
 def test_add_plays_only_the_new_submission(board):
     counted = []
-    metadata = submission(name="Twin")
+    metadata = submission(name="Stand")
     del metadata["builtin"]
     built = leaderboard.add(
-        board, "pd", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
+        board, "stand", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
     )
-    assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE  # pd on the 5 tasks, 3 profiles
+    # stand on the 5 tasks, and its 3 profiles
+    assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
 
 
-def test_identical_policies_share_a_rank_and_pd_and_random_do_not(board):
-    write_submission(board, "twin", submission(name="Twin"))
-    document = leaderboard.build(board, BOARD, workers=1).document
-    for track in document["tracks"]:
-        ranks = {entry["slug"]: (entry["rank"], entry["rank_group"]) for entry in track["entries"]}
-        assert ranks["pd"] == ranks["twin"]
-        assert ranks["random"][1] > ranks["pd"][1]
-        versus = {e["slug"]: e["versus_next"] for e in track["entries"]}
-        first = "pd" if versus["pd"]["slug"] == "twin" else "twin"
-        assert versus[first]["probability_of_improvement"] == 0.5
-        assert not versus[first]["significant"]
+def test_one_policy_under_two_slugs_is_refused(command_board, capsys, tmp_path):
+    """A board ranks policies, not copies: the same bytes, or a built-in on the board
+    already, are refused in one line by `add`, and by `build` when written by hand."""
+    err = leaderboard_exit_2(capsys, command_board, "add", "pd", "--slug", "pd-again", *ADD)
+    assert "the built-in 'pd' (discrete) is on the board already, as 'pd'" in err
+    err = leaderboard_exit_2(
+        capsys, command_board, "add", str(REFERENCE_POLICY), "--slug", "copy", *ADD
+    )
+    assert f"{REFERENCE_POLICY}: the same policy bytes are on the board already, as 'ppo'" in err
+    assert not (command_board / "submissions" / "copy").exists()
+    write_submission(command_board, "twin", submission(name="Twin"))
+    err = leaderboard_exit_2(capsys, command_board, "build")
+    assert "submissions/twin: the built-in 'pd' (discrete) as 'pd' already" in err
 
 
 def test_an_interrupted_build_changes_nothing(board, monkeypatch):
     before = files(board)
-    write_submission(board, "twin", submission(name="Twin"))
+    write_submission(board, "twin", submission(name="Stand", builtin="stand"))
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt

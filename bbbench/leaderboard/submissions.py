@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import hashlib
 import json
 import re
 from collections.abc import Callable
@@ -256,6 +257,37 @@ class Submission:
                 raise SubmissionError(f"{where}: {error}") from None
         return check_policy(policy, declared, self.policy_file or self.folder / SUBMISSION_FILE)
 
+    def identity(self) -> tuple[str, ...]:
+        """What plays: a built-in in its action mode, or the policy file's bytes (and its
+        normalizer's). Two entries with one identity are one policy under two slugs."""
+        if self.policy_file is None:
+            return ("builtin", self.metadata["builtin"], self.metadata["action_mode"])
+        return policy_identity(self.policy_file, self.normalization_file)
+
+    def describe_identity(self) -> str:
+        if self.policy_file is None:
+            return f"the built-in {self.metadata['builtin']!r} ({self.metadata['action_mode']})"
+        return f"the same policy bytes ({self.policy_file.name})"
+
+
+def policy_identity(policy: Path, normalization: Path | None) -> tuple[str, ...]:
+    """A policy file's identity: its SHA-256, and its normalizer's if it has one."""
+    hashes = [hashlib.sha256(p.read_bytes()).hexdigest() for p in (policy, normalization) if p]
+    return ("file", *hashes)
+
+
+def check_distinct(submissions: list[Submission]) -> None:
+    """`SubmissionError` for one policy under two slugs (the same bytes, or one built-in
+    in one action mode): a board ranks policies, not copies."""
+    seen: dict[tuple[str, ...], Submission] = {}
+    for submission in submissions:
+        first = seen.setdefault(submission.identity(), submission)
+        if first is not submission:
+            raise SubmissionError(
+                f"{submission.folder}: {submission.describe_identity()} as "
+                f"{first.slug!r} already; one policy is one entry: remove one of them"
+            )
+
 
 def check_policy(policy: Policy, declared_mode: str, where: Path | str) -> Policy:
     """`policy`, if it acts in the declared action mode and fits a task of the suite."""
@@ -339,4 +371,6 @@ def read_submissions(folder: Path) -> list[Submission]:
     for item in entries:
         if not item.is_dir() or item.is_symlink():
             raise SubmissionError(f"{item}: not a submission folder (submissions/<slug>/)")
-    return [read_submission(item) for item in entries]
+    submissions = [read_submission(item) for item in entries]
+    check_distinct(submissions)
+    return submissions

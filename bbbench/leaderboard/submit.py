@@ -20,7 +20,9 @@ from bbbench.leaderboard.submissions import (
     check_policy,
     check_policy_size,
     check_slug,
+    policy_identity,
     read_submission,
+    read_submissions,
     validate,
 )
 from bbbench.policies import BUILTIN_POLICIES, PolicyError, load_policy
@@ -72,6 +74,7 @@ def add(
             raise SubmissionError(str(error) if named else f"{policy}: {error}") from None
         check_policy(loaded, metadata.setdefault("action_mode", loaded.action_mode), policy)
     validate(metadata, "the submission (from the command's options)")
+    _check_new(root, policy, source, vecnormalize, metadata)
     (root / SUBMISSIONS).mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{slug}.", suffix=".partial", dir=root / SUBMISSIONS))
     try:
@@ -94,3 +97,22 @@ def add(
         return built
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _check_new(
+    root: Path,
+    policy: str,
+    source: Path | None,
+    vecnormalize: str | Path | None,
+    metadata: dict[str, Any],
+) -> None:
+    """`SubmissionError` if the policy is on the board already, under another slug."""
+    if source is None:
+        identity = ("builtin", policy, metadata["action_mode"])
+        what = f"the built-in {policy!r} ({metadata['action_mode']}) is on the board already"
+    else:
+        identity = policy_identity(source, None if vecnormalize is None else Path(vecnormalize))
+        what = f"{policy}: the same policy bytes are on the board already"
+    for entry in read_submissions(root / SUBMISSIONS):
+        if entry.identity() == identity:
+            raise SubmissionError(f"{what}, as {entry.slug!r}: one policy is one entry")
