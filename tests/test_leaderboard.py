@@ -320,10 +320,10 @@ def test_a_board_made_on_another_build_is_checked_and_said(board, monkeypatch):
     monkeypatch.setattr(leaderboard.checking.machine, "record", lambda: elsewhere)
     problems = leaderboard.check(board, BOARD, workers=1, spot=10_000).problems
     assert problems[0] == (
-        f"this machine (Python 3.13.0, numpy {here['numpy']}, pybullet {here['pybullet']} built "
-        f"from source) does not reproduce the board; the board was built on Python "
-        f"{here['python']}, numpy {here['numpy']}, pybullet {here['pybullet']} from its wheel. "
-        f"What differs:"
+        f"this check ran on Python 3.13.0, numpy {here['numpy']}, pybullet {here['pybullet']} "
+        f"built from source; the board was built on Python {here['python']}, numpy "
+        f"{here['numpy']}, pybullet {here['pybullet']} from its wheel. What differs (another "
+        f"build, or another board):"
     )
     assert problems[1].startswith("1 of ")
 

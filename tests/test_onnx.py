@@ -347,3 +347,30 @@ def test_an_onnx_policy_is_named_after_its_file_in_the_results(tmp_path):
         load_policy(path), ["bbbench/FlatBalance-v1"], episodes=1, workers=1
     ).document
     assert document["policy"]["name"] == "my-policy.onnx"
+
+
+def test_a_policy_that_names_its_task_plays_only_tasks_whose_observation_means_the_same(
+    capsys,
+):
+    """Swap-v0's and ConvoyTurns-v0's observations have one width and other fields: a file
+    whose contract says Swap-v0 is not scored on ConvoyTurns-v0 (nor BeamCarry-v0's on
+    Convoy-v0), while tasks of one layout (BeamCarry and BeamCarryBumps) both play it."""
+    submissions = ROOT / "leaderboards" / "submissions"
+    swap = load_policy(submissions / "ippo-swap-v0-3m-s0" / "policy.onnx")
+    assert evaluation.select_tasks(swap, None) == ["bbbench/Swap-v0"]
+    beam = load_policy(submissions / "ippo-beamcarry-v0-3m-s0" / "policy.onnx")
+    assert evaluation.select_tasks(beam, None) == [
+        "bbbench/BeamCarry-v0",
+        "bbbench/BeamCarryBumps-v0",
+    ]
+    assert beam.mismatch("bbbench/Convoy-v0") == (
+        "its metadata says it was trained on bbbench/BeamCarry-v0, whose observation means "
+        "other things than bbbench/Convoy-v0's (value 5 is 'hinge_force_along' there, "
+        "'stretch_ahead' here)"
+    )
+    code = main(["eval", str(submissions / "ippo-swap-v0-3m-s0" / "policy.onnx"), "--task",
+                 "bbbench/ConvoyTurns-v0", "--episodes", "1", "--workers", "1"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1
+    assert "(value 8 is 'goal_distance' there, 'target_yaw_rate' here)" in err

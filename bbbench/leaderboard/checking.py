@@ -118,8 +118,8 @@ def check(
         if problems:
             problems.insert(
                 0,
-                f"this machine ({machine.described(here)}) does not reproduce "
-                f"the board; {built_on}. What differs:",
+                f"this check ran on {machine.described(here)}; {built_on}. What differs "
+                f"(another build, or another board):",
             )
         else:
             notes.append(

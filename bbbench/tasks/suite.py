@@ -119,3 +119,12 @@ def agent_spaces(
     if task.scenario == "solo":  # the robot's layout, with or without the scan
         return robot.observation_space(height_scan), robot.action_space(action_mode)
     return task.scenario_class(task).observation_space(), robot.action_space(action_mode)
+
+
+def agent_layout(task_id: str, height_scan: bool = False) -> tuple[str, ...]:
+    """The names of one bot's observation values on a task, in order: what its
+    observation means, where `agent_spaces` gives only its width."""
+    task = spec(task_id)
+    if task.scenario == "solo":
+        return tuple(field.name for field in task.robot_model.layout(height_scan))
+    return tuple(field.name for field in task.scenario_class(task).layout)

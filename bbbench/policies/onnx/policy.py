@@ -23,6 +23,7 @@ from bbbench.policies.onnx.contract import Contract, read_contract
 from bbbench.policies.onnx.interpreter import Program, compile_graph, compile_steps, trial_shapes
 from bbbench.policies.onnx.reader import OnnxModel, read_onnx
 from bbbench.policies.policy import Actor
+from bbbench.tasks.suite import agent_layout
 
 _TRIAL_ROWS = 3
 
@@ -60,6 +61,26 @@ class OnnxPolicy(FilePolicy):
                 f"cannot play ({self.spaces_text()}): {self.mismatch(contract.task)}"
             )
         self._actor = _actor(model, contract)
+
+    def mismatch(self, task_id: str) -> str | None:
+        """Its spaces' reason (`FilePolicy`); and for a file whose contract names the task
+        it was trained on, a task whose observation means other things (the same width, other
+        fields: Swap-v0's goal against ConvoyTurns-v0's tethers)."""
+        reason = super().mismatch(task_id)
+        trained_on = self.contract.task
+        if reason is not None or trained_on is None:
+            return reason
+        ours = agent_layout(trained_on, self.height_scan)
+        theirs = agent_layout(task_id, self.height_scan)
+        if ours == theirs:
+            return None
+        value, mine, other = next(
+            (k, a, b) for k, (a, b) in enumerate(zip(ours, theirs, strict=True)) if a != b
+        )
+        return (
+            f"its metadata says it was trained on {trained_on}, whose observation means other "
+            f"things than {task_id}'s (value {value} is {mine!r} there, {other!r} here)"
+        )
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
         return self._actor
