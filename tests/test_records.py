@@ -67,3 +67,49 @@ def test_a_runs_wall_time_is_what_its_training_recorded(folder):
     one = "one training" in submission(folder)["training"]["hardware"]
     if "side_by_side" in record:
         assert one == (record["side_by_side"] in (1, "1"))
+
+
+# docs/tasks.md's table of every task on the shipped reward: the board's numbers.
+REWARD_TABLE_TASKS = (
+    "bbbench/Bumps-v2",
+    "bbbench/FlatBalance-v1",
+    "bbbench/NoisySensors-v1",
+    "bbbench/Obstacles-v2",
+    "bbbench/Slopes-v2",
+    "bbbench/VelocityTracking-v1",
+    "bbbench/MultiBalance-v1",
+    "bbbench/MultiBumps-v1",
+)
+
+
+def reward_table_rows() -> list[str]:
+    """Each task's row as the board gives it: random's mean return, stand, PD and LQR
+    normalized, and the best learned entry on it, whichever task it trained on."""
+    import bbbench
+
+    board = json.loads((ROOT / "leaderboards" / "bbbench-v0.json").read_text())
+    rows = []
+    for task_id in REWARD_TABLE_TASKS:
+        scores = {
+            entry["slug"]: (entry["tasks"][task_id]["normalized_score"], entry["submission"])
+            for track in board["tracks"]
+            for entry in track["entries"]
+            if task_id in entry["tasks"]
+        }
+        learned = [
+            (score, submission["name"])
+            for score, submission in scores.values()
+            if "builtin" not in submission
+        ]
+        best, name = max(learned, key=lambda pair: pair[0])
+        builtins = " | ".join(f"{scores[slug][0]:.3f}" for slug in ("stand", "pd", "lqr"))
+        rows.append(
+            f"| {task_id.removeprefix('bbbench/')} | 0 ({bbbench.spec(task_id).random_return:.2f}) "
+            f"| {builtins} | {best:.3f} ({name}) |"
+        )
+    return rows
+
+
+def test_the_tasks_pages_reward_table_is_the_boards():
+    page = (ROOT / "docs" / "tasks.md").read_text()
+    assert "\n".join(reward_table_rows()) in page

@@ -8,9 +8,11 @@ import html
 from typing import Any
 
 HOW_TO_READ = """\
-Every entry is re-scored by CI from the files in `submissions/` (`bbbench leaderboard
-check`), on every evaluation seed of every task, with the shipped harness: nothing
-here is copied from a paper or a log. A score is normalized per task: 0 is the
+Every number is computed from the files in `submissions/` by the shipped harness, on
+every evaluation seed of every task: nothing here is copied from a paper or a log. CI
+(`bbbench leaderboard check`) recomputes every number from the episode records, re-scores
+in full every new or changed entry, and replays 1,000 recorded episodes of the others,
+drawn afresh at every run (`--full` replays them all). A score is normalized per task: 0 is the
 random policy's mean return, 1 the task's maximum return. **Overall** is the IQM
 (interquartile mean) of the per-episode normalized scores over the track's tasks
 (the latest version of each task), with its 95% stratified-bootstrap interval.
