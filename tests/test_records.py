@@ -113,3 +113,15 @@ def reward_table_rows() -> list[str]:
 def test_the_tasks_pages_reward_table_is_the_boards():
     page = (ROOT / "docs" / "tasks.md").read_text()
     assert "\n".join(reward_table_rows()) in page
+
+
+def test_every_runs_results_are_todays_harness():
+    """A run's own results (baselines/<slug>/results.json) are played as the board plays."""
+    from bbbench.evaluation.results import HARNESS_VERSION
+
+    old = [
+        path.parent.name
+        for path in sorted((ROOT / "baselines").glob("*/results.json"))
+        if json.loads(path.read_text())["harness_version"] != HARNESS_VERSION
+    ]
+    assert old == []
