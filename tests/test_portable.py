@@ -244,6 +244,26 @@ def test_the_package_never_calls_the_builtin_sum():
     assert calls == [], f"the built-in sum (use bbbench.portable.total): {calls}"
 
 
+def test_no_module_that_sums_with_total_hides_it_under_a_local_name():
+    """A function that assigns `total` would call its own number, not the sum."""
+    hidden = []
+    for path in sorted((ROOT / "bbbench").rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        imports_total = any(
+            isinstance(node, ast.ImportFrom)
+            and node.module == "bbbench.portable"
+            and any(alias.name == "total" for alias in node.names)
+            for node in ast.walk(tree)
+        )
+        if not imports_total:
+            continue
+        for node in ast.walk(tree):
+            stored = isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store)
+            if stored and node.id == "total":
+                hidden.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert hidden == []
+
+
 @pytest.mark.parametrize("coretype", ["Haswell", None])
 def test_a_convoy_episode_is_the_recorded_one_whatever_blas_kernel_runs(coretype):
     """Convoy-v0's tethers read lengths and rates with dot3, not BLAS: the team

@@ -21,6 +21,7 @@ from bbbench.cli.common import (
 from bbbench.files import check_distinct_outputs, check_output_path, write_atomic
 from bbbench.policies import PolicyError, load_policy
 from bbbench.policies.errors import NoContract
+from bbbench.portable import total
 
 PLOT_FORMATS = (".svg", ".png")
 
@@ -74,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
         transient=True,
         disable=not console.is_terminal,
     ) as progress:
-        total = args.episodes_per_pair * pairs * len(policies)
-        bar = progress.add_task(f"{axis}: {pairs} (value, task) pair(s)", total=total)
+        planned = args.episodes_per_pair * pairs * len(policies)
+        bar = progress.add_task(f"{axis}: {pairs} (value, task) pair(s)", total=planned)
         try:
             document = sweep(
                 policies,

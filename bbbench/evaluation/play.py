@@ -271,4 +271,4 @@ class MultiEpisode:
 
 def _means(names: tuple[str, ...], sums: list[float], count: int) -> dict[str, float]:
     """Each metric's mean over `count` (bot-)steps; 0 for an episode of none."""
-    return {name: total / count if count else 0.0 for name, total in zip(names, sums, strict=True)}
+    return {name: value / count if count else 0.0 for name, value in zip(names, sums, strict=True)}

@@ -52,11 +52,11 @@ def read_weights(path: Path, raw: bytes) -> dict[str, np.ndarray]:
         isinstance(key, str) and isinstance(value, torch.Tensor) for key, value in state.items()
     ):
         raise PolicyError(f"{path}: 'policy.pth' is not a state dict of named tensors")
-    total = 0
+    parameters = 0
     for key, tensor in state.items():
         _check_tensor(path, key, tensor)
-        total += math.prod(tensor.shape)  # the declared shape: nothing is materialized yet
-        if total > MAX_PARAMETERS:
+        parameters += math.prod(tensor.shape)  # the declared shape: nothing is materialized yet
+        if parameters > MAX_PARAMETERS:
             raise RefusedForSafety(
                 f"{path}: 'policy.pth' declares more than {MAX_PARAMETERS:,} parameters "
                 f"(at {key!r}, shape {tuple(tensor.shape)}); bbbench evaluates smaller networks"
