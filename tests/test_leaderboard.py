@@ -641,7 +641,9 @@ def rows_of(table) -> list[str]:
 def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
     from selenium.webdriver.support.wait import WebDriverWait
 
-    hostile = submission(name="<img src=x onerror=alert(1)>", notes="</script><b>bold</b>")
+    hostile = submission(
+        name="<img src=x onerror=alert(1)>", notes="</script><b>bold</b>", builtin="stand"
+    )
     write_submission(board, "hostile", hostile)
     document = leaderboard.build(board, BOARD, workers=1).document
     chromium.get((board / "index.html").as_uri())
