@@ -304,6 +304,13 @@ def test_numbers_that_differ_are_said_in_one_line(board):
     )
 
 
+def test_the_same_data_written_otherwise_is_named_as_formatting(board):
+    path = board / "results" / "pd.json"
+    path.write_text(json.dumps(json.loads(path.read_text()), indent=4) + "\n")
+    (problem,) = leaderboard.check(board, BOARD, workers=1).problems
+    assert problem == f"{path}: same data, other bytes (formatting)"
+
+
 def test_a_board_made_on_another_build_is_checked_and_said(board, monkeypatch):
     """The platform block names the build a document was made on; it is not compared, and
     the check says which builds it set side by side."""

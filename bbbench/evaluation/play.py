@@ -248,7 +248,7 @@ class MultiEpisode:
             for agent, down in zip(agents, outcome.fell, strict=True):
                 if down:
                     fell[agent] = steps
-            falls += total(outcome.fell)
+            falls += outcome.fell.count(True)
             if team and outcome.over:
                 cause = outcome.cause
             yield MultiStep(steps, observations, rewards)

@@ -165,6 +165,10 @@ class Runs:
 
     scores: tuple[np.ndarray, ...]
     seed: int = BOOTSTRAP_SEED  # the method's own draws (`method_seed`)
+    # reps -> the resampled run scores, drawn once and reused by every comparison
+    _draws: dict[int, np.ndarray] = dataclasses.field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not self.scores:
@@ -190,7 +194,9 @@ class Runs:
 
     def resampled(self, reps: int = BOOTSTRAP_REPS) -> np.ndarray:
         """(reps, runs, tasks): the run scores of `reps` two-level resamples."""
-        return _resampled_run_scores(self, reps)
+        if reps not in self._draws:
+            self._draws[reps] = _resampled_run_scores(self, reps)
+        return self._draws[reps]
 
     def interval(self, reps: int = BOOTSTRAP_REPS) -> tuple[float, float]:
         return _percentiles(_aggregate(self.resampled(reps)))
@@ -215,34 +221,24 @@ def _percentiles(values: np.ndarray) -> tuple[float, float]:
     return float(low), float(high)
 
 
-_RESAMPLED: dict[tuple, np.ndarray] = {}  # one method's draws, reused by its comparisons
-
-
 def _resampled_run_scores(method: Runs, reps: int) -> np.ndarray:
-    key = (
-        method.seed,
-        reps,
-        *(hashlib.sha256(np.ascontiguousarray(t)).digest() for t in method.scores),
-    )
-    if key not in _RESAMPLED:
-        if len(_RESAMPLED) > 256:
-            _RESAMPLED.clear()
-        rng = np.random.default_rng(method.seed)
-        tasks = []
-        for task in method.scores:
-            task = np.asarray(task, dtype=np.float64)
-            runs, episodes = task.shape
-            means = np.empty((reps, runs))
-            for start in range(0, reps, _CHUNK):
-                count = min(_CHUNK, reps - start)
-                drawn_runs = rng.integers(runs, size=(count, runs))
-                drawn_episodes = rng.integers(episodes, size=(count, runs, episodes))
-                means[start : start + count] = task[drawn_runs[..., None], drawn_episodes].mean(-1)
-            tasks.append(means)
-        resampled = np.stack(tasks, axis=2)
-        resampled.flags.writeable = False
-        _RESAMPLED[key] = resampled
-    return _RESAMPLED[key]
+    """Per task, runs drawn with replacement, then each drawn run's episodes; from the
+    method's own seed, so the draws depend on nothing else on the board."""
+    rng = np.random.default_rng(method.seed)
+    tasks = []
+    for task in method.scores:
+        task = np.asarray(task, dtype=np.float64)
+        runs, episodes = task.shape
+        means = np.empty((reps, runs))
+        for start in range(0, reps, _CHUNK):
+            count = min(_CHUNK, reps - start)
+            drawn_runs = rng.integers(runs, size=(count, runs))
+            drawn_episodes = rng.integers(episodes, size=(count, runs, episodes))
+            means[start : start + count] = task[drawn_runs[..., None], drawn_episodes].mean(-1)
+        tasks.append(means)
+    resampled = np.stack(tasks, axis=2)
+    resampled.flags.writeable = False
+    return resampled
 
 
 def run_improvement(

@@ -7,6 +7,7 @@ from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
+from bbbench.evaluation.results import dumps
 from bbbench.leaderboard.generation import RESULTS, stale
 from bbbench.leaderboard.page import is_figure
 
@@ -41,7 +42,7 @@ def differences(
             except ValueError:
                 problems.append(f"{name}: not valid JSON")
                 continue
-            if old == new and not _same_layout(recorded, rebuilt):
+            if old == new and dumps(json.loads(recorded)).encode() != recorded:
                 problems.append(f"{path}: same data, other bytes (formatting)")
             found = _json_differences(old, new, name)
             numbers.update({where: pair for where, pair in found if pair is not None})
@@ -82,24 +83,6 @@ def _unplaced(document: Any) -> Any:
     if isinstance(document, dict):
         return {key: value for key, value in document.items() if key != "platform"}
     return document
-
-
-def _same_layout(recorded: bytes, rebuilt: bytes) -> bool:
-    """Whether two documents written with indent=2 are the same text once their top-level
-    platform blocks are left out."""
-    return _unplaced_lines(recorded) == _unplaced_lines(rebuilt)
-
-
-def _unplaced_lines(text: bytes) -> list[str]:
-    kept, inside = [], False
-    for line in text.decode(errors="replace").splitlines():
-        if line.startswith('  "platform": {'):
-            inside = True
-        elif inside:
-            inside = not line.startswith("  }")
-        else:
-            kept.append(line)
-    return kept
 
 
 def _label(item: Any, index: int) -> str:

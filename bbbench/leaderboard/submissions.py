@@ -261,13 +261,18 @@ class Submission:
         """What plays: a built-in in its action mode, or the policy file's bytes (and its
         normalizer's). Two entries with one identity are one policy under two slugs."""
         if self.policy_file is None:
-            return ("builtin", self.metadata["builtin"], self.metadata["action_mode"])
+            return builtin_identity(self.metadata["builtin"], self.metadata["action_mode"])
         return policy_identity(self.policy_file, self.normalization_file)
 
     def describe_identity(self) -> str:
         if self.policy_file is None:
             return f"the built-in {self.metadata['builtin']!r} ({self.metadata['action_mode']})"
         return f"the same policy bytes ({self.policy_file.name})"
+
+
+def builtin_identity(name: str, action_mode: str) -> tuple[str, ...]:
+    """A built-in's identity: its name in its action mode."""
+    return ("builtin", name, action_mode)
 
 
 def policy_identity(policy: Path, normalization: Path | None) -> tuple[str, ...]:

@@ -17,6 +17,7 @@ from bbbench.leaderboard.submissions import (
     POLICY_FILE,
     SUBMISSION_FILE,
     SubmissionError,
+    builtin_identity,
     check_policy,
     check_policy_size,
     check_slug,
@@ -108,7 +109,7 @@ def _check_new(
 ) -> None:
     """`SubmissionError` if the policy is on the board already, under another slug."""
     if source is None:
-        identity = ("builtin", policy, metadata["action_mode"])
+        identity = builtin_identity(policy, metadata["action_mode"])
         what = f"the built-in {policy!r} ({metadata['action_mode']}) is on the board already"
     else:
         identity = policy_identity(source, None if vecnormalize is None else Path(vecnormalize))
