@@ -23,7 +23,7 @@ from bbbench.evaluation.harness import play_draws
 from bbbench.evaluation.play import TIME_LIMIT
 from bbbench.evaluation.results import dumps
 from bbbench.leaderboard.generation import DEFAULT_BOARD, RESULTS, SUBMISSIONS
-from bbbench.leaderboard.submissions import read_submissions
+from bbbench.leaderboard.submissions import read_methods
 from bbbench.tasks.suite import spec
 
 PROFILE = ".profile.json"
@@ -35,7 +35,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=None)
     args = parser.parse_args(argv)
     documents, draws = {}, []  # path: document; (policy, task, seed, the record to replace)
-    for submission in read_submissions(args.root / SUBMISSIONS):
+    runs = [run for method in read_methods(args.root / SUBMISSIONS) for run in method.runs]
+    for submission in runs:
         policy = None
         for path in sorted((args.root / RESULTS).glob(f"{submission.slug}.*json")):
             if path.name != f"{submission.slug}.json" and not path.name.endswith(PROFILE):

@@ -164,40 +164,42 @@ def board_tracks() -> list[dict]:
 
 
 def scores(task: TaskSpec, tracks: list[dict]) -> str:
-    entries = [entry for track in tracks for entry in track["entries"] if task.id in entry["tasks"]]
-    if not entries:
-        return "No entry on the board plays this task yet."
+    """The task's own table: every method on the board that plays it (ranked on its track
+    or not), by its score over its runs."""
+    methods = [m for track in tracks for m in track["methods"] if task.id in m["tasks"]]
+    methods = [m for m in methods if "normalized_score" in m["tasks"][task.id]]
+    if not methods:
+        return "No method on the board plays this task yet."
 
-    def normalized(entry: dict) -> float:
-        return entry["tasks"][task.id]["normalized_score"]
+    def normalized(method: dict) -> float:
+        return method["tasks"][task.id]["normalized_score"]
 
-    builtin = [entry for entry in entries if entry["policy"]["source"] == "builtin"]
-    learned = sorted(
-        (entry for entry in entries if entry["policy"]["source"] != "builtin"),
-        key=normalized,
-        reverse=True,
-    )
+    builtin = [m for m in methods if "builtin" in m["submission"]]
+    learned = sorted((m for m in methods if "builtin" not in m["submission"]), key=normalized)
+    learned.reverse()
     shown = sorted([*builtin, *learned[:LEARNED_ROWS]], key=normalized, reverse=True)
     rows = [
-        "| Entry | Algorithm | Normalized [95% CI] | Finished | Mean return |",
+        "| Method | Algorithm | Runs | Normalized [95% CI] | Finished |",
         "|---|---|---|---|---|",
     ]
-    for entry in shown:
-        result = entry["tasks"][task.id]
+    for method in shown:
+        result = method["tasks"][task.id]
         low, high = result["normalized_ci"]
-        name = entry["slug"] + (" (built in)" if entry["policy"]["source"] == "builtin" else "")
+        name = method["slug"] + (" (built in)" if "builtin" in method["submission"] else "")
         rows.append(
-            f"| `{name}` | {entry['submission']['algorithm']} | "
+            f"| `{name}` | {method['submission']['algorithm']} | {result['runs']} | "
             f"{result['normalized_score']:.3f} [{low:.3f}, {high:.3f}] | "
-            f"{result['success_rate']:.0%} | {result['mean']:.1f} |"
+            f"{result['success_rate']:.0%} |"
         )
     hidden = len(learned) - min(len(learned), LEARNED_ROWS)
-    more = f" and {hidden} more learned entries" if hidden else ""
+    more = f" and {hidden} more learned methods" if hidden else ""
     return (
         "\n".join(rows)
         + f"\n\nOn the {len(task.eval_seeds)} evaluation seeds: every built-in controller, "
-        f"the {min(len(learned), LEARNED_ROWS)} best learned entries{more} on "
+        f"the {min(len(learned), LEARNED_ROWS)} best learned methods{more} on "
         "[the leaderboard](../leaderboard/index.html), from `leaderboards/bbbench-v0.json`. "
+        "A method's score is the mean over its runs (training seeds) of each run's mean "
+        "normalized score, with a 95% two-level bootstrap interval (runs, then episodes). "
         "Normalized: 0 is the random policy's mean return, 1 the most an episode can earn."
     )
 

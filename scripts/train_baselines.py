@@ -6,16 +6,17 @@ leaderboard with `bbbench leaderboard add` as it finishes.
     python scripts/train_baselines.py --campaign [--only ippo-multibalance-v1-3m ...]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
-the command's output); its policy goes into `leaderboards/submissions/<slug>/` with a
-submission.json that records the exact command, the steps, the wall time and the
-machine. Runs already on the board are skipped. Training takes most of a 2-core
+the command's output); its policy goes into its method's folder on the board,
+`leaderboards/submissions/<method>/runs/s<seed>/` (the slug is `<method>-s<seed>`), with a
+run.json that records the exact command, the recipe and budget in world steps, the wall
+time and the machine. Runs already on the board are skipped. Training takes most of a 2-core
 machine for hours: run it in the background.
 
 `--campaign` trains the MARL baselines at the field's budget (the shipped IPPO and MAPPO
 recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds as Ray
 tasks (`bbbench train ... --seeds 0,1,2 --backend ray --workers 1`: one CPU each, the
-same bytes as a local run); each seed goes on the board as `<algo>-<task>-3m-s<seed>`
-in place of the 300k entry of its seed, whose logs stay in `baselines/`.
+same bytes as a local run); each seed goes on the board as a run of the method
+`<algo>-<task>-3m`.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ from pathlib import Path
 
 from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
+from bbbench.tasks.suite import spec
+from bbbench.tasks.tracks import track_of
 from bbbench.training.beside import described
 
 LATEST_SINGLE = (
@@ -122,7 +125,6 @@ def campaign() -> list[dict]:
             "algo": algo,
             "tasks": [task],
             "seeds": SEEDS,
-            "replaces": [f"{algo}-{_short(task)}-s{seed}" for seed in SEEDS],
         }
         for algo in ("ippo", "mappo")
         for task in (*LATEST_MULTI, *TEAMS, *STEERING_MULTI)
@@ -160,35 +162,60 @@ def _add(
     points = len(json.loads((folder / "curve.json").read_text())["points"])
     names = "a mix of the single-bot tasks" if run.get("generalist") else run["tasks"][0]
     policy = folder / policy_name(run)
+    method = method_slug(run)
+    recipe = f"bbbench/training/recipes/{run['algo']}.yml"
     add = [
-        "bbbench", "leaderboard", "add", str(policy),
-        "--root", str(board), "--slug", run["slug"],
-        "--name", f"{run['algo'].upper()} {_display(run)} (seed {run['seed']})",
-        "--algorithm", run["algo"].upper(), "--author", "bbbench maintainers",
-        # Bot-steps: a multi-bot world step is n_bots samples (SB3 counts them so).
-        "--env-steps", str(record.get("bot_steps", record["steps"])),
+        "bbbench", "leaderboard", "add", str(policy), "--root", str(board), "--slug", method,
+        "--seed", str(run["seed"]),
+        "--world-steps", str(world_steps(record)), "--trained-on", *record["tasks"],
+        "--recipe", recipe,
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
         + (described(record.get("trainings_beside")) or _asked(side_by_side)),
-        "--seeds", str(run["seed"]),
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
-        "--licence", "MIT",
-        "--notes", f"Trained on {names} with the shipped {run['algo']} recipe "
-        f"(bbbench/training/recipes/{run['algo']}.yml): "
+        "--run-notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}): "
         + (f"the last of {points} evaluations" if run["algo"] in MARL
            else f"the best of {points} evaluations")
         + f" on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
+    if not (board / "submissions" / method).exists():  # a new method: its own fields
+        add += [
+            "--name", f"{run['algo'].upper()} {_display(run)}",
+            "--algorithm", run["algo"].upper(), "--author", "bbbench maintainers",
+            "--licence", "MIT",
+            "--track", track_of(spec(record["tasks"][0])).name,
+            "--notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}). "
+            f"Curves and logs: baselines/{method}-s<seed>/.",
+        ]  # fmt: skip
     # A recipe with `normalize` writes statistics where rl-zoo3 does; eval finds them so.
     statistics = find_rl_zoo_statistics(policy) if policy.suffix == ".zip" else None
     if statistics is not None:
         add += ["--vecnormalize", str(statistics)]
     subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
-    policy.unlink()  # the board keeps it, in submissions/<slug>/
+    policy.unlink()  # the board keeps it, in submissions/<method>/runs/s<seed>/
     if statistics is not None:
         statistics.unlink()
         statistics.parent.rmdir()
     return f"{run['slug']}: {minutes:.1f} min, on the board"
+
+
+def method_slug(run: dict) -> str:
+    """The method a run belongs to: its slug without the seed."""
+    return run["slug"].rsplit("-s", 1)[0]
+
+
+def on_board(board: Path, run: dict) -> bool:
+    return (board / "submissions" / method_slug(run) / "runs" / f"s{run['seed']}").exists()
+
+
+def world_steps(record: dict) -> int:
+    """A training's budget in world steps: BenchMARL counts them (and records bot-steps
+    beside); stable-baselines3 counts bot-steps on a multi-bot task (a world step is
+    n_bots samples)."""
+    task = spec(record["tasks"][0])
+    if "bot_steps" in record or not task.multi_agent:
+        return record["steps"]
+    return record["steps"] // task.group.n_bots
 
 
 def _asked(side_by_side: int | str) -> str:
@@ -245,8 +272,8 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             classical = classical_controller(task_id)
             name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
             pd = f"{score(classical, task_id):.3f}"
-        steps = records[0].get("bot_steps", records[0]["steps"])
-        budget = f"{steps / 1e6:g}M" if steps >= 1e6 else f"{steps / 1e3:g}k"
+        steps = world_steps(records[0])  # world steps, the board's unit
+        budget = f"{steps / 1e6:.3g}M" if steps >= 1e6 else f"{steps / 1e3:.3g}k"
         lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")
     return "\n".join(lines)
 
@@ -307,7 +334,7 @@ def main() -> None:
                     _train_cell(cell, args)
         return
     plan = [run for run in runs() if not args.only or run["slug"] in args.only]
-    missing = [run for run in plan if not (args.board / "submissions" / run["slug"]).exists()]
+    missing = [run for run in plan if not on_board(args.board, run)]
     args.plan = missing
     if args.table:
         print(table(args.root, args.board, args.table))
@@ -335,7 +362,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     seeds = [
         s
         for s in (args.seeds or cell["seeds"])
-        if not (args.board / "submissions" / _slug(cell, s)).exists()
+        if not on_board(args.board, {"slug": _slug(cell, s), "seed": s})
     ]
     if not seeds:
         return
@@ -360,14 +387,11 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         (folder / f"policy-s{seed}").rename(target)
         run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
         record = json.loads((target / "train.json").read_text())
-        old = args.board / "submissions" / cell["replaces"][cell["seeds"].index(seed)]
         # The seed's own command: `_add` records all of it but its last two (the --out).
         one = ["--seed", str(seed), "--workers", "1", "--out", "-"]
         seeded = [*argv[: argv.index("--seeds")], *one]
         minutes = record["wall_time_s"] / 60
         with board_lock(args.board):
-            if old.exists():  # its logs stay in baselines/; the board drops it at the rebuild
-                subprocess.run(["git", "rm", "-r", "-q", str(old)], check=True)
             print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
     # The cell's log keeps every run of it (seeds trained in several goes).
     with open(args.root / f"{cell['cell']}.log", "a") as whole:

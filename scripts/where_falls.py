@@ -5,7 +5,7 @@ of a bot's episode), and how near the nearest other bot was just before each fal
     python scripts/where_falls.py SLUG [SLUG ...] [--task bbbench/MultiBalance-v1]
                                   [--episodes 100]
 
-Each SLUG names a board entry (`leaderboards/submissions/<slug>/`: a built-in, an ONNX
+Each SLUG names a run of the board (`pd`, `ippo-multibalance-v1-3m-s0`: a built-in, an ONNX
 graph or an SB3 zip with its statistics), loaded and checked as `bbbench leaderboard
 check` loads it; it plays the task's first `--episodes` evaluation seeds
 deterministically, as `bbbench eval` plays them, and the output is one Markdown row per
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import bbbench
-from bbbench.leaderboard.submissions import read_submission
+from bbbench.leaderboard.submissions import read_methods
 from bbbench.tasks.suite import spec
 
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards" / "submissions"
@@ -76,7 +76,10 @@ def check_task(task_id: str) -> None:
 def tally(slug: str, task_id: str, seeds: list[int], board: Path = BOARD) -> Tally:
     """The board entry `slug`'s bots on the crossing task `task_id` over `seeds`."""
     check_task(task_id)
-    policy = read_submission(board / slug).load_policy()
+    runs = {run.slug: run for method in read_methods(board) for run in method.runs}
+    if slug not in runs:
+        raise SystemExit(f"{slug}: no such run on the board; the runs: {', '.join(sorted(runs))}")
+    policy = runs[slug].load_policy()
     actor = policy.actor(task_id)
     counted = Tally()
     env = bbbench.make_parallel(task_id, action_mode=policy.action_mode)
@@ -103,7 +106,9 @@ def tally(slug: str, task_id: str, seeds: list[int], board: Path = BOARD) -> Tal
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("slugs", nargs="+", help="board entries, e.g. pd ippo-multibalance-v1-s0")
+    parser.add_argument(
+        "slugs", nargs="+", help="runs of the board, e.g. pd ippo-multibalance-v1-3m-s0"
+    )
     parser.add_argument("--task", default="bbbench/MultiBalance-v1")
     parser.add_argument("--episodes", type=int, default=100)
     args = parser.parse_args()

@@ -101,7 +101,7 @@ def test_leaderboard_add_errors_name_the_folder_the_entry_goes_to(tmp_path, monk
     def refuse(folder):
         raise SubmissionError(f"{folder}: refused for the test")
 
-    monkeypatch.setattr(submit, "read_submission", refuse)
+    monkeypatch.setattr(submit, "read_method", refuse)
     with pytest.raises(SubmissionError) as refused:
         submit.add(
             tmp_path,
@@ -111,10 +111,15 @@ def test_leaderboard_add_errors_name_the_folder_the_entry_goes_to(tmp_path, monk
                 "name": "PD",
                 "authors": ["a"],
                 "algorithm": "PD",
-                "training": {"env_steps": 0, "wall_time": "none", "hardware": "none"},
-                "training_seeds": [],
-                "command": "built in",
+                "tracks": ["single"],
                 "licence": "MIT",
+            },
+            {
+                "training_seed": None,
+                "recipe": {"world_steps": 0, "tasks": [], "file": "none"},
+                "command": "built in",
+                "wall_time": "none",
+                "hardware": "none",
             },
         )
     assert str(refused.value).startswith(f"{tmp_path / 'submissions' / 'my-pd'}: refused")

@@ -45,7 +45,7 @@ def test_unknown_task_is_exit_2_with_a_suggestion_and_no_traceback(capsys):
 
 
 def test_rollout_plays_a_multi_bot_task_with_a_zip_shared_by_every_bot(capsys):
-    folder = REPO / "leaderboards/submissions/ppo-multibalance-v1-s0"
+    folder = REPO / "leaderboards/submissions/ppo-multibalance-v1/runs/s0"
     argv = ["rollout", "--task", "bbbench/MultiBalance-v1", "--policy", str(folder / "policy.zip")]
     argv += ["--vecnormalize", str(folder / "vecnormalize.pkl"), "--episodes", "2", "--seed", "4"]
     assert main(argv) == 0

@@ -192,7 +192,7 @@ def test_results_document_records_the_policy_and_the_tasks(tmp_path, capsys):
         assert task["random_return"] == spec.random_return
         assert len(task["episodes"]) == 2
     assert document["overall"]["tasks"] == len(latest)
-    assert f"IQM of normalized scores over {len(latest)} tasks" in stdout
+    assert f"Mean normalized score over {len(latest)} tasks" in stdout
     assert "FlatBalance-v1" in stdout
 
 

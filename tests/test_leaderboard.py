@@ -19,9 +19,11 @@ from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.profile import Protocol
 from bbbench.leaderboard import Board, SubmissionError
-from bbbench.leaderboard.submissions import FIELDS, read_submission
+from bbbench.leaderboard.fields import METHOD_FIELDS, schema_files
+from bbbench.leaderboard.ranking import leaderboard_document
+from bbbench.leaderboard.submissions import read_method, read_methods
 from bbbench.policies import export_zip, load_policy
-from bbbench.policies.registry import REFERENCE_POLICY
+from bbbench.policies.registry import REFERENCE_POLICY, TERRAIN_POLICIES
 from bbbench.tasks.spec import TaskSpec
 from conftest import pickled, rewrite
 
@@ -42,27 +44,52 @@ BOARD = Board(
     profile=Protocol(episodes=2, axes=("action_delay", "push")),
 )
 PROFILE = 2 * 5 * 2  # a profile's episodes on BOARD: 2 axes, 5 values each, 2 seeds
-# Every episode of the test board: pd, random and ppo play the three single-bot tasks, pd
-# and random the multi-bot one and the team one; pd and random are profiled on the three
-# tracks, ppo on the single-bot one.
-EPISODES = 3 * 3 * 4 + 2 * 4 + 2 * 4 + 7 * PROFILE
+# Every episode of the test board: pd, random and the three runs of ppo play the three
+# single-bot tasks, pd and random the multi-bot one and the team one; pd and random are
+# profiled on the three tracks, each run of ppo on the single-bot one.
+EPISODES = 5 * 3 * 4 + 2 * 4 + 2 * 4 + 9 * PROFILE
 GENERATED = ("bbbench-v0.json", "README.md", "index.html")
+RECIPE = {"world_steps": 400_000, "tasks": ["bbbench/VelocityTracking-v0"], "file": "sb3 defaults"}
+# Three PPO policies of the suite, as the three runs of one method (a fiction: they were
+# trained on different tasks; what matters here is that they differ).
+PPO_RUNS = {
+    "s0": REFERENCE_POLICY,
+    "s1": TERRAIN_POLICIES["ppo-bumps-v1"],
+    "s2": TERRAIN_POLICIES["ppo-obstacles-v1"],
+}
 
 
 def submission(**changes) -> dict:
+    """A controller's method: one run, in its own folder."""
     data = {
         "name": "PD baseline",
         "authors": ["A. Person"],
         "algorithm": "PD",
         "action_mode": "discrete",
         "builtin": "pd",
-        "training": {"env_steps": 0, "wall_time": "none", "hardware": "none"},
-        "training_seeds": [],
+        "tracks": ["single", "multi", "cooperative"],
+        "recipe": {"world_steps": 0, "tasks": [], "file": "none"},
+        "training_seed": None,
         "command": "built in",
+        "wall_time": "none",
+        "hardware": "none",
         "licence": "MIT",
     }
     data.update(changes)
-    return {key: value for key, value in data.items() if value is not None}
+    return {
+        key: value for key, value in data.items() if value is not None or key == "training_seed"
+    }
+
+
+def run_record(seed: int, **changes) -> dict:
+    record = {
+        "training_seed": seed,
+        "recipe": RECIPE,
+        "command": f"train.py --seed {seed}",
+        "wall_time": "10 min",
+        "hardware": "laptop",
+    }
+    return {**record, **changes}
 
 
 def write_submission(root: Path, slug: str, data: dict, policy: Path | None = None) -> Path:
@@ -74,18 +101,39 @@ def write_submission(root: Path, slug: str, data: dict, policy: Path | None = No
     return folder
 
 
-def reference_submission(root: Path, slug: str = "ppo") -> Path:
-    data = submission(name="PPO", algorithm="PPO", builtin=None)
-    return write_submission(root, slug, data, policy=REFERENCE_POLICY)
+def write_run(root: Path, method: str, run: str, record: dict, policy: Path | None) -> Path:
+    folder = root / "submissions" / method / "runs" / run
+    folder.mkdir(parents=True)
+    (folder / "run.json").write_text(json.dumps(record))
+    if policy is not None:
+        shutil.copyfile(policy, folder / "policy.zip")
+    return folder
+
+
+def ppo_method(root: Path, runs: dict[str, Path] = PPO_RUNS) -> Path:
+    """The method 'ppo': a learned method with a run per policy of `runs`."""
+    data = {
+        "name": "PPO",
+        "authors": ["A. Person"],
+        "algorithm": "PPO",
+        "action_mode": "discrete",
+        "tracks": ["single"],
+        "recipe": RECIPE,
+        "licence": "MIT",
+    }
+    folder = write_submission(root, "ppo", data)
+    for seed, (name, policy) in enumerate(runs.items()):
+        write_run(root, "ppo", name, run_record(seed), policy)
+    return folder
 
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory) -> Path:
-    """pd, random (built-ins) and the reference zip (a file), built with one worker."""
+    """pd, random (built-ins) and ppo (three runs, zips), built with one worker."""
     root = tmp_path_factory.mktemp("board") / "leaderboards"
     write_submission(root, "pd", submission())
     write_submission(root, "random", submission(name="Random", builtin="random"))
-    reference_submission(root)
+    ppo_method(root)
     leaderboard.build(root, BOARD, workers=1)
     return root
 
@@ -94,6 +142,10 @@ def built(tmp_path_factory) -> Path:
 def board(built, tmp_path) -> Path:
     """A copy of the built board to change."""
     return Path(shutil.copytree(built, tmp_path / "leaderboards"))
+
+
+def methods_of(document: dict, track: str) -> list[dict]:
+    return next(t for t in document["tracks"] if t["track"] == track)["methods"]
 
 
 def files(root: Path) -> dict[str, bytes]:
@@ -116,7 +168,7 @@ def test_builds_are_byte_identical_twice_and_with_two_workers(built, board, tmp_
 
 
 def test_each_results_file_is_what_bbbench_eval_writes(built):
-    for slug, policy in [("pd", "pd"), ("ppo", str(REFERENCE_POLICY))]:
+    for slug, policy in [("pd", "pd"), ("ppo-s0", str(REFERENCE_POLICY))]:
         policy = load_policy(policy)
         fitting = [task for task in BOARD.tasks if policy.mismatch(task) is None]
         evaluation = evaluate(policy, fitting, episodes=BOARD.episodes, workers=1)
@@ -127,7 +179,7 @@ def test_each_results_file_is_what_bbbench_eval_writes(built):
 def registry() -> referencing.Registry:
     resources = [
         referencing.Resource.from_contents(json.loads((DOCS / name).read_text()))
-        for name in ("submission-schema.json", "results-schema.json")
+        for name in ("submission-schema.json", "results-schema.json", "run-schema.json")
     ]
     return referencing.Registry().with_resources((r.id(), r) for r in resources)
 
@@ -141,10 +193,13 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     for path in (built / "results").glob("*.json"):
         is_profile = path.name.endswith(".profile.json")
         jsonschema.validate(json.loads(path.read_text()), profiles if is_profile else results)
-    assert len(list((built / "results").glob("*.profile.json"))) == 7
-    submission_schema = json.loads((DOCS / "submission-schema.json").read_text())
+    assert len(list((built / "results").glob("*.profile.json"))) == 9
+    method_schema = json.loads((DOCS / "submission-schema.json").read_text())
     for path in (built / "submissions").glob("*/submission.json"):
-        jsonschema.validate(json.loads(path.read_text()), submission_schema)
+        jsonschema.validate(json.loads(path.read_text()), method_schema)
+    run_schema = json.loads((DOCS / "run-schema.json").read_text())
+    for path in (built / "submissions").glob("*/runs/*/run.json"):
+        jsonschema.validate(json.loads(path.read_text()), run_schema)
     assert [track["track"] for track in document["tracks"]] == ["single", "multi", "cooperative"]
     single = document["tracks"][0]
     assert [(t["task"], t["ranked"]) for t in single["tasks"]] == [
@@ -152,8 +207,12 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
         ("bbbench/Bumps-v0", False),
         ("bbbench/FlatBalance-v0", True),
     ]
-    assert [e["slug"] for e in document["tracks"][1]["entries"]] == ["pd", "random"]
-    assert [e["slug"] for e in document["tracks"][2]["entries"]] == ["pd", "random"]
+    assert {m["slug"] for m in single["methods"]} == {"pd", "ppo", "random"}
+    assert [m["slug"] for m in methods_of(document, "multi")] == ["pd", "random"]
+    assert [m["slug"] for m in methods_of(document, "cooperative")] == ["pd", "random"]
+    ppo = next(m for m in single["methods"] if m["slug"] == "ppo")
+    assert [run["slug"] for run in ppo["runs"]] == ["ppo-s0", "ppo-s1", "ppo-s2"]
+    assert [run["training_seed"] for run in ppo["runs"]] == [0, 1, 2]
 
 
 def test_the_repository_board_follows_the_schemas():
@@ -162,29 +221,29 @@ def test_the_repository_board_follows_the_schemas():
     document = json.loads((root / "bbbench-v0.json").read_text())
     jsonschema.Draft202012Validator(schema, registry=registry()).validate(document)
     for folder in sorted((root / "submissions").iterdir()):
-        read_submission(folder)  # bbbench's own checks pass too
-    slugs = {entry["slug"] for track in document["tracks"] for entry in track["entries"]}
+        read_method(folder)  # bbbench's own checks pass too
+    slugs = {m["slug"] for track in document["tracks"] for m in track["methods"]}
     assert {"pd", "lqr", "random"} <= slugs
     # The shipped policy is not a method: it trained on a superseded task, its wall time
     # unrecorded, with no logs in baselines/.
     assert "ppo-reference" not in slugs
 
 
-def test_the_submission_schema_and_the_checks_in_code_name_the_same_fields():
+def test_the_schemas_are_written_from_the_fields_bbbench_checks():
+    for name, text in schema_files().items():
+        assert (DOCS / name).read_text() == text, "run python scripts/submission_schemas.py"
     schema = json.loads((DOCS / "submission-schema.json").read_text())
-    assert list(schema["properties"]) == list(FIELDS)
-    assert schema["required"] == [name for name, field in FIELDS.items() if field.required]
-    training = schema["properties"]["training"]
-    assert list(training["properties"]) == list(FIELDS["training"].fields)
+    assert list(schema["properties"]) == list(METHOD_FIELDS)
     assert schema["properties"]["builtin"]["enum"] == list(bbbench.policies.BUILTIN_POLICIES)
 
 
-def test_an_entry_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
+def test_a_run_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
     document = json.loads((built / "bbbench-v0.json").read_text())
     profiled = {
-        (track["track"], entry["slug"]): entry["robustness"]
+        (track["track"], run["slug"]): run["robustness"]
         for track in document["tracks"]
-        for entry in track["entries"]
+        for method in track["methods"]
+        for run in method["runs"]
     }
     for slug in ("pd", "random"):
         single, multi = profiled["single", slug], profiled["multi", slug]
@@ -198,7 +257,11 @@ def test_an_entry_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
         assert set(single["axes"]) == set(multi["axes"]) == {"action_delay", "push"}
         assert set(team["axes"]) == {"action_delay", "push"}
         assert single["score"] != multi["score"] != team["score"]
-    assert profiled["single", "ppo"]["task"] == "bbbench/VelocityTracking-v1"
+    assert profiled["single", "ppo-s0"]["task"] == "bbbench/VelocityTracking-v1"
+    ppo = next(m for m in methods_of(document, "single") if m["slug"] == "ppo")
+    runs = [run["robustness"] for run in ppo["runs"]]
+    assert ppo["robustness"]["score"] == pytest.approx(np.mean([r["score"] for r in runs]))
+    assert ppo["robustness"]["worst_case"] == min(r["worst_case"] for r in runs)
 
 
 def test_a_board_built_before_profiles_were_per_track_reuses_its_profiles(board):
@@ -211,7 +274,9 @@ def test_a_board_built_before_profiles_were_per_track_reuses_its_profiles(board)
         "pd.cooperative.profile.json",
         "pd.multi.profile.json",
         "pd.single.profile.json",
-        "ppo.single.profile.json",
+        "ppo-s0.single.profile.json",
+        "ppo-s1.single.profile.json",
+        "ppo-s2.single.profile.json",
         "random.cooperative.profile.json",
         "random.multi.profile.json",
         "random.single.profile.json",
@@ -223,10 +288,10 @@ def test_check_passes_on_a_fresh_build(board):
     checked = leaderboard.check(board, BOARD, workers=1, spot=31)
     assert checked.problems == []
     assert checked.rescored == []
-    # A budget of 31 episodes for the whole board, shared by its three entries: 10 each,
-    # and one more for an entry drawn at random.
+    # A budget of 31 episodes for the whole board, shared by its five runs: 6 each, and one
+    # more for a run drawn at random.
     assert checked.spot_checked == checked.episodes == 31
-    assert checked.entries == 3
+    assert checked.entries == 5
     default = leaderboard.check(board, BOARD, workers=1)  # a budget above the board's size
     assert (
         default.spot_checked
@@ -236,8 +301,8 @@ def test_check_passes_on_a_fresh_build(board):
             if ".profile" not in path.name
             for block in json.loads(path.read_text())["tasks"]
         )
-        + 7 * 10 * 2
-    )  # every record: tasks, and 7 profiles of 10 points of 2 episodes
+        + 9 * 10 * 2
+    )  # every record: tasks, and 9 profiles of 10 points of 2 episodes
     full = leaderboard.check(board, BOARD, workers=1, full=True)
     assert full.problems == []
     assert full.episodes == EPISODES
@@ -265,7 +330,7 @@ def test_a_forged_episode_is_caught_when_the_spot_check_draws_it(board):
         "replayed episodes differ from their records, returns by at most 1 " in (every.problems[0])
     )
     assert f"(first: pd: {task_id} seed {seed}: recorded return " in every.problems[0]
-    # Drawn at random: caught when its record is drawn (pd's 20 of its 80 here), and only
+    # Drawn at random: caught when its record is drawn (pd's 12 of its 80 here), and only
     # then.
     caught = []
     for draw in range(12):
@@ -378,21 +443,25 @@ def test_the_pinned_plotting_stack_is_the_constraints_files():
 def test_check_names_an_edited_number(board):
     path = board / "bbbench-v0.json"
     document = json.loads(path.read_text())
-    document["tracks"][0]["entries"][0]["tasks"]["bbbench/FlatBalance-v0"]["mean"] += 0.01
+    runs = document["tracks"][0]["methods"][0]["runs"]
+    runs[0]["tasks"]["bbbench/FlatBalance-v0"]["mean"] += 0.01
     path.write_text(dumps(document))
     problems = leaderboard.check(board, BOARD, workers=1).problems
     assert len(problems) == 1, problems
-    slug = document["tracks"][0]["entries"][0]["slug"]
-    assert f"tracks[single].entries[{slug}].tasks.bbbench/FlatBalance-v0.mean" in problems[0]
+    method, run = document["tracks"][0]["methods"][0]["slug"], runs[0]["slug"]
+    assert (
+        f"tracks[single].methods[{method}].runs[{run}].tasks.bbbench/FlatBalance-v0.mean"
+        in problems[0]
+    )
 
 
 def test_check_names_a_swapped_policy_file(board, tmp_path):
     other = tmp_path / "other.zip"
     PPO("MlpPolicy", bbbench.make("bbbench/FlatBalance-v0"), n_steps=64, device="cpu").save(other)
-    shutil.copyfile(other, board / "submissions" / "ppo" / "policy.zip")
+    shutil.copyfile(other, board / "submissions" / "ppo" / "runs" / "s1" / "policy.zip")
     checked = leaderboard.check(board, BOARD, workers=1)
-    assert checked.rescored == ["ppo"]  # a changed submission is re-scored in full
-    assert "ppo/policy.zip: SHA-256" in checked.problems[0]
+    assert checked.rescored == ["ppo-s1"]  # a changed run is re-scored in full
+    assert "ppo/runs/s1/policy.zip: SHA-256" in checked.problems[0]
     assert "the policy file changed" in checked.problems[0]
     assert len(checked.problems) > 1  # and what its re-score found differs
 
@@ -401,7 +470,7 @@ def test_check_names_a_submission_added_without_a_rebuild(board):
     write_submission(board, "twin", submission(name="Stand", builtin="stand"))
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.rescored == ["twin"]
-    assert "submissions/twin: a submission that is not on the board" in checked.problems[0]
+    assert "submissions/twin: a run that is not on the board" in checked.problems[0]
     assert any("results/twin.json: missing" in problem for problem in checked.problems)
 
 
@@ -413,9 +482,9 @@ def test_a_changed_submission_is_re_scored_in_full_even_after_a_rebuild_of_its_m
     document_path = board / "bbbench-v0.json"
     document = json.loads(document_path.read_text())
     for track in document["tracks"]:
-        for entry in track["entries"]:
-            if entry["slug"] == "pd":
-                entry["submission"]["notes"] = "trained longer"
+        for method in track["methods"]:
+            if method["slug"] == "pd":
+                method["submission"]["notes"] = "trained longer"
     document_path.write_text(dumps(document))
     checked = leaderboard.check(board, BOARD, workers=1)
     assert checked.rescored == ["pd"]
@@ -436,24 +505,43 @@ def test_check_names_an_edited_page_and_a_stale_result_and_figure(board):
     (board / "figures" / "gone-robustness.svg").write_text("<svg/>")
     problems = leaderboard.check(board, BOARD, workers=1).problems
     assert any("index.html: differs from the rebuild from line" in p for p in problems)
-    assert any("gone.json: no submission 'gone'" in p for p in problems)
+    assert any("gone.json: no run 'gone'" in p for p in problems)
     assert any("gone-robustness.svg: not drawn any more" in p for p in problems)
     leaderboard.build(board, BOARD, workers=1)
     assert not (board / "results" / "gone.json").exists()
     assert not (board / "figures" / "gone-robustness.svg").exists()
 
 
-def test_add_plays_only_the_new_submission(board):
+def test_add_plays_only_the_new_run(board):
     counted = []
-    metadata = submission(name="Stand")
-    del metadata["builtin"]
+    method = submission(name="Stand")
+    run = {k: method.pop(k) for k in ("training_seed", "command", "wall_time", "hardware")}
+    run["recipe"] = method.pop("recipe")
+    del method["builtin"]
     built = leaderboard.add(
-        board, "stand", "twin", metadata, board=BOARD, workers=1, on_episodes=counted.append
+        board, "stand", "twin", method, run, board=BOARD, workers=1, on_episodes=counted.append
     )
     # stand on the 5 tasks, and its 3 profiles
     assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
+
+
+def test_add_puts_a_run_beneath_its_method_and_refuses_another_recipe(board, tmp_path):
+    exported = export_zip(load_policy(TERRAIN_POLICIES["ppo-slopes-v1"]), tmp_path / "s.onnx")
+    leaderboard.add(board, str(exported), "ppo", {}, run_record(3), board=BOARD, workers=1)
+    assert (board / "submissions" / "ppo" / "runs" / "s3" / "policy.onnx").is_file()
+    document = json.loads((board / "bbbench-v0.json").read_text())
+    ppo = next(m for m in methods_of(document, "single") if m["slug"] == "ppo")
+    assert [run["slug"] for run in ppo["runs"]] == ["ppo-s0", "ppo-s1", "ppo-s2", "ppo-s3"]
+    before = files(board)
+    longer = run_record(4, recipe={**RECIPE, "world_steps": 800_000})
+    slopes = str(TERRAIN_POLICIES["ppo-slopes-v1"])
+    with pytest.raises(SubmissionError, match="recipe's 'world_steps' is 800000, the method's"):
+        leaderboard.add(board, slopes, "ppo", {}, longer, board=BOARD, workers=1)
+    with pytest.raises(SubmissionError, match="the method's 'name' is \"PPO\", the run's"):
+        leaderboard.add(board, slopes, "ppo", {"name": "PPO 2"}, run_record(4), board=BOARD)
+    assert files(board) == before
 
 
 def test_one_policy_under_two_slugs_is_refused(command_board, capsys, tmp_path):
@@ -462,9 +550,11 @@ def test_one_policy_under_two_slugs_is_refused(command_board, capsys, tmp_path):
     err = leaderboard_exit_2(capsys, command_board, "add", "pd", "--slug", "pd-again", *ADD)
     assert "the built-in 'pd' (discrete) is on the board already, as 'pd'" in err
     err = leaderboard_exit_2(
-        capsys, command_board, "add", str(REFERENCE_POLICY), "--slug", "copy", *ADD
+        capsys, command_board, "add", str(REFERENCE_POLICY), "--slug", "copy", "--seed", "0", *ADD
     )
-    assert f"{REFERENCE_POLICY}: the same policy bytes are on the board already, as 'ppo'" in err
+    assert f"{REFERENCE_POLICY}: the same policy bytes are on the board already, as 'ppo-s0'" in (
+        err
+    )
     assert not (command_board / "submissions" / "copy").exists()
     write_submission(command_board, "twin", submission(name="Twin"))
     err = leaderboard_exit_2(capsys, command_board, "build")
@@ -518,8 +608,9 @@ def leaderboard_exit_2(capsys, root: Path, *argv: str) -> str:
 
 
 ADD = [
-    "--name", "X", "--algorithm", "PPO", "--author", "A", "--env-steps", "10",
-    "--wall-time", "1 min", "--hardware", "laptop", "--command", "train.py", "--licence", "MIT",
+    "--name", "X", "--algorithm", "PPO", "--author", "A", "--track", "single",
+    "--world-steps", "10", "--recipe", "r.yml", "--wall-time", "1 min", "--hardware", "laptop",
+    "--command", "train.py", "--licence", "MIT",
 ]  # fmt: skip
 
 
@@ -539,10 +630,10 @@ def test_build_and_check_from_the_command(command_board, capsys):
     )
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("leaderboard check ok: 3 entries, 5 tasks; every number recomputed")
-    # Every record of this small board (192): the budget, 1,000, is more.
-    assert "re-scored in full (inputs changed): none; 192 episodes of the others replayed" in out
-    assert "(a budget of 1000 shared by the entries)" in out
+    assert out.startswith("leaderboard check ok: 5 runs, 5 tasks; every number recomputed")
+    # Every record of this small board (256): the budget, 1,000, is more.
+    assert "re-scored in full (inputs changed): none; 256 episodes of the others replayed" in out
+    assert "(a budget of 1000 shared by the runs)" in out
     assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
     assert f"{episodes} episodes played again" in capsys.readouterr().out
     (command_board / "README.md").write_text("edited\n")
@@ -556,7 +647,8 @@ def test_build_and_check_from_the_command(command_board, capsys):
         ("{not json", "pd/submission.json: not valid JSON"),
         (json.dumps(submission(extra=1)), "unknown field 'extra'"),
         (json.dumps(submission(licence=None)), "missing field 'licence'"),
-        (json.dumps(submission(training={"env_steps": -1})), "field 'training.env_steps'"),
+        (json.dumps(submission(recipe={"world_steps": -1})), "field 'recipe.world_steps'"),
+        (json.dumps(submission(tracks=["solo"])), "field 'tracks': 'solo' is not one of the"),
         (json.dumps(submission(authors=[])), "field 'authors': expected a non-empty list"),
         (json.dumps(submission(action_mode="both")), "field 'action_mode': expected one of"),
         (json.dumps(submission(url="javascript:x")), "field 'url': expected an http(s) URL"),
@@ -588,7 +680,7 @@ def test_stray_files_and_unsafe_folder_names_are_refused(command_board, capsys):
     ("policy", "slug", "expected"),
     [
         ("pd", "../evil", "slug '../evil' is not a safe folder name"),
-        ("pd", "pd", "the slug 'pd' is taken"),
+        ("stand", "pd", "the method 'pd' is one run in its own folder, with no room"),
         ("nothing.zip", "new", "nothing.zip: no such file, and not a built-in policy"),
     ],
 )
@@ -631,9 +723,110 @@ def test_add_refuses_a_wrong_action_mode_and_a_policy_that_fits_no_task(
     assert "fits no task of the suite" in err
 
 
-def test_the_metadata_of_an_added_submission_is_checked_like_a_written_one(board):
-    with pytest.raises(SubmissionError, match=r"field 'training\.env_steps'"):
-        leaderboard.add(board, "pd", "new", {**submission(), "training": {"env_steps": "many"}})
+def test_the_metadata_of_an_added_run_is_checked_like_a_written_one(board):
+    with pytest.raises(SubmissionError, match=r"field 'recipe\.world_steps'"):
+        leaderboard.add(
+            board, "stand", "new", {}, run_record(None, recipe={**RECIPE, "world_steps": "many"})
+        )
+
+
+# -- a method is its runs -----------------------------------------------------------
+
+
+def test_a_method_scores_every_episode_of_every_run(built):
+    """A run's score on a task is its mean normalized score, falls included; the method's
+    is the mean over runs x tasks; a rank counts the methods that beat it."""
+    document = json.loads((built / "bbbench-v0.json").read_text())
+    track = document["tracks"][0]
+    counted = [t["task"] for t in track["tasks"] if t["overall"]]
+    ppo = next(m for m in track["methods"] if m["slug"] == "ppo")
+    per_run = [
+        np.mean(
+            [
+                run["tasks"][task_id]["normalized_score"]  # of the mean return: every episode
+                for task_id in counted
+            ]
+        )
+        for run in ppo["runs"]
+    ]
+    assert ppo["overall"]["statistic"] == "mean"
+    assert ppo["overall"]["normalized_score"] == pytest.approx(np.mean(per_run), abs=1e-12)
+    low, high = ppo["overall"]["normalized_ci"]
+    assert low <= ppo["overall"]["normalized_score"] <= high
+    assert min(per_run) < high
+    assert max(per_run) > low
+    for method in track["methods"]:
+        assert method["rank"] == 1 + len(method["beaten_by"])
+        assert method["unranked"] is None
+
+
+def test_a_task_the_controller_and_most_methods_solve_leaves_the_overall(built):
+    document = json.loads((built / "bbbench-v0.json").read_text())
+    for track in document["tracks"]:
+        for task in track["tasks"]:
+            scores = [
+                m["tasks"][task["task"]]["normalized_score"]
+                for m in track["methods"]
+                if task["task"] in m["tasks"]
+            ]
+            pd_score = next(m for m in track["methods"] if m["slug"] == "pd")["tasks"][
+                task["task"]
+            ]["normalized_score"]
+            solved = sum(score >= 0.95 for score in scores)
+            rule = task["ranked"] and pd_score >= 0.95 and 2 * solved > len(scores)
+            assert task["saturated"] == rule
+            assert task["overall"] == (task["ranked"] and not rule)
+
+
+def test_a_learned_method_of_two_runs_is_listed_not_ranked(board):
+    shutil.rmtree(board / "submissions" / "ppo" / "runs" / "s2")
+    document = leaderboard.build(board, BOARD, workers=1).document
+    ppo = next(m for m in methods_of(document, "single") if m["slug"] == "ppo")
+    assert ppo["rank"] is None
+    assert ppo["unranked"] == "2 runs; a learned method ranks from 3"
+    assert methods_of(document, "single")[-1]["slug"] == "ppo"  # after the ranked ones
+    assert "- PPO: 2 runs; a learned method ranks from 3" in (board / "README.md").read_text()
+
+
+def test_a_method_that_plays_some_of_a_tracks_tasks_is_not_ranked_on_it(board):
+    built = leaderboard.generate(board, BOARD, workers=1)
+    for entry in built.scored:  # as if pd fit FlatBalance-v0 only
+        if entry.run.slug == "pd":
+            entry.results["tasks"] = [
+                b for b in entry.results["tasks"] if b["task"] != "bbbench/Bumps-v1"
+            ]
+    methods = read_methods(board / "submissions")
+    document = leaderboard_document(methods, built.scored, BOARD)
+    pd = next(m for m in methods_of(document, "single") if m["slug"] == "pd")
+    assert pd["rank"] is None
+    assert pd["unranked"] == "plays 1 of the track's 2 tasks"
+    assert pd["overall"] == {"tasks": 0}
+    assert "bbbench/Bumps-v1" not in pd["tasks"]
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (
+            lambda runs: (runs / "s1" / "run.json").write_text(
+                json.dumps(run_record(1, recipe={**RECIPE, "file": "other.yml"}))
+            ),
+            "runs/s1/run.json: its recipe's 'file' is \"other.yml\", the method's \"sb3 "
+            'defaults"; runs of one method share its recipe',
+        ),
+        (
+            lambda runs: (runs / "s2" / "run.json").write_text(json.dumps(run_record(1))),
+            "runs/s2/run.json: training seed 1 is s1's too",
+        ),
+        (lambda runs: (runs / "s1" / "policy.zip").unlink(), "runs/s1: no policy.zip or"),
+        (lambda runs: (runs / "s1" / "run.json").unlink(), "runs/s1/run.json: missing"),
+    ],
+)
+def test_a_method_whose_runs_disagree_or_lack_a_file_is_exit_2(
+    command_board, capsys, change, expected
+):
+    change(command_board / "submissions" / "ppo" / "runs")
+    assert expected in leaderboard_exit_2(capsys, command_board, "build")
 
 
 # -- the page, in a real browser (headless Chromium; .ci/run installs it) -----------
@@ -641,7 +834,7 @@ def test_the_metadata_of_an_added_submission_is_checked_like_a_written_one(board
 
 def rows_of(table) -> list[str]:
     return [
-        row.get_attribute("data-slug") for row in table.find_elements("css selector", "tr.entry")
+        body.get_attribute("data-slug") for body in table.find_elements("css selector", "tbody")
     ]
 
 
@@ -656,19 +849,20 @@ def test_the_page_ranks_sorts_details_and_plots_in_a_browser(chromium, board):
     chromium.get((board / "index.html").as_uri())
     for track in document["tracks"]:
         table = chromium.find_element("id", f"table-{track['track']}")
-        assert rows_of(table) == [entry["slug"] for entry in track["entries"]]
+        assert rows_of(table) == [entry["slug"] for entry in track["methods"]]
         headers = table.find_elements("css selector", "th")
         name = next(h for h in headers if h.text == "Name")
         name.click()
-        expected = sorted(track["entries"], key=lambda e: e["submission"]["name"].lower())
+        expected = sorted(track["methods"], key=lambda e: e["submission"]["name"].lower())
         assert rows_of(table) == [entry["slug"] for entry in expected]
         assert name.get_attribute("aria-sort") == "ascending"
         name.click()
         assert rows_of(table) == [entry["slug"] for entry in reversed(expected)]
         headers[0].click()  # rank, ascending
-        assert rows_of(table) == [entry["slug"] for entry in track["entries"]]
-        row = table.find_element("css selector", "tr.entry[data-slug=hostile]")
-        details = row.find_element("xpath", "following-sibling::tr[1]")
+        assert rows_of(table) == [entry["slug"] for entry in track["methods"]]
+        method = table.find_element("css selector", "tbody[data-slug=hostile]")
+        row = method.find_element("css selector", "tr.entry")
+        details = method.find_element("css selector", "tr.details")
         assert not details.is_displayed()
         row.click()
         assert details.is_displayed()
@@ -729,11 +923,12 @@ def test_the_projects_readme_gets_the_baselines_table_and_check_guards_it(board)
 
 def test_an_onnx_export_of_a_zip_enters_with_the_zips_own_episodes(board, tmp_path):
     exported = export_zip(load_policy(REFERENCE_POLICY), tmp_path / "reference.onnx")
-    metadata = submission(name="PPO (ONNX)", algorithm="PPO", builtin=None)
-    leaderboard.add(board, str(exported), "ppo-onnx", metadata, board=BOARD, workers=1)
-    assert (board / "submissions" / "ppo-onnx" / "policy.onnx").is_file()
-    mine = json.loads((board / "results" / "ppo-onnx.json").read_text())
-    zips = json.loads((board / "results" / "ppo.json").read_text())
+    method = {"name": "PPO (ONNX)", "algorithm": "PPO", "authors": ["A"], "licence": "MIT"}
+    method["tracks"] = ["single"]
+    leaderboard.add(board, str(exported), "ppo-onnx", method, run_record(0), board=BOARD)
+    assert (board / "submissions" / "ppo-onnx" / "runs" / "s0" / "policy.onnx").is_file()
+    mine = json.loads((board / "results" / "ppo-onnx-s0.json").read_text())
+    zips = json.loads((board / "results" / "ppo-s0.json").read_text())
     assert mine["policy"]["format"] == "onnx"
     assert [t["episodes"] for t in mine["tasks"]] == [t["episodes"] for t in zips["tasks"]]
     assert leaderboard.check(board, BOARD, workers=1).problems == []

@@ -29,7 +29,8 @@ BEAM = "bbbench/BeamCarry-v0"
 def submission(slug: str):
     if slug == "reference":  # the shipped policy, a zip
         return load_policy(slug)
-    folder = SUBMISSIONS / slug
+    method, _, run = slug.rpartition("-")  # a run's slug: <method>-s<seed>
+    folder = SUBMISSIONS / method / "runs" / run
     statistics = folder / "vecnormalize.pkl"
     return load_policy(
         folder / "policy.zip", vecnormalize=statistics if statistics.exists() else None
@@ -302,7 +303,7 @@ def test_sums_over_slots_are_in_slot_order_in_float64():
 
 
 def test_the_board_takes_an_onnx_submission(tmp_path):
-    from bbbench.leaderboard.submissions import read_submission
+    from bbbench.leaderboard.submissions import read_method
 
     folder = tmp_path / "submissions" / "ppo-onnx"
     folder.mkdir(parents=True)
@@ -311,14 +312,13 @@ def test_the_board_takes_an_onnx_submission(tmp_path):
     del metadata["builtin"]
     (folder / "submission.json").write_text(json.dumps(metadata))
     export_zip(load_policy("reference"), folder / "policy.onnx")
-    entry = read_submission(folder)
-    assert entry.policy_file == folder / "policy.onnx"
-    assert entry.load_policy().record()["format"] == "onnx"
-    shutil.copyfile(
-        SUBMISSIONS / "ppo-beamcarry-v0-s0" / "vecnormalize.pkl", folder / "vecnormalize.pkl"
-    )
+    (run,) = read_method(folder).runs
+    assert run.policy_file == folder / "policy.onnx"
+    assert run.load_policy().record()["format"] == "onnx"
+    statistics = SUBMISSIONS / "ppo-beamcarry-v0" / "runs" / "s0" / "vecnormalize.pkl"
+    shutil.copyfile(statistics, folder / "vecnormalize.pkl")
     with pytest.raises(ValueError, match="only a zip takes statistics"):
-        read_submission(folder)
+        read_method(folder)
 
 
 def test_every_operator_of_the_set_has_its_kernel_and_its_rule_in_one_entry():
@@ -357,9 +357,10 @@ def test_a_policy_that_names_its_task_plays_only_tasks_whose_observation_means_t
     whose contract says Swap-v0 is not scored on ConvoyTurns-v0 (nor BeamCarry-v0's on
     Convoy-v0), while tasks of one layout (BeamCarry and BeamCarryBumps) both play it."""
     submissions = ROOT / "leaderboards" / "submissions"
-    swap = load_policy(submissions / "ippo-swap-v0-3m-s0" / "policy.onnx")
+    swap_file = submissions / "ippo-swap-v0-3m" / "runs" / "s0" / "policy.onnx"
+    swap = load_policy(swap_file)
     assert evaluation.select_tasks(swap, None) == ["bbbench/Swap-v0"]
-    beam = load_policy(submissions / "ippo-beamcarry-v0-3m-s0" / "policy.onnx")
+    beam = load_policy(submissions / "ippo-beamcarry-v0-3m" / "runs" / "s0" / "policy.onnx")
     assert evaluation.select_tasks(beam, None) == [
         "bbbench/BeamCarry-v0",
         "bbbench/BeamCarryBumps-v0",
@@ -369,7 +370,7 @@ def test_a_policy_that_names_its_task_plays_only_tasks_whose_observation_means_t
         "other things than bbbench/Convoy-v0's (value 5 is 'hinge_force_along' there, "
         "'stretch_ahead' here)"
     )
-    code = main(["eval", str(submissions / "ippo-swap-v0-3m-s0" / "policy.onnx"), "--task",
+    code = main(["eval", str(swap_file), "--task",
                  "bbbench/ConvoyTurns-v0", "--episodes", "1", "--workers", "1"])  # fmt: skip
     err = capsys.readouterr().err
     assert code == 2

@@ -19,6 +19,22 @@ def submission(folder: Path) -> dict:
     return json.loads((folder / "submission.json").read_text())
 
 
+def runs() -> dict[str, dict]:
+    """Every run of the board by its slug: its records (run.json, or a one-run method's
+    own submission.json)."""
+    found = {}
+    for folder in SUBMISSIONS:
+        if (folder / "runs").is_dir():
+            for run in sorted((folder / "runs").iterdir()):
+                found[f"{folder.name}-{run.name}"] = json.loads((run / "run.json").read_text())
+        else:
+            found[folder.name] = submission(folder)
+    return found
+
+
+RUNS = runs()
+
+
 def importable(dotted: str) -> bool:
     """A module, or an attribute of one."""
     module, _, attribute = dotted.rpartition(".")
@@ -31,17 +47,16 @@ def importable(dotted: str) -> bool:
     return False
 
 
-@pytest.mark.parametrize("folder", SUBMISSIONS, ids=lambda folder: folder.name)
-def test_every_code_path_a_submission_names_exists(folder):
-    data = submission(folder)
-    text = " ".join(str(data.get(key, "")) for key in ("command", "notes"))
-    text += " " + data["training"]["wall_time"]
+@pytest.mark.parametrize("slug", sorted(RUNS))
+def test_every_code_path_a_run_names_exists(slug):
+    data = RUNS[slug]
+    text = " ".join(str(data.get(key, "")) for key in ("command", "notes", "wall_time"))
     named = DOTTED.findall(text)
     assert [path for path in named if not importable(path)] == []
 
 
 def test_the_five_built_ins_that_named_moved_modules_name_them_now():
-    named = {folder.name: DOTTED.findall(submission(folder)["command"]) for folder in SUBMISSIONS}
+    named = {slug: DOTTED.findall(record["command"]) for slug, record in RUNS.items()}
     assert named["lqr"] == [
         "bbbench.policies.controllers.lqr.LQRController",
         "bbbench.policies.controllers.lqr",
@@ -50,23 +65,31 @@ def test_the_five_built_ins_that_named_moved_modules_name_them_now():
 
 
 @pytest.mark.parametrize(
-    "folder",
-    [
-        folder
-        for folder in SUBMISSIONS
-        if (ROOT / "baselines" / folder.name / "train.json").is_file()
-    ],
-    ids=lambda folder: folder.name,
+    "slug", [slug for slug in sorted(RUNS) if (ROOT / "baselines" / slug / "train.json").is_file()]
 )
-def test_a_runs_wall_time_is_what_its_training_recorded(folder):
-    record = json.loads((ROOT / "baselines" / folder.name / "train.json").read_text())
-    stated = submission(folder)["training"]["wall_time"]
+def test_a_runs_wall_time_is_what_its_training_recorded(slug):
+    record = json.loads((ROOT / "baselines" / slug / "train.json").read_text())
+    stated = RUNS[slug]["wall_time"]
     assert stated.startswith(f"{record['wall_time_s'] / 60:.0f} min"), (
-        f"{folder.name}: {stated!r}, its train.json says {record['wall_time_s']:.0f} s"
+        f"{slug}: {stated!r}, its train.json says {record['wall_time_s']:.0f} s"
     )
-    one = "one training" in submission(folder)["training"]["hardware"]
+    one = "one training" in RUNS[slug]["hardware"]
     if "side_by_side" in record:
         assert one == (record["side_by_side"] in (1, "1"))
+
+
+@pytest.mark.parametrize(
+    "slug", [slug for slug in sorted(RUNS) if (ROOT / "baselines" / slug / "train.json").is_file()]
+)
+def test_a_runs_budget_is_in_world_steps_as_its_training_counted_them(slug):
+    """One unit on the board: world steps (a multi-bot world step moves every bot once;
+    stable-baselines3 counts bot-steps there, BenchMARL world steps)."""
+    import bbbench
+
+    record = json.loads((ROOT / "baselines" / slug / "train.json").read_text())
+    task = bbbench.spec(record["tasks"][0])
+    bots = task.group.n_bots if task.multi_agent and "bot_steps" not in record else 1
+    assert RUNS[slug]["recipe"]["world_steps"] == record["steps"] // bots
 
 
 # docs/tasks.md's table of every task on the shipped reward: the board's numbers.
@@ -84,17 +107,18 @@ REWARD_TABLE_TASKS = (
 
 def reward_table_rows() -> list[str]:
     """Each task's row as the board gives it: random's mean return, stand, PD and LQR
-    normalized, and the best learned entry on it, whichever task it trained on."""
+    normalized, and the best learned method on it (its mean over runs), whichever task
+    it trained on."""
     import bbbench
 
     board = json.loads((ROOT / "leaderboards" / "bbbench-v0.json").read_text())
     rows = []
     for task_id in REWARD_TABLE_TASKS:
         scores = {
-            entry["slug"]: (entry["tasks"][task_id]["normalized_score"], entry["submission"])
+            method["slug"]: (method["tasks"][task_id]["normalized_score"], method["submission"])
             for track in board["tracks"]
-            for entry in track["entries"]
-            if task_id in entry["tasks"]
+            for method in track["methods"]
+            if task_id in method["tasks"]
         }
         learned = [
             (score, submission["name"])

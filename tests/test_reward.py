@@ -239,9 +239,9 @@ def _board_scores() -> dict[str, dict[str, float]]:
     board = json.loads((BOARD / "bbbench-v0.json").read_text())
     scores: dict[str, dict[str, float]] = {}
     for track in board["tracks"]:
-        for entry in track["entries"]:
-            for task_id, task in entry["tasks"].items():
-                scores.setdefault(entry["slug"], {})[task_id] = task["normalized_score"]
+        for method in track["methods"]:
+            for task_id, task in method["tasks"].items():
+                scores.setdefault(method["slug"], {})[task_id] = task["normalized_score"]
     return scores
 
 

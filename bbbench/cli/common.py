@@ -93,10 +93,10 @@ def results_table(document: dict) -> Table:
         )
     overall = document["overall"]
     if overall["tasks"] > 1:
-        low, high = overall["normalized_iqm_ci"]
+        low, high = overall["normalized_ci"]
         table.caption = (
-            f"IQM of normalized scores over {overall['tasks']} tasks: "
-            f"{overall['normalized_iqm']:.3f} (95% CI {low:.3f} to {high:.3f})"
+            f"Mean normalized score over {overall['tasks']} tasks: "
+            f"{overall['normalized_score']:.3f} (95% CI {low:.3f} to {high:.3f})"
         )
     return table
 

@@ -37,18 +37,18 @@ def add_parser(commands) -> None:
     checking = _with_common(
         actions.add_parser(
             "check",
-            help="check every number against the records, re-score changed entries, replay a "
+            help="check every number against the records, re-score changed runs, replay a "
             "random sample of the others; fail (exit 1) if any checked-in file differs",
             description="Compute every aggregate, rank and file of the board again from its "
-            "per-episode records and compare them byte for byte; re-score in full every entry "
+            "per-episode records and compare them byte for byte; re-score in full every run "
             "whose inputs changed (its files, the versions, the tasks, the robustness "
             "protocol); replay a fixed budget of episodes of the others, drawn at random "
-            "and shared evenly by the entries (bbbench.leaderboard.SPOT_BUDGET). --full "
+            "and shared evenly by the runs (bbbench.leaderboard.SPOT_BUDGET). --full "
             "plays every episode again.",
         )
     )
     checking.add_argument(
-        "--full", action="store_true", help="play every episode of every entry again"
+        "--full", action="store_true", help="play every episode of every run again"
     )
     checking.set_defaults(run=check)
     _add_parser_of_add(actions)
@@ -73,11 +73,15 @@ def _with_common(parser: argparse.ArgumentParser, plays: bool = True):
 
 
 def _add_parser_of_add(actions) -> None:
-    """`bbbench leaderboard add`: the policy and the submission's fields."""
+    """`bbbench leaderboard add`: the policy, its method's fields and its run's records."""
     adding = _with_common(
         actions.add_parser(
             "add",
-            help="add a submission: check the policy, score it, write its folder and the board",
+            help="add a run of a method: check the policy, score it, write it and the board",
+            description="Add a run (one policy, one training seed) to a method: a new one "
+            "(its fields are required) or one on the board (its fields may be left out; "
+            "those given must be its own, and the run's recipe must be its recipe). A "
+            "controller is a method of one run, added without --seed.",
         )
     )
     adding.add_argument(
@@ -86,35 +90,58 @@ def _add_parser_of_add(actions) -> None:
         help="a stable-baselines3 .zip, an ONNX file with its contract (bbbench export), or a "
         "built-in's name",
     )
-    adding.add_argument("--slug", required=True, help="the entry's folder name, e.g. my-ppo")
-    adding.add_argument("--name", required=True, help="display name")
-    adding.add_argument("--algorithm", required=True, help="e.g. PPO")
-    adding.add_argument(
-        "--author", action="append", required=True, help="an author (repeat for several)"
-    )
-    adding.add_argument(
+    adding.add_argument("--slug", required=True, help="the method's folder name, e.g. my-ppo")
+    method = adding.add_argument_group("the method (for a new one)")
+    method.add_argument("--name", help="display name")
+    method.add_argument("--algorithm", help="e.g. PPO")
+    method.add_argument("--author", action="append", help="an author (repeat for several)")
+    method.add_argument(
         "--action-mode",
         choices=("discrete", "continuous"),
-        help="checked against the zip (default: the zip's; discrete for a built-in)",
+        help="checked against the policy (default: the policy's; discrete for a built-in)",
     )
-    adding.add_argument(
-        "--env-steps", type=int, required=True, help="environment steps used in training"
+    method.add_argument(
+        "--track",
+        action="append",
+        choices=tuple(TRACKS),
+        help="a track to be ranked on (repeat for several)",
     )
-    adding.add_argument("--wall-time", required=True, help="training wall time, in words")
-    adding.add_argument("--hardware", required=True, help="the training machine, in words")
-    adding.add_argument(
-        "--seeds", type=int, nargs="*", default=[], metavar="SEED", help="training seed(s)"
+    method.add_argument("--licence", help="the policy's licence (SPDX), e.g. MIT")
+    method.add_argument("--url", help="a paper, repository or write-up")
+    method.add_argument("--notes", help="anything else a reader should know")
+    method.add_argument("--date", help="the submission's own date, as you state it")
+    run = adding.add_argument_group("the run")
+    run.add_argument(
+        "--seed",
+        type=int,
+        help="the run's training seed (leave out for a controller: a method of one run)",
     )
-    adding.add_argument(
+    run.add_argument(
+        "--world-steps",
+        type=int,
+        required=True,
+        help="the training budget in world steps (a multi-bot world step moves every bot "
+        "once); 0 for a controller",
+    )
+    run.add_argument(
+        "--trained-on",
+        nargs="*",
+        default=[],
+        metavar="TASK",
+        help="the task IDs it trained on",
+    )
+    run.add_argument(
+        "--recipe", required=True, help="the recipe: its file, or its settings in words"
+    )
+    run.add_argument("--wall-time", required=True, help="training wall time, in words")
+    run.add_argument("--hardware", required=True, help="the training machine, in words")
+    run.add_argument(
         "--command",
         dest="training_command",
         required=True,
-        help="the exact command or recipe that trained it",
+        help="the exact command that trained it",
     )
-    adding.add_argument("--licence", required=True, help="the policy's licence (SPDX), e.g. MIT")
-    adding.add_argument("--url", help="a paper, repository or write-up")
-    adding.add_argument("--notes", help="anything else a reader should know")
-    adding.add_argument("--date", help="the submission's own date, as you state it")
+    run.add_argument("--run-notes", help="anything a reader should know of this run")
     adding.add_argument(
         "--vecnormalize", metavar="PKL", help="VecNormalize statistics the policy needs"
     )
@@ -195,7 +222,7 @@ def build(args: argparse.Namespace) -> int:
         return 1
     args.written.append(str(root))
     tracks = ", ".join(
-        f"{len(track['entries'])} on the {track_name(track['track'])} track"
+        f"{len(track['methods'])} methods on the {track_name(track['track'])} track"
         for track in built.document["tracks"]
     )
     print(
@@ -236,10 +263,10 @@ def check(args: argparse.Namespace) -> int:
         how = (
             f"every number recomputed from the records; re-scored in full (inputs changed): "
             f"{rescored}; {checked.spot_checked} episodes of the others replayed at random "
-            f"(a budget of {leaderboard.SPOT_BUDGET} shared by the entries)"
+            f"(a budget of {leaderboard.SPOT_BUDGET} shared by the runs)"
         )
     print(
-        f"leaderboard check ok: {checked.entries} entries, {checked.tasks} tasks; {how}; "
+        f"leaderboard check ok: {checked.entries} runs, {checked.tasks} tasks; {how}; "
         f"{checked.seconds:.0f} s"
     )
     return 0
@@ -250,22 +277,29 @@ def add(args: argparse.Namespace) -> int:
 
     root = _root(args)
     options = _options(args)
-    metadata = {
+    given = {
         "name": args.name,
         "authors": args.author,
         "algorithm": args.algorithm,
-        **({"action_mode": args.action_mode} if args.action_mode else {}),
-        "training": {
-            "env_steps": args.env_steps,
-            "wall_time": args.wall_time,
-            "hardware": args.hardware,
-        },
-        "training_seeds": args.seeds,
-        "command": args.training_command,
-        **({"url": args.url} if args.url else {}),
+        "action_mode": args.action_mode,
+        "tracks": args.track,
+        "url": args.url,
         "licence": args.licence,
-        **({"notes": args.notes} if args.notes else {}),
-        **({"date": args.date} if args.date else {}),
+        "notes": args.notes,
+        "date": args.date,
+    }
+    method = {key: value for key, value in given.items() if value is not None}
+    run = {
+        "training_seed": args.seed,
+        "recipe": {
+            "world_steps": args.world_steps,
+            "tasks": args.trained_on,
+            "file": args.recipe,
+        },
+        "command": args.training_command,
+        "wall_time": args.wall_time,
+        "hardware": args.hardware,
+        **({"notes": args.run_notes} if args.run_notes else {}),
     }
     progress, on_episodes = _playing("episodes played")
     try:
@@ -274,7 +308,8 @@ def add(args: argparse.Namespace) -> int:
                 root,
                 args.policy,
                 args.slug,
-                metadata,
+                method,
+                run,
                 vecnormalize=args.vecnormalize,
                 board=leaderboard.DEFAULT_BOARD,
                 on_episodes=on_episodes,
@@ -287,12 +322,14 @@ def add(args: argparse.Namespace) -> int:
         return 1
     args.written.append(str(root))
     for track in built.document["tracks"]:
-        for entry in track["entries"]:
+        for entry in track["methods"]:
             if entry["slug"] == args.slug:
-                print(
-                    f"{track_name(track['track'])} track: {args.slug} ranks {entry['rank']} of "
-                    f"{len(track['entries'])}"
+                place = (
+                    f"ranks {entry['rank']} of {len(track['methods'])}"
+                    if entry["rank"] is not None
+                    else f"is listed, unranked: {entry['unranked']}"
                 )
+                print(f"{track_name(track['track'])} track: {args.slug} {place}")
     print(
         f"wrote {root / 'submissions' / args.slug} and the board: {built.played} episodes "
         f"played, {built.episodes - built.played} from stored results. Commit both."

@@ -237,6 +237,6 @@ def _run_seeds(args: argparse.Namespace) -> int:
     except ConnectionError as error:
         raise UsageError(f"--address {args.address}: {error}") from None
     for run in runs:
-        score = run.results["overall"]["normalized_iqm"]
-        print(f"seed {run.seed}: {run.out}, normalized IQM {score:.3f}")
+        score = run.results["overall"]["normalized_score"]
+        print(f"seed {run.seed}: {run.out}, mean normalized score {score:.3f}")
     return 0

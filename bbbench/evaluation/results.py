@@ -8,6 +8,7 @@ the same code gives the same bytes (`dumps`), on every machine but for its
 
 from __future__ import annotations
 
+import itertools
 import json
 from collections.abc import Sequence
 from typing import Any
@@ -20,7 +21,11 @@ from bbbench.evaluation.episodes import PlayedEpisode
 from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 
-SCHEMA = "bbbench-results/1"
+# 2: the overall is the mean normalized score (every episode counts), where 1 took the
+# IQM of the episodes' scores (a run's worst quarter, its falls, never counted). The
+# episode records are the same: a document of either is read for its episodes.
+SCHEMA = "bbbench-results/2"
+EPISODES_OF = ("bbbench-results/1", SCHEMA)
 # The version of the code that plays episodes (seeding, lockstep groups, actors): bump it
 # when the same policy on the same task spec and seeds would play differently. The
 # leaderboard reuses a stored task result only when it matches (with the policy's hash,
@@ -67,7 +72,9 @@ def aggregate(task: TaskSpec, episodes: Sequence[PlayedEpisode]) -> dict[str, An
 
 
 def overall(tasks: Sequence[TaskSpec], episodes: Sequence[Sequence[PlayedEpisode]]) -> dict:
-    """Across tasks: the IQM of per-episode normalized scores, stratified by task."""
+    """Across tasks: the mean normalized score, every task weighed alike (the mean of
+    each task's mean over its episodes, falls included), with its stratified-bootstrap
+    interval."""
     strata = [
         np.array([normalized(e.episode_return, task) for e in played])
         for task, played in zip(tasks, episodes, strict=True)
@@ -77,9 +84,21 @@ def overall(tasks: Sequence[TaskSpec], episodes: Sequence[Sequence[PlayedEpisode
         return {"tasks": 0}
     return {
         "tasks": len(strata),
-        "normalized_iqm": stats.iqm(np.concatenate(strata)),
-        "normalized_iqm_ci": list(stats.stratified_bootstrap_ci(strata, stats.iqm)),
+        "normalized_score": float(np.mean([stratum.mean() for stratum in strata])),
+        "normalized_ci": list(stats.stratified_bootstrap_ci(strata, _mean_of_tasks(strata))),
     }
+
+
+def _mean_of_tasks(strata: Sequence[np.ndarray]):
+    """The statistic over resampled strata laid side by side: the mean of the tasks' means
+    (the strata may differ in size: a task with missing episodes)."""
+    bounds = np.cumsum([0] + [len(stratum) for stratum in strata])
+
+    def statistic(pooled: np.ndarray, axis: int = -1) -> np.ndarray:
+        means = [pooled[..., a:b].mean(axis=-1) for a, b in itertools.pairwise(bounds)]
+        return np.mean(means, axis=0)
+
+    return statistic
 
 
 def document(

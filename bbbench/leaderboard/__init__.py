@@ -1,13 +1,17 @@
-"""Leaderboards: submissions in the repository, scored by the shipped harness, ranked with
-intervals, and checked by CI (`bbbench leaderboard build | check | add | show`).
+"""Leaderboards: methods in the repository, each its runs (one policy per training seed),
+scored by the shipped harness, ranked over runs with intervals, and checked by CI
+(`bbbench leaderboard build | check | add | show`).
 
 A leaderboard folder (`leaderboards/` in the repository) holds:
 
-    submissions/<slug>/submission.json   metadata (docs/submission-schema.json)
-    submissions/<slug>/policy.zip        the policy (or policy.onnx), unless it names a built-in
-    results/<slug>.json                  its `bbbench eval --json` document
-    results/<slug>.<track>.profile.json  its robustness profile on each track it is on
-                                         (`bbbench.evaluation.profile`)
+    submissions/<method>/submission.json      the method (docs/submission-schema.json)
+    submissions/<method>/runs/<run>/run.json  a run's records (docs/run-schema.json)
+    submissions/<method>/runs/<run>/policy.zip  its policy (or policy.onnx); a method of
+                                         one run may hold it in its own folder, or name
+                                         a built-in
+    results/<run>.json                   a run's `bbbench eval --json` document
+    results/<run>.<track>.profile.json   its robustness profile on each track its method
+                                         is ranked on (`bbbench.evaluation.profile`)
     bbbench-v0.json                      the ranked board (docs/leaderboard-schema.json)
     README.md, index.html                the board as people read it
     figures/<track>-<name>.svg           the page's figures

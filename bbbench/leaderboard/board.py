@@ -1,10 +1,10 @@
-"""From submissions to the leaderboard document.
+"""What a leaderboard plays, and playing it.
 
-Two steps, kept apart. `score` plays each submission's episodes with the
-shipped harness (`bbbench.evaluation.evaluate`) and returns its results
-document, the `bbbench eval --json` format, reusing stored task results whose
-key still matches. `leaderboard_document` ranks entries from those results
-documents alone: nothing in it looks at a policy or an env.
+Two steps, kept apart. `score` plays each run's episodes with the shipped
+harness (`bbbench.evaluation.evaluate`) and returns its results document, the
+`bbbench eval --json` format, reusing stored task results whose key still
+matches. `bbbench.leaderboard.ranking` ranks methods from those results documents
+alone: nothing in it looks at a policy or an env.
 """
 
 from __future__ import annotations
@@ -17,10 +17,8 @@ from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import bbbench
-from bbbench.evaluation import PlayedEpisode, evaluate, machine, results_document, stats
+from bbbench.evaluation import PlayedEpisode, evaluate, results_document
 from bbbench.evaluation.profile import (
     PROTOCOL,
     Protocol,
@@ -29,29 +27,20 @@ from bbbench.evaluation.profile import (
     stored_records,
 )
 from bbbench.evaluation.profile import SCHEMA as PROFILE_SCHEMA
-from bbbench.evaluation.results import HARNESS_VERSION, normalized, overall
-from bbbench.evaluation.results import SCHEMA as RESULTS_SCHEMA
-from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, SubmissionError
+from bbbench.evaluation.results import EPISODES_OF, HARNESS_VERSION
+from bbbench.leaderboard.submissions import Run, SubmissionError
 from bbbench.policies import Policy
 from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import list_tasks, spec
 from bbbench.tasks.tracks import TRACKS, Track, track_of
 
-SCHEMA = "bbbench-leaderboard/1"
 PROFILE_SUFFIX = ".profile.json"  # results/<slug>.<track>.profile.json: a robustness profile
 
 
 def profile_file(slug: str, track: str) -> str:
     """The name of an entry's robustness profile on a track, in the results folder."""
     return f"{slug}.{track}{PROFILE_SUFFIX}"
-
-
-RANK_RULE = (
-    "entries are ordered by the IQM of normalized scores over the track's ranked tasks; "
-    "neighbours share a rank group unless the 95% interval of the probability that the "
-    "upper one improves on the lower one (rliable's P(X > Y)) lies above 0.5"
-)
 
 
 class BuildError(RuntimeError):
@@ -93,23 +82,22 @@ class Board:
 
 @dataclasses.dataclass(frozen=True)
 class Scored:
-    """A submission, its results document and its robustness profiles, one for each track
-    it is on whose profile task it fits (track name -> profile document); `played`:
-    episodes played to get them (the rest came from stored results)."""
+    """A run, its results document and its robustness profiles, one for each track it is
+    on whose profile task it fits (track name -> profile document); `played`: episodes
+    played to get them (the rest came from stored results)."""
 
-    submission: Submission
+    run: Run
     results: dict[str, Any]
     played: int
     profiles: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
 
 
-def inputs_key(submission: Submission, board: Board) -> str:
-    """SHA-256 of everything an entry's numbers depend on: its submission's files, the
+def inputs_key(run: Run, board: Board) -> str:
+    """SHA-256 of everything a run's numbers depend on: its method's and its own files, the
     harness's, bbbench's and the simulator's versions, the board's tasks (fingerprint and
-    seeds) and the robustness protocol. The board records it per entry (`inputs`), so that
-    a check finds a changed or new entry without the repository's history."""
-    files = [submission.folder / SUBMISSION_FILE, submission.policy_file]
-    files.append(submission.normalization_file)
+    seeds) and the robustness protocol. The board records it per run (`inputs`), so that
+    a check finds a changed or new run without the repository's history."""
+    files = [*run.files, run.policy_file, run.normalization_file]
     inputs = {
         "files": {
             path.name: hashlib.sha256(path.read_bytes()).hexdigest()
@@ -128,7 +116,7 @@ def inputs_key(submission: Submission, board: Board) -> str:
 
 
 def score(
-    submissions: Sequence[Submission],
+    runs: Sequence[Run],
     board: Board,
     stored: Path | None,
     workers: int | None = None,
@@ -137,29 +125,27 @@ def score(
     on_episodes: Callable[[int], None] | None = None,
     keys: dict[str, str | None] | None = None,
 ) -> list[Scored]:
-    """Each submission's results document on the board's tasks it fits, and its profile.
+    """Each run's results document on the board's tasks it fits, and its profiles.
     With `stored` (the folder of results documents, `<root>/results`), a task whose stored
     result has the same key (policy file's SHA-256 and statistics, task fingerprint, seeds,
     harness and bbbench versions) is not played again, nor a profile of the same policy
     and protocol; with `keys` (slug -> the inputs key the board recorded), an entry's
     stored results are used only when its key is today's (`inputs_key`)."""
     scored = []
-    for submission in submissions:
-        policy = submission.load_policy()
-        if keys is not None and keys.get(submission.slug) != inputs_key(submission, board):
+    for run in runs:
+        policy = run.load_policy()
+        if keys is not None and keys.get(run.slug) != inputs_key(run, board):
             stored_here = None  # changed or new since its results were stored: play it all
         else:
             stored_here = stored
         task_ids = [t for t in board.tasks if policy.mismatch(t) is None]
         if not task_ids:
             raise SubmissionError(
-                f"{submission.policy_file or submission.folder}: the policy "
+                f"{run.policy_file or run.folder}: the policy "
                 f"({policy.spaces_text()}) fits none of the board's tasks"
             )
         reused = (
-            {}
-            if stored_here is None
-            else _stored_episodes(stored_here, submission.slug, policy, board)
+            {} if stored_here is None else _stored_episodes(stored_here, run.slug, policy, board)
         )
         pending = [t for t in task_ids if t not in reused]
         played: dict[str, list[PlayedEpisode]] = {}
@@ -176,15 +162,16 @@ def score(
             )
             if evaluation.missing:
                 lost = ", ".join(f"{task} seed {seed}" for task, seed in evaluation.missing)
-                raise BuildError(f"{submission.slug}: episodes lost (worker died twice): {lost}")
+                raise BuildError(f"{run.slug}: episodes lost (worker died twice): {lost}")
             played = _episodes(evaluation.document)
         results = {t: reused[t] if t in reused else played[t] for t in task_ids}
         protocol, profiles, profiled = board.profile, {}, 0
         tracks = [] if protocol is None else _profiled_tracks(policy, task_ids)
-        for track in tracks:  # the entry's profile on each track it is on
+        tracks = [track for track in tracks if track.name in run.method["tracks"]]
+        for track in tracks:  # the run's profile on each track its method is ranked on
             robustness = None
             if stored_here is not None:
-                robustness = _stored_profile(stored_here, submission.slug, track, policy, protocol)
+                robustness = _stored_profile(stored_here, run.slug, track, policy, protocol)
             if robustness is None:
                 robustness = profile(
                     policy, workers, backend, address, on_result, protocol, track.profiled_on
@@ -193,7 +180,7 @@ def score(
             profiles[track.name] = robustness
         scored.append(
             Scored(
-                submission,
+                run,
                 results_document(policy, results),
                 total(len(played[t]) for t in pending) + profiled,
                 profiles,
@@ -263,7 +250,7 @@ def _stored_episodes(
     try:
         old = json.loads((folder / f"{slug}.json").read_text())
         if (
-            old["schema"] != RESULTS_SCHEMA
+            old["schema"] not in EPISODES_OF
             or old["harness_version"] != HARNESS_VERSION
             or old["bbbench_version"] != bbbench.__version__
             or not same_policy(old["policy"], policy.record())
@@ -310,162 +297,3 @@ def same_policy(recorded: dict[str, Any], today: dict[str, Any]) -> bool:
 def seeds_hash(seeds: Sequence[int]) -> str:
     """SHA-256 of the seeds as a JSON list: '[2147483648, ...]'."""
     return hashlib.sha256(json.dumps(list(seeds)).encode()).hexdigest()
-
-
-def leaderboard_document(scored: Sequence[Scored], board: Board) -> dict[str, Any]:
-    """The leaderboard: per track, entries ranked from their results documents."""
-    return {
-        "schema": SCHEMA,
-        "bbbench_version": bbbench.__version__,
-        "harness_version": HARNESS_VERSION,
-        "pybullet_version": package_metadata.version("pybullet"),
-        "statistics": {**stats.method(), "ranking": RANK_RULE},
-        "platform": machine.record(),
-        "tracks": [_track(track, scored, board) for track in TRACKS if board.track_tasks(track)],
-    }
-
-
-@dataclasses.dataclass(frozen=True)
-class _Member:
-    """An entry on a track: its results by task, and its scores on the ranked tasks."""
-
-    scored: Scored
-    blocks: dict[str, Any]  # task ID -> the task's block of the results document
-    strata: dict[str, np.ndarray]  # ranked task ID -> per-episode normalized scores
-    overall: dict[str, Any]
-
-    @property
-    def slug(self) -> str:
-        return self.scored.submission.slug
-
-    @property
-    def order(self) -> tuple[float, str]:
-        """Best overall first; ties by slug."""
-        return (-self.overall.get("normalized_iqm", -np.inf), self.slug)
-
-
-def _member(entry: Scored, ranked: Sequence[str]) -> _Member | None:
-    blocks = {block["task"]: block for block in entry.results["tasks"]}
-    if not any(task_id in blocks for task_id in ranked):
-        return None
-    strata = _normalized(blocks, ranked)
-    played = [[PlayedEpisode.from_record(r) for r in blocks[t]["episodes"]] for t in strata]
-    return _Member(entry, blocks, strata, overall([spec(t) for t in strata], played))
-
-
-def _track(track: str, scored: Sequence[Scored], board: Board) -> dict[str, Any]:
-    ranked = board.ranked(track)
-    members = sorted(
-        (m for m in (_member(entry, ranked) for entry in scored) if m is not None),
-        key=lambda member: member.order,
-    )
-    entries, group, rank = [], 1, 1
-    for position, member in enumerate(members):
-        below = members[position + 1] if position + 1 < len(members) else None
-        versus = None if below is None else {"slug": below.slug, **_versus(member, below)}
-        entries.append(
-            {
-                "rank": rank,
-                "rank_group": group,
-                "slug": member.slug,
-                "inputs": inputs_key(member.scored.submission, board),
-                "submission": member.scored.submission.metadata,
-                "policy": member.scored.results["policy"],
-                "height_scan": any(b.get("height_scan", False) for b in member.blocks.values()),
-                "results": f"results/{member.slug}.json",
-                "tasks": {
-                    task_id: member.blocks[task_id]["aggregate"]
-                    for task_id in board.track_tasks(track)
-                    if task_id in member.blocks
-                },
-                "overall": member.overall,
-                "robustness": _robustness(member, track),
-                "versus_next": versus,
-            }
-        )
-        if versus is not None and versus["significant"]:  # the next starts a lower group
-            group += 1
-            rank = position + 2
-    return {
-        "track": track,
-        "title": TRACKS[track].title,
-        "tasks": [
-            {
-                "task": task_id,
-                "version": spec(task_id).version,
-                "fingerprint": spec(task_id).fingerprint,
-                "eval_seeds_sha256": seeds_hash(board.seeds(task_id)),
-                "episodes": len(board.seeds(task_id)),
-                "ranked": task_id in ranked,
-            }
-            for task_id in board.track_tasks(track)
-        ],
-        "entries": entries,
-    }
-
-
-def _robustness(member: _Member, track: str) -> dict[str, Any] | None:
-    """The entry's profile on `track` as the board shows it: its two figures, and per axis
-    the normalized score at each grid value (None: the policy does not fit the track's
-    profile task)."""
-    document = member.scored.profiles.get(track)
-    if document is None:
-        return None
-    return {
-        **document["robustness"],
-        "task": document["protocol"]["task"],
-        "profile": f"results/{profile_file(member.slug, track)}",
-        "axes": {
-            block["axis"]: {
-                "score": block["score"],
-                "worst_case": block["worst_case"],
-                "points": [
-                    [
-                        point["value"],
-                        point["aggregate"]["normalized_score"],
-                        *point["aggregate"]["normalized_ci"],
-                    ]
-                    for point in block["points"]
-                ],
-            }
-            for block in document["axes"]
-        },
-    }
-
-
-def _normalized(blocks: dict[str, Any], ranked: Sequence[str]) -> dict[str, np.ndarray]:
-    """Per ranked task the entry played: its episodes' normalized scores."""
-    return {
-        task_id: np.array(
-            [normalized(record["return"], spec(task_id)) for record in blocks[task_id]["episodes"]]
-        )
-        for task_id in ranked
-        if task_id in blocks and spec(task_id).random_return is not None
-    }
-
-
-def _versus(upper: _Member, lower: _Member) -> dict[str, Any]:
-    """P(upper > lower) over the ranked tasks both played, with its interval."""
-    common = [task_id for task_id in upper.strata if task_id in lower.strata]
-    if not common:
-        return {"tasks": 0, "probability_of_improvement": None, "ci": None, "significant": False}
-    point, (low, high) = stats.probability_of_improvement(
-        [upper.strata[t] for t in common], [lower.strata[t] for t in common]
-    )
-    return {
-        "tasks": len(common),
-        "probability_of_improvement": point,
-        "ci": [low, high],
-        "significant": low > 0.5,
-    }
-
-
-def performance_profile(
-    results: dict[str, Any], ranked: Sequence[str], thresholds: np.ndarray
-) -> np.ndarray:
-    """rliable's score distribution: for each threshold tau, the fraction of episodes
-    with normalized score above tau, averaged over the ranked tasks played."""
-    blocks = {block["task"]: block for block in results["tasks"]}
-    strata = _normalized(blocks, ranked)
-    fractions = [(scores[:, None] > thresholds[None, :]).mean(axis=0) for scores in strata.values()]
-    return np.mean(fractions, axis=0)

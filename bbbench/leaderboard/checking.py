@@ -1,5 +1,5 @@
 """`bbbench leaderboard check`: every number of the board computed again from its records and
-compared byte for byte, changed entries re-scored in full, the others spot-checked by
+compared byte for byte, changed runs re-scored in full, the others spot-checked by
 replaying episodes drawn at random (or, with `full`, every episode played again)."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from bbbench.leaderboard.board import Board, Scored
 from bbbench.leaderboard.diff import differences
 from bbbench.leaderboard.generation import DEFAULT_BOARD, DOCUMENT, SUBMISSIONS, generate
 from bbbench.leaderboard.page import is_figure
-from bbbench.leaderboard.submissions import SUBMISSION_FILE, Submission, read_submissions
+from bbbench.leaderboard.submissions import RUN_FILE, SUBMISSION_FILE, Method, read_methods
 from bbbench.tasks.suite import spec
 
 # Episodes the default check replays of the unchanged entries, drawn afresh at every run:
@@ -42,7 +42,7 @@ class Checked:
     """What `check` found: readable problems (none: the board is exact), and what it did."""
 
     problems: list[str]
-    entries: int
+    entries: int  # runs
     tasks: int
     episodes: int  # episodes played: every episode of the re-scored entries, and the spot-checks
     seconds: float
@@ -81,21 +81,18 @@ def check(
     """
     began = time.perf_counter()
     root = Path(root)
-    submissions = read_submissions(root / SUBMISSIONS)
+    methods = read_methods(root / SUBMISSIONS)
+    runs = [run for method in methods for run in method.runs]
     try:
         recorded = json.loads((root / DOCUMENT).read_bytes())
     except (OSError, ValueError) as error:
         problem = f"{root / DOCUMENT}: cannot be read ({error}): run `bbbench leaderboard build`"
-        return Checked([problem], len(submissions), 0, 0, time.perf_counter() - began)
-    problems, changed = _stale_inputs(root, recorded, submissions, board)
+        return Checked([problem], len(runs), 0, 0, time.perf_counter() - began)
+    problems, changed = _stale_inputs(root, recorded, methods, board)
     if problems:
-        return Checked(problems, len(submissions), len(board.tasks), 0, time.perf_counter() - began)
+        return Checked(problems, len(runs), len(board.tasks), 0, time.perf_counter() - began)
     play = {"workers": workers, "backend": backend, "address": address}
-    keys = {
-        entry["slug"]: entry.get("inputs")
-        for track in recorded.get("tracks", [])
-        for entry in track["entries"]
-    }
+    keys = {run["slug"]: run.get("inputs") for run in _recorded_runs(recorded).values()}
     built = generate(root, board, cache=not full, on_episodes=on_episodes, keys=keys, **play)
     notes = []
     stack = plotting_stack()
@@ -106,7 +103,7 @@ def check(
             f"{_versions(PLOTTING_STACK)} only, and this is {_versions(stack)}"
         )
     problems = changed + differences(root, built.files, skip=skipped)
-    rescored = [entry.submission.slug for entry in built.scored if entry.played]
+    rescored = [entry.run.slug for entry in built.scored if entry.played]
     spot_checked = 0
     if not full and not problems:
         others = [entry for entry in built.scored if not entry.played]
@@ -127,7 +124,7 @@ def check(
             )
     return Checked(
         problems,
-        len(submissions),
+        len(runs),
         len(board.tasks),
         built.played + spot_checked,
         time.perf_counter() - began,
@@ -168,7 +165,7 @@ def _spot_check(
     for entry, share in zip(entries, shares, strict=True):
         if share == 0:
             continue
-        policy = entry.submission.load_policy()
+        policy = entry.run.load_policy()
         records = [  # (spec, the recorded episode), every task's and profile point's
             (spec(block["task"]).with_height_scan(policy.height_scan), record)
             for block in entry.results["tasks"]
@@ -186,7 +183,7 @@ def _spot_check(
             ]
         drawn = rng.choice(len(records), min(share, len(records)), replace=False)
         draws += [
-            (policy, records[i][0], records[i][1]["seed"], entry.submission.slug, records[i][1])
+            (policy, records[i][0], records[i][1]["seed"], entry.run.slug, records[i][1])
             for i in sorted(int(i) for i in drawn)
         ]
     played = play_draws(
@@ -245,12 +242,22 @@ def _said(record: dict[str, Any] | None) -> str:
     return f"return {record['return']!r} in {record['length']} steps"
 
 
+def _recorded_runs(recorded: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """The board's runs by slug, each with its method's metadata (`method`)."""
+    return {
+        run["slug"]: {**run, "method": method["submission"]}
+        for track in recorded.get("tracks", [])
+        for method in track.get("methods", [])
+        for run in method["runs"]
+    }
+
+
 def _stale_inputs(
-    root: Path, recorded: dict[str, Any], submissions: list[Submission], board: Board
+    root: Path, recorded: dict[str, Any], methods: list[Method], board: Board
 ) -> tuple[list[str], list[str]]:
     """What can be told without playing: the problems that end the check at once (the
-    board's tasks, entries whose submission is gone), and the submissions changed since
-    the build (said beside what their full re-score finds)."""
+    board's tasks, runs whose submission is gone), and the runs changed since the build
+    (said beside what their full re-score finds)."""
     problems, changed = [], []
     tasks = {task["task"]: task for track in recorded.get("tracks", []) for task in track["tasks"]}
     for task_id in board.tasks:
@@ -267,39 +274,37 @@ def _stale_inputs(
         for task_id in tasks
         if task_id not in board.tasks
     ]
-    entries = {
-        entry["slug"]: entry for track in recorded.get("tracks", []) for entry in track["entries"]
-    }
-    for submission in submissions:
-        entry = entries.get(submission.slug)
-        where = f"{root / SUBMISSIONS / submission.slug}"
-        if entry is None:
-            changed.append(
-                f"{where}: a submission that is not on the board: run `bbbench leaderboard "
-                f"build` and commit what it writes"
-            )
-            continue
-        if submission.policy_file is not None:
-            sha = hashlib.sha256(submission.policy_file.read_bytes()).hexdigest()
-            if sha != entry["policy"]["sha256"]:
+    entries = _recorded_runs(recorded)
+    for method in methods:
+        for run in method.runs:
+            entry = entries.get(run.slug)
+            if entry is None:
                 changed.append(
-                    f"{submission.policy_file}: SHA-256 {sha[:16]}..., the board was built "
-                    f"from {str(entry['policy']['sha256'])[:16]}...: the policy file changed"
+                    f"{run.folder}: a run that is not on the board: run `bbbench leaderboard "
+                    f"build` and commit what it writes"
                 )
-        if entry["submission"] != submission.metadata:
-            fields = sorted(
-                key
-                for key in {*entry["submission"], *submission.metadata}
-                if entry["submission"].get(key) != submission.metadata.get(key)
-            )
-            changed.append(
-                f"{where}/{SUBMISSION_FILE}: changed since the board was built "
-                f"(field {', '.join(repr(key) for key in fields)})"
-            )
-    slugs = {submission.slug for submission in submissions}
+                continue
+            if run.policy_file is not None:
+                sha = hashlib.sha256(run.policy_file.read_bytes()).hexdigest()
+                if sha != entry["policy"]["sha256"]:
+                    changed.append(
+                        f"{run.policy_file}: SHA-256 {sha[:16]}..., the board was built "
+                        f"from {str(entry['policy']['sha256'])[:16]}...: the policy file changed"
+                    )
+            for path, now, then in (
+                (method.folder / SUBMISSION_FILE, method.metadata, entry["method"]),
+                (run.folder / RUN_FILE, run.record, entry["record"]),
+            ):
+                if now != then and not (path.name == RUN_FILE and run.folder == method.folder):
+                    fields = sorted(key for key in {*now, *then} if now.get(key) != then.get(key))
+                    changed.append(
+                        f"{path}: changed since the board was built "
+                        f"(field {', '.join(repr(key) for key in fields)})"
+                    )
+    slugs = {run.slug for method in methods for run in method.runs}
     problems += [
-        f"entry {slug!r}: on the board, but {root / SUBMISSIONS / slug} is gone"
+        f"run {slug!r}: on the board, but its folder in {root / SUBMISSIONS} is gone"
         for slug in entries
         if slug not in slugs
     ]
-    return problems, changed
+    return problems, list(dict.fromkeys(changed))

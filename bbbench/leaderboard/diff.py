@@ -56,7 +56,7 @@ def differences(
             f"{root}: figures missing or not as the rebuild draws them: {', '.join(figures)}"
         )
     for path in stale(root, files):
-        gone = f"no submission {path.stem!r}" if path.parent.name == RESULTS else "not drawn"
+        gone = f"no run {path.stem!r}" if path.parent.name == RESULTS else "not drawn"
         problems.append(f"{path}: {gone} any more (the rebuild removes it)")
     if len(problems) > limit:
         problems = [*problems[:limit], f"... and {len(problems) - limit} more differences"]

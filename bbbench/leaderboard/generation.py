@@ -11,9 +11,11 @@ from typing import Any
 from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
 from bbbench.files import write_all_atomic
-from bbbench.leaderboard.board import Board, Scored, leaderboard_document, profile_file, score
+from bbbench.leaderboard.board import Board, Scored, profile_file, score
 from bbbench.leaderboard.page import FIGURES, README_FIGURE, page, readme_robustness_figure
-from bbbench.leaderboard.submissions import Submission, read_submissions
+from bbbench.leaderboard.ranking import leaderboard_document
+from bbbench.leaderboard.submissions import Method, check_distinct, read_methods
+from bbbench.leaderboard.verdicts import with_verdicts
 from bbbench.leaderboard.views import markdown, with_baselines
 from bbbench.portable import total
 
@@ -32,7 +34,7 @@ class Built:
     document: dict[str, Any]
     played: int  # episodes played (the rest came from stored results)
     episodes: int  # episodes on the board
-    scored: list[Scored]  # each entry's submission, results, profile and episodes played
+    scored: list[Scored]  # each run's results, profiles and episodes played
 
 
 def generate(
@@ -43,19 +45,21 @@ def generate(
     backend: str = "local",
     address: str | None = None,
     on_episodes: Callable[[int], None] | None = None,
-    extra: Submission | None = None,
+    extra: Method | None = None,
     keys: dict[str, str | None] | None = None,
 ) -> Built:
-    """Score the submissions in `root` (and `extra`, one not yet written there) and
-    generate every file of the board, in memory. With `cache`, a task result stored
-    in `root/results` is reused when its key matches, and with `keys` (slug -> the
-    inputs key the board recorded) only for an entry whose inputs are unchanged."""
+    """Score the methods in `root` (and `extra`, a method not yet written there, or one
+    with a run more) and generate every file of the board, in memory. With `cache`, a
+    task result stored in `root/results` is reused when its key matches, and with `keys`
+    (run slug -> the inputs key the board recorded) only for a run whose inputs are
+    unchanged."""
     root = Path(root)
-    submissions = read_submissions(root / SUBMISSIONS)
+    methods = read_methods(root / SUBMISSIONS)
     if extra is not None:
-        submissions = sorted([*submissions, extra], key=lambda s: s.slug)
+        methods = sorted([*(m for m in methods if m.slug != extra.slug), extra], key=_slug)
+        check_distinct([run for method in methods for run in method.runs])
     scored = score(
-        submissions,
+        [run for method in methods for run in method.runs],
         board,
         stored=root / RESULTS if cache else None,
         workers=workers,
@@ -64,12 +68,18 @@ def generate(
         on_episodes=on_episodes,
         keys=keys,
     )
-    built = _files(scored, board)
+    built = _files(methods, scored, board)
     readme = root.parent / "README.md"  # the project's, where the board sits in a repository
     if readme.is_file():
         text = with_baselines(readme.read_text(encoding="utf-8"), built.document)
         if text is not None:
             built.files["../README.md"] = text.encode()
+    baselines = root.parent / "docs" / "baselines.md"  # its verdicts, where it has them
+    if baselines.is_file():
+        results = {entry.run.slug: entry.results for entry in scored}
+        text = with_verdicts(baselines.read_text(encoding="utf-8"), built.document, results)
+        if text is not None:
+            built.files["../docs/baselines.md"] = text.encode()
     if (root / README_FIGURE).parent.is_dir():
         figure = readme_robustness_figure(built.document)
         if figure is not None:
@@ -77,11 +87,15 @@ def generate(
     return built
 
 
-def _files(scored: list[Scored], board: Board) -> Built:
-    document = leaderboard_document(scored, board)
-    results = {entry.submission.slug: entry.results for entry in scored}
+def _slug(method: Method) -> str:
+    return method.slug
+
+
+def _files(methods: list[Method], scored: list[Scored], board: Board) -> Built:
+    document = leaderboard_document(methods, scored, board)
+    results = {entry.run.slug: entry.results for entry in scored}
     profiles = {
-        profile_file(entry.submission.slug, track): doc
+        profile_file(entry.run.slug, track): doc
         for entry in scored
         for track, doc in entry.profiles.items()
     }
@@ -101,7 +115,7 @@ def _files(scored: list[Scored], board: Board) -> Built:
 def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Built:
     """`generate`, then write the files into `root`: each atomically, and all of them
     only once every episode is scored (an interrupted build changes nothing).
-    Results of submissions that are gone are removed."""
+    Results of runs that are gone are removed."""
     built = generate(root, board, **options)
     write(Path(root), built.files)
     return built
@@ -109,7 +123,7 @@ def build(root: str | Path, board: Board = DEFAULT_BOARD, **options: Any) -> Bui
 
 def write(root: Path, files: dict[str, bytes]) -> None:
     """Replace the generated files of the board in `root` by `files`, all at once; remove
-    those no build writes any more (the results of submissions that are gone, the
+    those no build writes any more (the results of runs that are gone, the
     figures of a track gone)."""
     for folder in (RESULTS, FIGURES):
         (root / folder).mkdir(parents=True, exist_ok=True)

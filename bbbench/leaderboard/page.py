@@ -14,14 +14,18 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from bbbench.leaderboard import plots
-from bbbench.leaderboard.board import performance_profile
+from bbbench.leaderboard.ranking import performance_profile
 from bbbench.leaderboard.views import (
     HOW_TO_READ,
+    LEGEND,
     columns,
+    header_kind,
     header_name,
-    is_ranked,
     overall_cell,
+    rank_cell,
     robustness_cell,
+    run_name,
+    run_task_cell,
     steps_cell,
     task_cell,
     task_name,
@@ -43,6 +47,7 @@ table.board th.old{color:#57606a;font-weight:normal}
 table.board th[aria-sort=ascending]::after{content:" \\25B2"}
 table.board th[aria-sort=descending]::after{content:" \\25BC"}
 tr.entry{cursor:pointer}tr.entry:hover{background:#f6f8fa}
+tr.run td{color:#57606a;font-size:.92em;border-bottom:1px dotted #d0d7de}
 td small{color:#57606a}tr.details td{text-align:left;background:#fbfcfd;white-space:normal}
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em;margin:.4em 0}
 dt{font-weight:600}dd{margin:0;overflow-wrap:anywhere}
@@ -52,35 +57,32 @@ figure img{max-width:100%;height:auto}
 
 _SCRIPT = """
 document.querySelectorAll("table.board").forEach(function (table) {
-  var body = table.tBodies[0];
-  function pairs() {
-    return Array.prototype.map.call(body.querySelectorAll("tr.entry"), function (row) {
-      return [row, row.nextElementSibling];
-    });
-  }
-  table.querySelectorAll("th").forEach(function (header, column) {
+  // A method is a tbody: its row, its runs' rows and its details; sorting moves it whole.
+  var methods = Array.prototype.slice.call(table.tBodies);
+  table.querySelectorAll("thead th").forEach(function (header, column) {
     header.addEventListener("click", function () {
       var ascending = header.getAttribute("aria-sort") !== "ascending";
       table.querySelectorAll("th").forEach(function (h) { h.removeAttribute("aria-sort"); });
       header.setAttribute("aria-sort", ascending ? "ascending" : "descending");
       var numeric = header.dataset.type === "number";
-      var sorted = pairs().sort(function (a, b) {
-        var x = a[0].cells[column].dataset.value, y = b[0].cells[column].dataset.value;
+      var sorted = methods.slice().sort(function (a, b) {
+        var x = a.rows[0].cells[column].dataset.value, y = b.rows[0].cells[column].dataset.value;
         var order = numeric ? parseFloat(x) - parseFloat(y) : x.localeCompare(y);
         if (numeric && isNaN(order)) { order = isNaN(parseFloat(x)) ? 1 : -1; }
         if (numeric && isNaN(parseFloat(x)) && isNaN(parseFloat(y))) { order = 0; }
         order = ascending ? order : -order;
         // ties keep the board's order
-        return order || a[0].dataset.position - b[0].dataset.position;
+        return order || a.dataset.position - b.dataset.position;
       });
-      sorted.forEach(function (pair) { body.appendChild(pair[0]); body.appendChild(pair[1]); });
+      sorted.forEach(function (method) { table.appendChild(method); });
     });
   });
-  body.addEventListener("click", function (event) {
+  table.addEventListener("click", function (event) {
     var row = event.target.closest("tr.entry");
     if (row) {
-      row.nextElementSibling.hidden = !row.nextElementSibling.hidden;
-      row.setAttribute("aria-expanded", String(!row.nextElementSibling.hidden));
+      var details = row.parentNode.querySelector("tr.details");
+      details.hidden = !details.hidden;
+      row.setAttribute("aria-expanded", String(!details.hidden));
     }
   });
 });
@@ -95,35 +97,39 @@ def _number(value: float | None) -> str:
     return "" if value is None else repr(float(value))
 
 
-def _details(entry: dict[str, Any], width: int) -> str:
-    submission = entry["submission"]
-    policy = entry["policy"]
+def _details(method: dict[str, Any], width: int) -> str:
+    """A method's details: its submission, and each run's records."""
+    submission = method["submission"]
+    recipe = submission["recipe"]
     items = [
         ("authors", ", ".join(submission["authors"])),
         ("algorithm", submission["algorithm"]),
         ("action mode", submission["action_mode"]),
-        (
-            "policy",
-            f"built-in '{submission['builtin']}'"
-            if "builtin" in submission
-            else f"policy.{policy.get('format', 'zip')}, SHA-256 {policy['sha256']}",
-        ),
-        ("height scan", "yes" if entry["height_scan"] else "no"),
-        ("training steps", f"{submission['training']['env_steps']:,}"),
-        ("wall time", submission["training"]["wall_time"]),
-        ("hardware", submission["training"]["hardware"]),
-        ("training seeds", ", ".join(map(str, submission["training_seeds"])) or "-"),
-        ("command", submission["command"]),
+        ("tracks", ", ".join(submission["tracks"])),
+        ("training steps", f"{recipe['world_steps']:,} world steps"),
+        ("trained on", ", ".join(map(task_name, recipe["tasks"])) or "-"),
+        ("recipe", recipe["file"]),
+        ("height scan", "yes" if method["height_scan"] else "no"),
         ("licence", submission["licence"]),
     ]
+    if method["unranked"]:
+        items.insert(0, ("unranked", method["unranked"]))
     items += [(key, submission[key]) for key in ("date", "notes") if key in submission]
-    listing = "".join(
-        f"<dt>{_e(key)}</dt><dd>{_code(value) if key == 'command' else _e(value)}</dd>"
-        for key, value in items
-    )
+    listing = "".join(f"<dt>{_e(key)}</dt><dd>{_e(value)}</dd>" for key, value in items)
     if submission.get("url"):
         listing += f"<dt>link</dt><dd>{_link(submission['url'])}</dd>"
-    listing += f"<dt>results</dt><dd>{_link(entry['results'])}</dd>"
+    for run in method["runs"]:
+        record, policy = run["record"], run["policy"]
+        what = (
+            f"built-in '{submission['builtin']}'"
+            if "builtin" in submission
+            else f"policy.{policy.get('format', 'zip')}, SHA-256 {policy['sha256']}"
+        )
+        listing += (
+            f"<dt>{_e(run_name(run))}</dt><dd>{_e(what)}; {_e(record['wall_time'])} on "
+            f"{_e(record['hardware'])}; {_code(record['command'])}; "
+            f"{_link(run['results'])}</dd>"
+        )
     return f'<tr class="details" hidden><td colspan="{width}"><dl>{listing}</dl></td></tr>'
 
 
@@ -153,55 +159,68 @@ def _table(track: dict[str, Any]) -> str:
         ("Rank", "number", ""),
         ("Name", "text", ""),
         ("Algorithm", "text", ""),
+        ("Runs", "number", ""),
         ("Training steps", "number", ""),
         ("Overall [95% CI]", "number", ""),
         ("Robustness (worst)", "number", ""),
-        *(
-            (header_name(track, t), "number", "" if is_ranked(track, t) else "old")
-            for t in task_ids
-        ),
+        *((header_name(track, t), "number", header_kind(track, t)) for t in task_ids),
         ("P(> next)", "number", ""),
     ]
     head = "".join(
         f'<th data-type="{kind}"' + (f' class="{css}"' if css else "") + f">{_e(label)}</th>"
         for label, kind, css in headers
     )
-    body = []
-    for position, entry in enumerate(track["entries"]):
-        submission = entry["submission"]
-        score = entry["overall"]
+    bodies = []
+    for position, method in enumerate(track["methods"]):
+        submission = method["submission"]
+        robustness = method["robustness"]
         cells = [
-            (entry["rank"], str(entry["rank"])),
+            (method["rank"], _e(rank_cell(method))),
             (submission["name"], _e(submission["name"])),
             (submission["algorithm"], _e(submission["algorithm"])),
-            (submission["training"]["env_steps"], _e(steps_cell(entry))),
-            (score.get("normalized_iqm"), _e(overall_cell(entry))),
+            (len(method["runs"]), str(len(method["runs"]))),
+            (submission["recipe"]["world_steps"], _e(steps_cell(method))),
+            (method["overall"].get("normalized_score"), _e(overall_cell(method))),
             (
-                None if entry["robustness"] is None else entry["robustness"]["score"],
-                _score_cell(robustness_cell(entry)),
+                None if robustness is None else robustness["score"],
+                _score_cell(robustness_cell(method)),
             ),
         ]
         for task_id in task_ids:
-            block = entry["tasks"].get(task_id)
+            block = method["tasks"].get(task_id)
             value = None if block is None else block.get("normalized_score")
-            cells.append((value, _score_cell(task_cell(entry, task_id))))
-        versus = entry["versus_next"]
+            cells.append((value, _score_cell(task_cell(method, task_id))))
+        versus = method["versus_next"]
         versus_value = None if versus is None else versus["probability_of_improvement"]
-        cells.append((versus_value, _e(versus_cell(entry))))
+        cells.append((versus_value, _e(versus_cell(method))))
         row = "".join(_cell(value, shown) for value, shown in cells)
-        body.append(
-            f'<tr class="entry" data-slug="{_e(entry["slug"])}" data-position="{position}" '
-            f'tabindex="0" aria-expanded="false">'
-            f"{row}</tr>" + _details(entry, len(cells))
+        runs = (
+            "".join(_run_row(run, task_ids) for run in method["runs"])
+            if len(method["runs"]) > 1
+            else ""
+        )
+        bodies.append(
+            f'<tbody data-slug="{_e(method["slug"])}" data-position="{position}">'
+            f'<tr class="entry" tabindex="0" aria-expanded="false"'
+            + (f' title="unranked: {_e(method["unranked"])}"' if method["unranked"] else "")
+            + f">{row}</tr>{runs}{_details(method, len(cells))}</tbody>"
         )
     return (
         f'<div class="scroll"><table class="board" id="table-{_e(track["track"])}">'
-        f"<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
+        f"<thead><tr>{head}</tr></thead>{''.join(bodies)}</table></div>"
     )
 
 
+def _run_row(run: dict[str, Any], task_ids: list[str]) -> str:
+    """A run beneath its method: its name, its robustness, its score on each task."""
+    cells = ["<td></td>", f"<td>{_e(run_name(run))}</td>", "<td></td>" * 5]
+    cells[-1] = "<td></td>" * 4 + f"<td>{_score_cell(robustness_cell(run))}</td>"
+    cells += [f"<td>{_score_cell(run_task_cell(run, t))}</td>" for t in task_ids]
+    return f'<tr class="run">{"".join(cells)}<td></td></tr>'
+
+
 def robustness_panels(entries: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The board's robustness figure: a panel per axis, a line per entry."""
+    """The board's robustness figure: a panel per axis, a line per method."""
     axes = list(dict.fromkeys(axis for e in entries for axis in e["robustness"]["axes"]))
     panels = []
     for axis in axes:
@@ -234,9 +253,9 @@ def is_figure(name: str) -> bool:
 
 def readme_robustness_figure(document: dict[str, Any]) -> str | None:
     """The robustness guide's figure (docs/guides/robustness.md): PD, LQR and the
-    best-ranked PPO entry of the single-bot track on every axis, with 95% intervals; None
-    without them."""
-    entries = next(t for t in document["tracks"] if t["track"] == "single")["entries"]
+    best-ranked PPO method of the single-bot track on every axis (a method's band: its
+    runs' least and greatest score); None without them."""
+    entries = next(t for t in document["tracks"] if t["track"] == "single")["methods"]
     profiled = [e for e in entries if e["robustness"] is not None]
     chosen = [e for slug in ("pd", "lqr") for e in profiled if e["slug"] == slug]
     chosen += [e for e in profiled if e["submission"]["algorithm"] == "PPO"][:1]
@@ -265,6 +284,7 @@ def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> dic
             f'<section id="track-{_e(track["track"])}"><h2>{_e(track["title"].capitalize())}</h2>'
             f"{_table(track)}{figures_html}</section>"
         )
+    legend = " ".join(LEGEND.replace("**", "").replace("`", "").split())
     intro = " ".join(HOW_TO_READ.replace("**", "").replace("`", "").split())
     files["index.html"] = (
         "<!DOCTYPE html>\n"
@@ -276,7 +296,8 @@ def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> dic
         f"{_e(document['harness_version'])}), pybullet {_e(document['pybullet_version'])}. "
         'Data: <a href="bbbench-v0.json">bbbench-v0.json</a>. Click a column to sort, '
         "an entry for its details.</p>"
-        f"<p>{_e(intro)}</p>{''.join(sections)}<script>{_SCRIPT}</script></body></html>\n"
+        f"<p>{_e(legend)}</p>{''.join(sections)}<h2>How to read it</h2><p>{_e(intro)}</p>"
+        f"<script>{_SCRIPT}</script></body></html>\n"
     )
     return files
 
@@ -285,27 +306,33 @@ def _figures(
     track: dict[str, Any], results: Mapping[str, dict[str, Any]]
 ) -> list[tuple[str, str, str]]:
     """A track's figures: (name, caption, SVG text)."""
-    entries = track["entries"]
-    ranked = [t["task"] for t in track["tasks"] if t["ranked"]]
+    entries = track["methods"]
+    counted = [t["task"] for t in track["tasks"] if t["overall"]]
     profiles = [
-        (e["submission"]["name"], performance_profile(results[e["slug"]], ranked, plots.THRESHOLDS))
+        (
+            e["submission"]["name"],
+            performance_profile(
+                [results[run["slug"]] for run in e["runs"]], counted, plots.THRESHOLDS
+            ),
+        )
         for e in entries
     ]
     figures = [
         (
             "interval-estimates",
-            "Overall: IQM of normalized scores over the ranked tasks, with 95% intervals.",
-            plots.interval_estimates(entries),
+            "Overall: each method's score over runs x the track's tasks (but saturated "
+            "ones), with its 95% two-level bootstrap interval.",
+            plots.interval_estimates([e for e in entries if e["overall"].get("tasks")]),
         ),
         (
             "performance-profiles",
-            "Score distributions: the fraction of episodes (averaged over the ranked tasks) "
-            "whose normalized score is above each threshold.",
+            "Score distributions: the fraction of episodes (averaged over runs and the "
+            "track's tasks in its overall) whose normalized score is above each threshold.",
             plots.performance_profiles(profiles),
         ),
         (
             "per-task",
-            "Per task: the normalized score of the mean return, with its 95% interval.",
+            "Per task: each method's score over its runs, with its 95% interval.",
             plots.per_task_scores(entries, columns(track)),
         ),
     ]
@@ -315,8 +342,8 @@ def _figures(
         figures.append(
             (
                 "robustness",
-                f"Robustness profiles on {' and '.join(played)} (each entry on the first it "
-                "fits): the normalized score (20 evaluation seeds) at each value of each "
+                f"Robustness profiles on {' and '.join(played)}: each method's mean normalized "
+                "score over its runs (20 evaluation seeds each) at each value of each "
                 "perturbation's standard grid; the dotted line is the task as built.",
                 plots.svg_text(
                     plots.score_curves(robustness_panels(profiled), columns=4, bands=False)

@@ -59,7 +59,8 @@ def _legend_height(count: int) -> float:
 
 
 def interval_estimates(entries: Sequence[dict[str, Any]]) -> str:
-    """Each entry's overall normalized IQM with its 95% interval, best at the top."""
+    """Each method's overall score (over runs x tasks) with its 95% interval, in the
+    board's order."""
     with _style():
         figure = _figure(6.0, 0.9 + 0.32 * len(entries))
         axes = figure.add_subplot()
@@ -67,12 +68,12 @@ def interval_estimates(entries: Sequence[dict[str, Any]]) -> str:
             score = entry["overall"]
             if not score.get("tasks"):
                 continue
-            low, high = score["normalized_iqm_ci"]
+            low, high = score["normalized_ci"]
             axes.plot([low, high], [row, row], color=color, linewidth=6, alpha=0.55)
-            axes.plot([score["normalized_iqm"]], [row], "|", color="black", markersize=12)
+            axes.plot([score["normalized_score"]], [row], "|", color="black", markersize=12)
         axes.set_yticks(range(len(entries)), [e["submission"]["name"] for e in entries])
         axes.invert_yaxis()
-        axes.set_xlabel("IQM of normalized scores (95% CI); 0 = random, 1 = maximum return")
+        axes.set_xlabel("normalized score over runs x tasks (95% CI); 0 = random, 1 = maximum")
         axes.grid(axis="x", alpha=0.3)
         return _svg(figure)
 
@@ -110,7 +111,7 @@ def _corners(xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def per_task_scores(entries: Sequence[dict[str, Any]], task_ids: Sequence[str]) -> str:
-    """Each task's normalized score (mean return, normalized) per entry, with its interval."""
+    """Each task's normalized score per method (over its runs), with its interval."""
     with _style():
         figure = _figure(8.0, max(3.6, _legend_height(len(entries))))
         axes = figure.add_subplot()

@@ -7,29 +7,37 @@ from __future__ import annotations
 import html
 from typing import Any
 
+LEGEND = """\
+Each row is a **method**: a recipe and its runs (training seeds), the runs listed
+beneath it. A score is normalized per task (0: random play, 1: the task's maximum),
+each run's the mean over every evaluation episode, falls included. **Rank** counts
+the ranked methods that beat it (P(other > it) above 0.5 with 95% confidence), so
+ranks do not chain; a method that plays only some of a track's tasks, or a learned
+one with fewer than 3 runs, is listed unranked."""
+
 HOW_TO_READ = """\
 Every number is computed from the files in `submissions/` by the shipped harness, on
 every evaluation seed of every task: nothing here is copied from a paper or a log. CI
 (`bbbench leaderboard check`) recomputes every number from the episode records, re-scores
-in full every new or changed entry, and replays 1,000 recorded episodes of the others,
-drawn afresh at every run (`--full` replays them all). A score is normalized per task: 0 is the
-random policy's mean return, 1 the task's maximum return. **Overall** is the IQM
-(interquartile mean) of the per-episode normalized scores over the track's tasks
-(the latest version of each task), with its 95% stratified-bootstrap interval.
-**Rank**: entries are ordered by Overall, and neighbours share a rank unless the
-95% interval of P(upper > lower), rliable's probability of improvement, lies
-above 0.5. A superseded task version leaves the board; its last numbers stay in
-the repository's history. Per task: normalized score of the mean return, and in
-brackets the success rate (episodes with no fall). **Robustness** (not part of the
-rank): the entry's profile on the track, under one fixed protocol per track: the latest
-version of the track's profile task (VelocityTracking; MultiBalance on the multi-bot
-track, BeamCarry on the cooperative one, LeggedVelocityTracking on the wheel-legged one)
-on 20 evaluation seeds at each value of each perturbation's standard grid that applies
-(payload, centre of mass, friction, motor strength, action delay, sensor noise, pushes;
-a multi-bot task takes no sensor noise, BeamCarry no centre of mass and carries the
-payload on its beam): the mean over the axes of each axis's mean
-normalized score, and in brackets the worst case, the least normalized score at any
-point (`bbbench sweep` plays any axis of it)."""
+in full every new or changed run, and replays 1,000 recorded episodes of the others,
+drawn afresh at every run (`--full` replays them all). A method is its runs, one policy
+per training seed. A run's score on a task is its normalized mean return over the task's
+evaluation episodes (0: the random policy's mean return, 1: the task's maximum). A
+method's score on a task, and its **Overall** over the track's tasks (the latest version
+of each, but saturated ones), is the mean over runs x tasks (their IQM from 5 runs on),
+with a 95% two-level bootstrap interval: runs drawn per task, then each drawn run's
+episodes, so it holds both seed-to-seed variation and episode noise. **P(> next)** is
+the probability that a run of the method scores above a run of the next ranked one on a
+task, with its interval from the same bootstrap. **Rank** is 1 plus the number of ranked
+methods whose P(other > it) has its interval above 0.5. A track ranks the methods whose
+submission names it and that play every one of its tasks; a learned method needs 3 runs,
+a controller is one. A task on which the classical controller and most methods score
+0.95 or more is saturated: it stays as a check and leaves the overall. Training steps are
+world steps (a multi-bot world step moves every bot once). Per task: the method's score,
+and in brackets its runs' success rate (episodes with no fall). **Robustness** (not part
+of the rank): the mean of its runs' profiles on the track (20 evaluation seeds at each
+value of each perturbation's standard grid that applies, on the track's profile task),
+and in brackets the worst case of any run (`bbbench sweep` plays any axis of it)."""
 
 
 def fixed(value: float, digits: int = 3) -> str:
@@ -42,8 +50,8 @@ def task_name(task_id: str) -> str:
     return task_id.removeprefix("bbbench/")
 
 
-def steps_cell(entry: dict[str, Any]) -> str:
-    steps = entry["submission"]["training"]["env_steps"]
+def steps_cell(method: dict[str, Any]) -> str:
+    steps = method["submission"]["recipe"]["world_steps"]
     if steps == 0:
         return "-"
     for size, unit in ((10**9, "G"), (10**6, "M"), (10**3, "k")):
@@ -52,12 +60,16 @@ def steps_cell(entry: dict[str, Any]) -> str:
     return str(steps)
 
 
+def rank_cell(method: dict[str, Any]) -> str:
+    return "-" if method["rank"] is None else str(method["rank"])
+
+
 def overall_cell(entry: dict[str, Any]) -> str:
     score = entry["overall"]
     if not score.get("tasks"):
         return "-"
-    low, high = score["normalized_iqm_ci"]
-    return f"{fixed(score['normalized_iqm'])} [{fixed(low)}, {fixed(high)}]"
+    low, high = score["normalized_ci"]
+    return f"{fixed(score['normalized_score'])} [{fixed(low)}, {fixed(high)}]"
 
 
 def robustness_cell(entry: dict[str, Any]) -> str:
@@ -67,8 +79,19 @@ def robustness_cell(entry: dict[str, Any]) -> str:
     return f"{fixed(profile['score'])} ({fixed(profile['worst_case'])})"
 
 
-def task_cell(entry: dict[str, Any], task_id: str) -> str:
-    block = entry["tasks"].get(task_id)
+def task_cell(method: dict[str, Any], task_id: str) -> str:
+    """A method's score on a task (over its runs), and its runs' success rate."""
+    block = method["tasks"].get(task_id)
+    if block is None:
+        return "-"
+    value = block.get("normalized_score")
+    shown = "-" if value is None else fixed(value)
+    return f"{shown} ({block['success_rate']:.0%})"
+
+
+def run_task_cell(run: dict[str, Any], task_id: str) -> str:
+    """A run's score on a task: its normalized mean return, and its success rate."""
+    block = run["tasks"].get(task_id)
     if block is None or not block.get("episodes"):
         return "-"
     value = block["normalized_score"]
@@ -84,39 +107,71 @@ def versus_cell(entry: dict[str, Any]) -> str:
     return f"{versus['probability_of_improvement']:.2f} [{low:.2f}, {high:.2f}]"
 
 
+def run_name(run: dict[str, Any]) -> str:
+    seed = run["training_seed"]
+    return "one run" if seed is None else f"seed {seed}"
+
+
 def columns(track: dict[str, Any]) -> list[str]:
-    ranked = [t["task"] for t in track["tasks"] if t["ranked"]]
-    return ranked + [t["task"] for t in track["tasks"] if not t["ranked"]]
-
-
-def is_ranked(track: dict[str, Any], task_id: str) -> bool:
-    return any(t["task"] == task_id and t["ranked"] for t in track["tasks"])
+    """The track's tasks: those of its overall, then the saturated, then older versions."""
+    tasks = track["tasks"]
+    return (
+        [t["task"] for t in tasks if t["overall"]]
+        + [t["task"] for t in tasks if t["ranked"] and not t["overall"]]
+        + [t["task"] for t in tasks if not t["ranked"]]
+    )
 
 
 def header_name(track: dict[str, Any], task_id: str) -> str:
-    return task_name(task_id) + ("" if is_ranked(track, task_id) else " (old)")
+    task = next(t for t in track["tasks"] if t["task"] == task_id)
+    note = "" if task["overall"] else " (saturated)" if task["saturated"] else " (old)"
+    return task_name(task_id) + note
+
+
+def header_kind(track: dict[str, Any], task_id: str) -> str:
+    """'' for a task of the overall, else 'old' (shown, not counted)."""
+    return "" if next(t for t in track["tasks"] if t["task"] == task_id)["overall"] else "old"
 
 
 def rows(track: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
-    """The ranked table of a track as text: header and rows (Markdown and terminal)."""
-    header = ["rank", "name", "algorithm", "training steps", "overall [95% CI]"]
+    """The table of a track as text (Markdown and terminal): header, and a row per method
+    with a row per run beneath it."""
+    header = ["rank", "name", "algorithm", "runs", "training steps", "overall [95% CI]"]
     header += ["robustness (worst)"]
     header += [header_name(track, task_id) for task_id in columns(track)]
     header += ["P(> next) [95% CI]"]
-    body = [
-        [
-            str(entry["rank"]),
-            entry["submission"]["name"],
-            entry["submission"]["algorithm"],
-            steps_cell(entry),
-            overall_cell(entry),
-            robustness_cell(entry),
-            *(task_cell(entry, task_id) for task_id in columns(track)),
-            versus_cell(entry),
-        ]
-        for entry in track["entries"]
-    ]
+    body = []
+    for method in track["methods"]:
+        body.append(
+            [
+                rank_cell(method),
+                method["submission"]["name"],
+                method["submission"]["algorithm"],
+                str(len(method["runs"])),
+                steps_cell(method),
+                overall_cell(method),
+                robustness_cell(method),
+                *(task_cell(method, task_id) for task_id in columns(track)),
+                versus_cell(method),
+            ]
+        )
+        if len(method["runs"]) > 1:
+            body += [
+                ["", f"- {run_name(run)}", "", "", "", "", robustness_cell(run)]
+                + [run_task_cell(run, task_id) for task_id in columns(track)]
+                + [""]
+                for run in method["runs"]
+            ]
     return header, body
+
+
+def unranked_notes(track: dict[str, Any]) -> list[str]:
+    """Why each unranked method is: one line each."""
+    return [
+        f"{method['submission']['name']}: {method['unranked']}"
+        for method in track["methods"]
+        if method["unranked"]
+    ]
 
 
 def _markdown_cell(text: str) -> str:
@@ -135,7 +190,7 @@ def markdown(document: dict[str, Any]) -> str:
         f"and [results/](results/) (one `bbbench eval --json` document per entry); the page "
         f"with plots: [index.html](index.html).",
         "",
-        HOW_TO_READ,
+        LEGEND,
     ]
     for track in document["tracks"]:
         header, body = rows(track)
@@ -143,15 +198,28 @@ def markdown(document: dict[str, Any]) -> str:
         lines.append("| " + " | ".join(header) + " |")
         lines.append("|" + "|".join("---" if i < 3 else "---:" for i in range(len(header))) + "|")
         lines += ["| " + " | ".join(_markdown_cell(cell) for cell in row) + " |" for row in body]
+        notes = unranked_notes(track)
+        if notes:
+            lines += ["", "Unranked:", ""] + [f"- {_markdown_cell(note)}" for note in notes]
         lines += ["", "Tasks (fingerprint, evaluation seeds):", ""]
-        lines += [
-            f"- `{task['task']}` `{task['fingerprint']}`, {task['episodes']} seeds "
-            f"(SHA-256 `{task['eval_seeds_sha256'][:16]}`)"
-            + ("" if task["ranked"] else "; not ranked (an older version)")
-            for task in track["tasks"]
-        ]
+        lines += [f"- {task_line(task)}" for task in track["tasks"]]
+    lines += ["", "## How to read it", "", HOW_TO_READ]
     lines += ["", "## How to submit", "", SUBMITTING]
     return "\n".join(lines) + "\n"
+
+
+def task_line(task: dict[str, Any]) -> str:
+    note = (
+        ""
+        if task["overall"]
+        else "; saturated: shown, not in the overall"
+        if task["saturated"]
+        else "; not ranked (an older version)"
+    )
+    return (
+        f"`{task['task']}` `{task['fingerprint']}`, {task['episodes']} seeds "
+        f"(SHA-256 `{task['eval_seeds_sha256'][:16]}`){note}"
+    )
 
 
 BASELINES_START = "<!-- baselines: generated by bbbench leaderboard build; do not edit -->"
@@ -164,9 +232,10 @@ def baselines_table(document: dict[str, Any]) -> str:
     track = next(t for t in document["tracks"] if t["track"] == "single")
     header, body = rows(track)
     keep = [i for i, name in enumerate(header) if "(old)" not in name and "next" not in name]
+    methods = [row for row in body if not row[1].startswith("- ")]  # runs: on the board
     lines = ["| " + " | ".join(header[i] for i in keep) + " |"]
     lines.append("|" + "|".join("---" if i < 3 else "---:" for i in range(len(keep))) + "|")
-    lines += ["| " + " | ".join(_markdown_cell(row[i]) for i in keep) + " |" for row in body]
+    lines += ["| " + " | ".join(_markdown_cell(row[i]) for i in keep) + " |" for row in methods]
     return "\n".join(lines)
 
 
@@ -181,9 +250,11 @@ def with_baselines(readme: str, document: dict[str, Any]) -> str | None:
 
 
 SUBMITTING = """\
-A submission is a folder, `submissions/<slug>/`: `submission.json` (who, what, the
-training budget: docs/submission-schema.json) and the policy file, a
-stable-baselines3 `policy.zip` or an ONNX `policy.onnx`. bbbench reads either
+A submission is a method, a folder `submissions/<method>/`: `submission.json` (who, the
+recipe, its budget in world steps, its tracks: docs/submission-schema.json) and a folder
+per run, `runs/s<seed>/`, with the run's `run.json` (its training seed, command, wall
+time: docs/run-schema.json) and its policy file, a stable-baselines3 `policy.zip` or an
+ONNX `policy.onnx`. A learned method ranks from 3 runs. bbbench reads either
 without running anything in it: nothing in a zip is unpickled, and an ONNX graph
 is run by bbbench's own interpreter of a few operators (no external files, no
 custom operators, capped sizes), on arithmetic that gives the same bits on every
@@ -227,14 +298,17 @@ Then, in a fork of the repository:
 
 ```bash
 bbbench eval policy.onnx                 # what it scores, on the tasks it fits
-bbbench leaderboard add policy.onnx --slug my-ppo --name "My PPO" --algorithm PPO \\
-    --author "A. Person" --env-steps 1000000 --wall-time "40 min" \\
-    --hardware "2 CPU cores" --seeds 0 --command "python train.py --seed 0" --licence MIT
+bbbench leaderboard add policy.onnx --slug my-ppo --seed 0 --name "My PPO" \\
+    --algorithm PPO --author "A. Person" --track single --licence MIT \\
+    --world-steps 1000000 --trained-on bbbench/Bumps-v2 --recipe "ppo.yml" \\
+    --wall-time "40 min" --hardware "2 CPU cores" --command "python train.py --seed 0"
 ```
 
-`leaderboard add` checks the file with the same safe reader as `bbbench eval`,
-writes `submissions/my-ppo/`, scores it on every evaluation seed and rebuilds
-these pages. Commit the folder and the regenerated files, and open a pull
+and each further run with its own `--seed`, records and policy (the method's fields
+may be left out). `leaderboard add` checks the file with the same safe reader as
+`bbbench eval`, and the run's recipe against its method's, writes
+`submissions/my-ppo/runs/s0/`, scores it on every evaluation seed and rebuilds these
+pages. Commit the folder and the regenerated files, and open a pull
 request: the leaderboard workflow (.github/workflows/leaderboard.yml) re-scores
-new and changed entries in full and fails if any number differs, and uploads
+new and changed runs in full and fails if any number differs, and uploads
 the rebuilt board; once merged, the page is published."""
