@@ -219,8 +219,8 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
     assert record["bot_steps"] == 400 * 3
     assert record["recipe"]["trainer"] == "BenchMARL"
     assert policy.contract.task == TASK
-    assert policy.contract.training_steps == record["kept"]["bot_steps"]
-    assert policy.contract.training_steps == record["bot_steps"]  # the board's count: one count
+    # World steps, the board's unit: the contract, the record and the run agree.
+    assert policy.contract.training_steps == record["kept"]["steps"] == record["steps"] == 400
     assert policy.contract.training_seed == 0
 
     # The file scores as train's results document says.

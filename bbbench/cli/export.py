@@ -35,7 +35,12 @@ def add_parser(commands) -> None:
     )
     export.add_argument("--task", metavar="ID", help="the task it was trained on (recorded)")
     export.add_argument("--algorithm", help="what trained it, for the board (a zip: its own)")
-    export.add_argument("--training-steps", type=int, metavar="N", help="its training steps")
+    export.add_argument(
+        "--training-steps",
+        type=int,
+        metavar="N",
+        help="its training budget in world steps (a multi-bot world step moves every bot once)",
+    )
     export.add_argument(
         "--output", metavar="NAME", help="an ONNX file's output that acts (default: the first)"
     )

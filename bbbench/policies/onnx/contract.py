@@ -10,7 +10,9 @@ board records covers it:
 - `bbbench.action_space`: the action space as Gymnasium prints it:
   `Discrete(9)`, `Box(-1.0, 1.0, (1,), float32)`;
 - optional, for the board: `bbbench.algorithm` (what trained it, e.g. `PPO`),
-  `bbbench.training_steps` (environment steps; bot-steps on a multi-bot task),
+  `bbbench.training_steps` (world steps, the board's unit: a multi-bot world step
+  moves every bot once; files `bbbench train` wrote for IPPO and MAPPO before issue 65
+  counted bot-steps here),
   `bbbench.task` (the task it was trained on) and `bbbench.training_seed` (the
   training's seed: marl-eval's run name, `run_<seed>`).
 

@@ -153,7 +153,7 @@ class TrainingEvaluation(Callback):
             mean=self.mean,
             std=self.std,
             algorithm=self.algorithm.upper(),
-            training_steps=frames * self.bots,
+            training_steps=frames,  # world steps: the board's unit
             training_seed=self.seed,
         )
         policy = OnnxPolicy(parse_onnx(candidate, "the candidate policy", "candidate.onnx"))
