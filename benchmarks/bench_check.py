@@ -1,11 +1,12 @@
-"""How long `bbbench leaderboard check` takes on a board of 100 entries, made from the real ones.
+"""How long `bbbench leaderboard check` takes on a board of 100 methods, made from the real ones.
 
     python benchmarks/bench_check.py [--entries 100] [--root /tmp/bbbench-synthetic] [--full]
 
-Copies the repository board's submissions, their results and their profiles under new
-slugs until the board has `--entries` entries (copies of one policy score the same, so
-the copies' records are what a re-score gives), rebuilds the board from those records,
-and times, each as a whole `bbbench leaderboard` command:
+Copies the repository board's methods, their runs' results and their profiles under new
+slugs until the board has `--entries` methods (copies of one policy score the same, so
+the copies' records are what a re-score gives; the board refuses one policy twice, so
+the commands run here with that one check lifted), rebuilds the board from those
+records, and times, each as a whole `bbbench leaderboard` command:
 
 - `build` from the stored records (nothing played);
 - the default `check`: every number recomputed, a spot-check of the rest;
@@ -28,6 +29,12 @@ import time
 from pathlib import Path
 
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
+# `bbbench` with the one check a board of copies fails lifted: one policy twice.
+COPIES_ALLOWED = (
+    "import sys; import bbbench.leaderboard.generation as g, bbbench.leaderboard.submissions "
+    "as s; s.check_distinct = g.check_distinct = lambda runs: None; "
+    "from bbbench.cli import main; sys.argv[0] = 'bbbench'; sys.exit(main(sys.argv[1:]))"
+)
 
 
 def synthetic_board(root: Path, entries: int) -> None:
@@ -49,17 +56,20 @@ def synthetic_board(root: Path, entries: int) -> None:
             if copy:
                 metadata["name"] = f"{metadata['name']} (copy {copy})"[:60]
             metadata_path.write_text(json.dumps(metadata, indent=2) + "\n")
-            for source in (BOARD / "results").glob(f"{slug}.*json"):  # results, profiles
-                suffix = source.name.removeprefix(slug)
-                if suffix == ".json" or suffix.endswith(".profile.json"):
-                    shutil.copyfile(source, root / "results" / f"{new}{suffix}")
+            runs = BOARD / "submissions" / slug / "runs"
+            names = [f"-{run.name}" for run in sorted(runs.iterdir())] if runs.is_dir() else [""]
+            for run in names:  # each run's results and profiles
+                for source in (BOARD / "results").glob(f"{slug}{run}.*json"):
+                    suffix = source.name.removeprefix(f"{slug}{run}")
+                    if suffix == ".json" or suffix.endswith(".profile.json"):
+                        shutil.copyfile(source, root / "results" / f"{new}{run}{suffix}")
         copy += 1
 
 
 def timed(*argv: str) -> tuple[float, str]:
     began = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-m", "bbbench", "leaderboard", *argv],
+        [sys.executable, "-c", COPIES_ALLOWED, "leaderboard", *argv],
         capture_output=True,
         text=True,
     )
