@@ -154,6 +154,7 @@ def _add(
     minutes: float,
     side_by_side: int | str,
     argv: list[str] | None = None,
+    beside: str | None = None,
 ) -> str:
     """`bbbench leaderboard add` of a finished run, with what it took (`argv`: the
     command that trained it, default `command(run, folder)`)."""
@@ -171,7 +172,8 @@ def _add(
         "--recipe", recipe,
         "--wall-time", f"{minutes:.0f} min, with the periodic evaluations",
         "--hardware", f"{os.cpu_count()} CPU cores ({platform.machine()}), no GPU, "
-        + (described(record.get("trainings_beside")) or _asked(side_by_side)),
+        + (described(record.get("trainings_beside")) or _asked(side_by_side))
+        + (f", beside {beside}" if beside else ""),
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
         "--run-notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}): "
         + (f"the last of {points} evaluations" if run["algo"] in MARL
@@ -322,6 +324,11 @@ def main() -> None:
         type=lambda text: [int(seed) for seed in text.split(",")],
         help="with --campaign: these seeds of each cell only (default 0,1,2)",
     )
+    parser.add_argument(
+        "--beside",
+        help="with --add-trained: what else ran on the machine during the trainings, in "
+        "words (their records count only other trainings)",
+    )
     parser.add_argument("--root", type=Path, default=Path("baselines"))
     parser.add_argument("--board", type=Path, default=Path("leaderboards"))
     args = parser.parse_args()
@@ -349,7 +356,8 @@ def main() -> None:
             if (folder / policy_name(run)).exists():
                 record = json.loads((folder / "train.json").read_text())
                 side_by_side = record.get("side_by_side", 1)
-                print(_add(run, folder, args.board, record["wall_time_s"] / 60, side_by_side))
+                minutes = record["wall_time_s"] / 60
+                print(_add(run, folder, args.board, minutes, side_by_side, beside=args.beside))
         return
     with ThreadPoolExecutor(args.parallel) as pool:
         for line in pool.map(lambda run: _train_and_add(run, args), missing):
