@@ -6,7 +6,8 @@ code and board of `--before`, and the default `bbbench leaderboard check` on tod
 
 Each board is a copy in a temporary folder, with its project's README.md and
 docs/baselines.md beside it (the files a build also writes). The old code runs from a
-git worktree of `--before` (first on PYTHONPATH), the new from this checkout. Both
+git worktree of `--before` (on PYTHONPATH, with `python -S`: an editable install's finder
+would take this checkout's), the new from this checkout. Both
 builds play nothing (every record is stored): what is timed is reading, the statistics
 (today: a two-level bootstrap per method and task, and P(X > Y) for every pair of ranked
 methods of a track) and writing. The runs alternate, round by round, and each ratio is
@@ -20,6 +21,7 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import tempfile
 import time
 from pathlib import Path
@@ -38,10 +40,13 @@ def copy_board(source: Path, target: Path) -> Path:
 
 def timed(argv: list[str], code: Path | None = None) -> float:
     env = dict(os.environ)
-    if code is not None:
-        env["PYTHONPATH"] = str(code)
+    if code is not None:  # without site's .pth files, where bbbench's editable finder is
+        env["PYTHONPATH"] = os.pathsep.join([str(code), sysconfig.get_paths()["purelib"]])
+        argv = [argv[0], "-S", *argv[1:]]
     began = time.perf_counter()
-    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    # From the worktree (or its parent): `-m` puts the working folder first on the path.
+    where = code if code is not None else ROOT
+    done = subprocess.run(argv, env=env, cwd=where, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed:\n{done.stdout}{done.stderr}")
     return time.perf_counter() - began
