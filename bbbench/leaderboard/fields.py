@@ -149,11 +149,9 @@ def _count(value: Any, field: Field) -> str | None:
 
 
 def _seed(value: Any, field: Field) -> str | None:
-    return (
-        None
-        if value is None or _count(value, field) is None
-        else "expected null or a whole number >= 0"
-    )
+    if value is None:
+        return None
+    return _count(value, field) and "expected null or a whole number >= 0"
 
 
 def _one_of(choices: tuple[str, ...]) -> Callable[[Any, Field], str | None]:

@@ -213,8 +213,8 @@ def _table(track: dict[str, Any]) -> str:
 
 def _run_row(run: dict[str, Any], task_ids: list[str]) -> str:
     """A run beneath its method: its name, its robustness, its score on each task."""
-    cells = ["<td></td>", f"<td>{_e(run_name(run))}</td>", "<td></td>" * 5]
-    cells[-1] = "<td></td>" * 4 + f"<td>{_score_cell(robustness_cell(run))}</td>"
+    cells = ["<td></td>", f"<td>{_e(run_name(run))}</td>", "<td></td>" * 4]  # to overall
+    cells.append(f"<td>{_score_cell(robustness_cell(run))}</td>")
     cells += [f"<td>{_score_cell(run_task_cell(run, t))}</td>" for t in task_ids]
     return f'<tr class="run">{"".join(cells)}<td></td></tr>'
 

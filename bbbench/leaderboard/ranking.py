@@ -100,21 +100,28 @@ class _Listed:
         return -np.inf if self.runs is None else self.runs.point()
 
 
+def episode_scores(documents: Sequence[dict[str, Any]], task_id: str) -> np.ndarray:
+    """(runs, episodes): each run's normalized score of each episode of `task_id`, from
+    the runs' results documents."""
+    return np.array(
+        [
+            [normalized(record["return"], spec(task_id)) for record in block["episodes"]]
+            for document in documents
+            for block in document["tasks"]
+            if block["task"] == task_id
+        ]
+    )
+
+
 def _listed(method: Method, runs: dict[str, Scored], task_ids: Sequence[str]) -> _Listed:
     scored = [runs[run.slug] for run in method.runs]
     played = _played(method, runs, task_ids)
-    scores = {}
-    for task_id in played:
-        if spec(task_id).random_return is None:
-            continue
-        scores[task_id] = np.array(
-            [
-                [normalized(record["return"], spec(task_id)) for record in block["episodes"]]
-                for entry in scored
-                for block in entry.results["tasks"]
-                if block["task"] == task_id
-            ]
-        )
+    documents = [entry.results for entry in scored]
+    scores = {
+        task_id: episode_scores(documents, task_id)
+        for task_id in played
+        if spec(task_id).random_return is not None
+    }
     return _Listed(method, scored, played, scores)
 
 
@@ -125,7 +132,7 @@ def _track(
     ranked = board.ranked(track)
     listed = [_listed(m, runs, task_ids) for m in methods if track in m.metadata["tracks"]]
     task_blocks = {m.slug: _task_blocks(m) for m in listed}
-    saturated = [t for t in ranked if _saturated(t, listed)]
+    saturated = [t for t in ranked if _saturated(t, listed, task_blocks)]
     counted = [t for t in ranked if t not in saturated and spec(t).random_return is not None]
     for member in listed:
         if counted and all(t in member.scores for t in counted):
@@ -208,21 +215,22 @@ def _task_blocks(member: _Listed) -> dict[str, Any]:
     return blocks
 
 
-def _saturated(task_id: str, listed: Sequence[_Listed]) -> bool:
+def _saturated(
+    task_id: str, listed: Sequence[_Listed], task_blocks: dict[str, dict[str, Any]]
+) -> bool:
     """`SATURATION_RULE`: the task's classical controller and most methods at `SATURATED`."""
-    if spec(task_id).random_return is None:
-        return False
-    playing = [m for m in listed if task_id in m.scores]
+    scores = {
+        m.slug: task_blocks[m.slug][task_id]["normalized_score"]
+        for m in listed
+        if "normalized_score" in task_blocks[m.slug].get(task_id, {})
+    }
     classical = [
-        m for m in playing if m.method.metadata.get("builtin") == classical_controller(task_id)
+        m.slug
+        for m in listed
+        if m.slug in scores and m.method.metadata.get("builtin") == classical_controller(task_id)
     ]
-    scores = {m.slug: float(m.scores[task_id].mean(axis=1).mean()) for m in playing}
-    solved = [m for m in playing if scores[m.slug] >= SATURATED]
-    return (
-        bool(classical)
-        and scores[classical[0].slug] >= SATURATED
-        and 2 * len(solved) > len(playing)
-    )
+    solved = [slug for slug, score in scores.items() if score >= SATURATED]
+    return bool(classical) and scores[classical[0]] >= SATURATED and 2 * len(solved) > len(scores)
 
 
 def _why_unranked(member: _Listed, ranked: Sequence[str]) -> str | None:
@@ -271,8 +279,15 @@ def _run(
         "policy": entry.results["policy"],
         "results": f"results/{entry.run.slug}.json",
         "tasks": {t: blocks[t]["aggregate"] for t in task_ids if t in blocks},
-        "robustness": _robustness(entry, track),
+        "robustness": _run_robustness(entry, track),
     }
+
+
+def _run_robustness(entry: Scored, track: str) -> dict[str, Any] | None:
+    """A run's profile on the board: its figures and where its profile document is (each
+    point is there; the method's entry draws the axes over its runs)."""
+    profile = _robustness(entry, track)
+    return None if profile is None else {k: v for k, v in profile.items() if k != "axes"}
 
 
 def _robustness(entry: Scored, track: str) -> dict[str, Any] | None:
@@ -348,8 +363,6 @@ def performance_profile(
         for block in document["tasks"]:
             task_id = block["task"]
             if task_id in ranked and spec(task_id).random_return is not None:
-                scores = np.array(
-                    [normalized(record["return"], spec(task_id)) for record in block["episodes"]]
-                )
+                (scores,) = episode_scores([document], task_id)
                 fractions.append((scores[:, None] > thresholds[None, :]).mean(axis=0))
     return np.mean(fractions, axis=0) if fractions else np.zeros_like(thresholds)
