@@ -254,6 +254,7 @@ def test_a_run_on_two_tracks_is_profiled_on_each_tracks_own_task(built):
         team = profiled["cooperative", slug]
         assert team["task"] == "bbbench/BeamCarry-v0"
         assert team["profile"] == f"results/{slug}.cooperative.profile.json"
+
         # Each point is in the run's profile document; the board keeps its figures.
         def axes(run: dict) -> set[str]:
             profile = json.loads((built / run["profile"]).read_text())
