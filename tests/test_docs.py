@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -117,6 +118,62 @@ def test_the_baselines_tables_are_what_their_scripts_print_from_the_files(monkey
         assert check.printed(match["command"]) == match["body"], match["name"]
     tampered = found[1]["body"].replace("0.", "9.", 1)  # one figure of the MARL table
     assert tampered != check.printed(found[1]["command"])
+
+
+def _normalized_by_task(results: Path) -> dict[str, float]:
+    document = json.loads(results.read_text())
+    return {
+        block["task"]: block["aggregate"]["normalized_score"]
+        for block in document["tasks"]
+        if block["aggregate"].get("normalized_score") is not None
+    }
+
+
+def recorded_seed_figures(root: Path) -> set[str]:
+    """Every "a / b / c" the records give, at 3 decimals: the seeds of one recipe on one
+    task in seed order (the board's runs, `leaderboards/results/<method>-s<seed>.json`,
+    and the trainings kept off it, `baselines/<recipe>-s<seed>/results.json`), and one
+    run's or controller's tasks in the order of its results document."""
+    by_recipe: dict[str, dict[int, dict[str, float]]] = {}
+    runs = [
+        (f"board {path.name}", path)
+        for path in (root / "leaderboards" / "results").glob("*.json")
+        if ".profile" not in path.name
+    ] + [(f"baselines {p.parent.name}", p) for p in (root / "baselines").glob("*/results.json")]
+    shown: set[str] = set()
+    for name, path in runs:
+        scores = _normalized_by_task(path)
+        shown.add(" / ".join(f"{value:.3f}" for value in scores.values()))
+        stem = re.fullmatch(r"(.+)-s(\d+)(?:\.json)?", name)
+        if stem:
+            by_recipe.setdefault(stem[1], {})[int(stem[2])] = scores
+    for by_seed in by_recipe.values():
+        seeds = sorted(by_seed)
+        for task in by_seed[seeds[0]]:
+            values = [by_seed[seed].get(task) for seed in seeds]
+            for n in range(2, len(values) + 1):
+                if None not in values[:n]:
+                    shown.add(" / ".join(f"{value:.3f}" for value in values[:n]))
+    return shown
+
+
+def test_the_per_seed_figures_in_the_baselines_prose_are_the_records():
+    """The prose of docs/baselines.md, outside its generated tables, quotes seeds' scores as
+    "a / b / c": each such run of figures must be what the records give, seed by seed."""
+    from conftest import load_script
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "baselines.md").read_text()
+    for block in reversed(load_script("check_docs").blocks(text)):
+        text = text[: block.start()] + text[block.end() :]
+    quoted = re.findall(r"-?\d\.\d{3}(?: / -?\d\.\d{3})+", text)
+    assert len(quoted) >= 30  # the prose quotes its seeds this way
+    recorded = recorded_seed_figures(root)
+    assert [figures for figures in quoted if figures not in recorded] == []
+    # A figure typed wrong is found: one seed's score moved by 0.001.
+    first = quoted[0]
+    wrong = first[:4] + str((int(first[4]) + 1) % 10) + first[5:]
+    assert wrong not in recorded
 
 
 def test_the_robots_page_names_each_robots_tasks():
