@@ -110,7 +110,7 @@ def add(
             built = generate(root, board, extra=staged_method, **options)
         except SubmissionError as error:  # named where it was to go, not where it was staged
             raise SubmissionError(str(error).replace(str(staged), str(folder))) from None
-        _replace(staged, folder)  # the method, whole, then its board
+        _place(staged, folder, seed)  # the method or its new run, then its board
         write(root, built.files)
         return built
     finally:
@@ -180,14 +180,13 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
     path.write_text(json.dumps(data, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
 
 
-def _replace(staged: Path, folder: Path) -> None:
-    """Put the staged method where it goes: a new folder, or in place of the old one."""
+def _place(staged: Path, folder: Path, seed: int | None) -> None:
+    """Put the staged method where it goes, in one rename: a new method's whole folder, or
+    the new run's folder into its method (whose other files the run leaves as they were)."""
     if not folder.exists():
         os.rename(staged, folder)
-        return
-    old = staged.parent / f"{folder.name}.old"
-    os.rename(folder, old)
-    os.rename(staged, folder)
+    else:
+        os.rename(staged / RUNS / f"s{seed}", folder / RUNS / f"s{seed}")
 
 
 def _check_new(
