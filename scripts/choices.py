@@ -335,11 +335,20 @@ def figures(task, episodes) -> dict[str, Any]:
     }
 
 
+def probability_of_improvement_of(row: dict[str, Any], shipped: dict[str, Any]):
+    """P(a candidate > the value shipped) over their episodes on each task (rliable's)."""
+    from bbbench.evaluation.stats import probability_of_improvement
+
+    return probability_of_improvement(
+        [np.array(task["returns"]) for task in row["tasks"].values()],
+        [np.array(task["returns"]) for task in shipped["tasks"].values()],
+    )
+
+
 def evaluate(choice: Choice, workers: int = 1) -> dict[str, Any]:
     """The choice's record: every candidate on its tasks' validation seeds, and the pick."""
     from bbbench.evaluation import machine
     from bbbench.evaluation.harness import play_tasks
-    from bbbench.evaluation.stats import probability_of_improvement
     from bbbench.portable import total
 
     rows = []
@@ -362,10 +371,7 @@ def evaluate(choice: Choice, workers: int = 1) -> dict[str, Any]:
     shipped = next(row for row in rows if row["label"] == choice.shipped)
     for row in rows:
         if row is not shipped:
-            point, interval = probability_of_improvement(
-                [np.array(task["returns"]) for task in row["tasks"].values()],
-                [np.array(task["returns"]) for task in shipped["tasks"].values()],
-            )
+            point, interval = probability_of_improvement_of(row, shipped)
             row["p_over_shipped"] = [point, list(interval)]
     if choice.kind == "task":
         admitted = [
@@ -416,8 +422,8 @@ def write_record(record: dict[str, Any]) -> None:
 def table() -> str:
     """The Markdown table of the records: one row per choice."""
     lines = [
-        "| choice | on | candidates: normalized (finished) | best other: P(it > shipped) | "
-        "picked | shipped |",
+        "| choice | on | candidates: normalized (finished) | the rule's evidence | picked "
+        "| shipped |",
         "|---|---|---|---|---|---|",
     ]
     for choice in CHOICES.values():
@@ -437,12 +443,18 @@ def table() -> str:
         seeds = record["seeds"]
         where = f"{seeds['count']} validation seeds"
         verdict = "the same" if record["holds"] else f"**{record['picked']}**"
-        others = [row for row in record["candidates"] if "p_over_shipped" in row]
-        best = max(others, key=lambda row: row["score"])
-        point, (low, high) = best["p_over_shipped"]
+        if record["kind"] == "task":
+            against = f"in the band: {', '.join(record['in_band']) or 'none'}"
+        else:
+            others = [row for row in record["candidates"] if "p_over_shipped" in row]
+            best = max(others, key=lambda row: row["score"])
+            point, (low, high) = best["p_over_shipped"]
+            against = (
+                f"best other, {best['label']}: P(it > shipped) {point:.3f} [{low:.3f}, {high:.3f}]"
+            )
         lines.append(
-            f"| {record['question']} | {where} | {shown} | {best['label']}: {point:.2f} "
-            f"[{low:.2f}, {high:.2f}] | {verdict} | {record['shipped']} |"
+            f"| {record['question']} | {where} | {shown} | {against} | {verdict} | "
+            f"{record['shipped']} |"
         )
     return "\n".join(lines)
 

@@ -19,8 +19,10 @@ with k_roll = 0 and k_roll_rate = 0.1 m/(rad/s): the side that is sinking stretc
 leg. A length h is the pose hip = q, knee = -2 q with q = acos(h / (2 L)), which keeps
 the wheel under the hip; lengths are limited to what the joints reach.
 
-Measured on the evaluation seeds (episodes finished, mean return), each setting changed
-alone from the others':
+First measured on the evaluation seeds (episodes finished, mean return), each setting
+changed alone from the others' (below); made again on the validation seeds, where no
+other setting is clearly better and these stand (`python scripts/choices.py --evaluate
+legged-controller`, baselines/choices/legged-controller.json):
 - Riding low: a lower centre of mass takes the ground's kicks with a shorter lever. On
   Obstacles-v2's course at 0.6, 50 episodes (k_roll 0.5, k_roll_rate 0.05): 0.18 m, 24
   and 52.0; 0.15 m, 43 and 59.3; 0.12 m, 39 and 46.3. On LeggedBumps-v0's hills at 0.75,
