@@ -10,10 +10,10 @@ controller's return on the same training seeds as a line.
 Reads each run's `baselines/<algo>-<task>-3m-s<seed>/curve.json` (every point keeps
 each training episode's return); seeds not trained yet are left out, and a task with
 no run is skipped. Writes `marl-curves-<task>.svg` per task and prints, per task and
-method, the points' steps, IQM and interval as a Markdown table, then where each curve
-ends: its slope over the last `SLOPE_WINDOW` world steps (a least-squares line through
-those points' IQM) and, if it ends below the controller's line while still rising, the
-budget at which that line would reach it (an extrapolation, not a promise). `--marl-eval` also
+method, the points' steps, IQM and interval as a Markdown table, then each curve by its
+points at every `MILESTONE` world steps and at its end, with where the end's interval lies
+against the controller's line (a curve is described by its points: no line is fitted
+through a few noisy ones, nor extended past the budget). `--marl-eval` also
 writes the curves as marl-eval's raw data (one run per seed, one logging step per
 evaluation point), for its own `sample_efficiency_curves`.
 """
@@ -46,7 +46,7 @@ TASKS = (
 METHODS = ("ippo", "mappo")
 SEEDS = (0, 1, 2)
 BUDGET = "3m"
-SLOPE_WINDOW = 1_000_000  # world steps: the end of a curve its slope is measured over
+MILESTONE = 1_000_000  # world steps: the curve's points the end-of-curve table quotes
 
 
 def cell_runs(root: Path, stem: str) -> dict[int, list[dict]]:
@@ -75,24 +75,26 @@ def curve(task_id: str, runs: dict[int, list[dict]]) -> list[dict]:
     return points
 
 
-def end_slope(points: list[dict], window: int = SLOPE_WINDOW) -> float:
-    """The curve's slope at its end, in normalized return per million world steps: a
-    least-squares line through the IQM of the points within `window` steps of the last
-    (at least the last two)."""
-    last = points[-1]["steps"]
-    tail = [p for p in points if p["steps"] >= last - window] or points
-    tail = tail if len(tail) >= 2 else points[-2:]
-    steps = np.array([p["steps"] for p in tail], dtype=np.float64) / 1e6
-    return float(np.polyfit(steps, [p["iqm"] for p in tail], 1)[0])
+def milestones(points: list[dict], every: int = MILESTONE) -> list[dict]:
+    """The curve's points nearest each whole `every` world steps before its end, and its
+    last point: what the table quotes of a curve."""
+    last = points[-1]
+    chosen: list[dict] = []
+    for mark in range(every, last["steps"] - every // 2, every):
+        nearest = min(points, key=lambda point, mark=mark: abs(point["steps"] - mark))
+        if nearest is not last and nearest not in chosen:
+            chosen.append(nearest)
+    return [*chosen, last]
 
 
-def budget_to_reach(points: list[dict], line: float, slope: float) -> int | None:
-    """World steps at which the curve's end, extended at `slope`, reaches `line`; None if it
-    is there already or is not rising."""
-    gap = line - points[-1]["iqm"]
-    if gap <= 0 or slope <= 0:
-        return None
-    return round(points[-1]["steps"] + gap / slope * 1e6)
+def against_line(point: dict, line: float) -> str:
+    """Where a point's interval lies against the controller's line."""
+    low, high = point["ci"]
+    if low > line:
+        return "above it"
+    if high < line:
+        return "below it"
+    return "level: its interval holds the line"
 
 
 def controller_line(task_id: str) -> float:
@@ -227,21 +229,16 @@ def main() -> None:
                     f"{point['iqm']:.3f} [{low:.3f}, {high:.3f}] |"
                 )
         print(
-            f"\n| method | IQM at the end | slope, last {SLOPE_WINDOW:,} steps (per M) "
-            f"| reaches {classical_controller(task_id)} at |"
+            f"\n| method | IQM near every {MILESTONE / 1e6:g}M world steps, and at the end "
+            f"[95% CI] | the end, against {controller}'s {line:.3f} |"
         )
-        print("|---|---:|---:|---|")
+        print("|---|---|---|")
         for method, points in curves.items():
-            slope = end_slope(points)
-            reach = budget_to_reach(points, line, slope)
-            where = (
-                "above it"
-                if points[-1]["iqm"] >= line
-                else "not rising"
-                if reach is None
-                else f"~{reach / 1e6:.1f}M world steps"
-            )
-            print(f"| {method.upper()} | {points[-1]['iqm']:.3f} | {slope:+.3f} | {where} |")
+            *before, end = milestones(points)
+            shown = [f"{p['iqm']:.3f} ({p['steps'] / 1e6:.1f}M)" for p in before]
+            low, high = end["ci"]
+            shown.append(f"{end['iqm']:.3f} [{low:.3f}, {high:.3f}] ({end['steps'] / 1e6:.1f}M)")
+            print(f"| {method.upper()} | {', '.join(shown)} | {against_line(end, line)} |")
     if args.marl_eval is not None:
         args.marl_eval.write_text(json.dumps({ENVIRONMENT: data}, indent=1) + "\n")
 

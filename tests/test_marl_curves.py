@@ -81,18 +81,17 @@ def test_the_script_draws_each_task_with_its_controllers_line(tmp_path, monkeypa
     assert sorted(data["bbbench"]["MultiBalance-v1"]["IPPO"]) == ["run_0", "run_1"]
 
 
-def test_the_end_of_a_curve_gives_its_slope_and_the_budget_it_points_to():
+def test_a_curve_is_quoted_by_its_points_and_its_ends_interval_against_the_line():
     curves = load_script("marl_curves")
-    # IQM 0.5 at 2M rising 0.1 per million to 0.6 at 3M, after a flat start.
-    steps = [300_000 * (i + 1) for i in range(10)]
-    iqm = [0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.51, 0.54, 0.57, 0.6]
-    points = [{"steps": s, "iqm": v} for s, v in zip(steps, iqm, strict=True)]
-    slope = curves.end_slope(points)  # the last 1M steps: 2.1M to 3M
-    assert slope == pytest.approx(0.1)
-    assert curves.budget_to_reach(points, 0.7, slope) == 4_000_000
-    assert curves.budget_to_reach(points, 0.55, slope) is None  # above the line already
-    assert curves.budget_to_reach(points, 0.7, -0.01) is None  # not rising
-    assert curves.end_slope(points[:2]) == pytest.approx(0.0)  # two points at least
+    steps = [300_000 * (i + 1) for i in range(10)]  # 0.3M to 3M
+    points = [{"steps": s, "iqm": s / 1e7, "ci": (s / 1e7 - 0.05, s / 1e7 + 0.05)} for s in steps]
+    quoted = curves.milestones(points)
+    assert [p["steps"] for p in quoted] == [900_000, 2_100_000, 3_000_000]  # nearest 1M, 2M
+    assert curves.milestones(points[:2]) == points[1:2]  # a curve shorter than 1M: its end
+    end = points[-1]  # 0.3 [0.25, 0.35]
+    assert curves.against_line(end, 0.2) == "above it"
+    assert curves.against_line(end, 0.4) == "below it"
+    assert curves.against_line(end, 0.3).startswith("level")
 
 
 @pytest.mark.parametrize(

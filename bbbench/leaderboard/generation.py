@@ -76,8 +76,9 @@ def generate(
             built.files["../README.md"] = text.encode()
     baselines = root.parent / "docs" / "baselines.md"  # its verdicts, where it has them
     if baselines.is_file():
-        results = {entry.run.slug: entry.results for entry in scored}
-        text = with_verdicts(baselines.read_text(encoding="utf-8"), built.document, results)
+        text = with_verdicts(
+            baselines.read_text(encoding="utf-8"), built.document, _results(scored)
+        )
         if text is not None:
             built.files["../docs/baselines.md"] = text.encode()
     if (root / README_FIGURE).parent.is_dir():
@@ -91,9 +92,14 @@ def _slug(method: Method) -> str:
     return method.slug
 
 
+def _results(scored: list[Scored]) -> dict[str, dict[str, Any]]:
+    """Each run's results document, by its slug."""
+    return {entry.run.slug: entry.results for entry in scored}
+
+
 def _files(methods: list[Method], scored: list[Scored], board: Board) -> Built:
     document = leaderboard_document(methods, scored, board)
-    results = {entry.run.slug: entry.results for entry in scored}
+    results = _results(scored)
     profiles = {
         profile_file(entry.run.slug, track): doc
         for entry in scored
