@@ -292,7 +292,11 @@ def candidate_policy(choice: Choice, candidate: Candidate):
             path = BOARD / method / "runs" / run / "policy.zip"
         else:
             path = candidate_folder(choice, candidate) / "policy.zip"
-        return load_policy(path), str(path.relative_to(ROOT))
+        statistics = path.parent / "vecnormalize.pkl"  # a board run's, beside its policy
+        return (
+            load_policy(path, vecnormalize=statistics if statistics.is_file() else None),
+            str(path.relative_to(ROOT)),
+        )
     if choice.kind == "controller":
         keywords = candidate.value
 
