@@ -6,8 +6,10 @@ rule that picks one. Its record, `baselines/choices/<name>.json`, holds every ca
 figures on the validation seeds, the value the rule picks, and whether that is the value
 shipped. A recipe's candidates are trained first (seed 0, the shipped budget), each into
 `baselines/choices/<name>/<candidate>/`; the shipped value's candidate is the board's own
-seed-0 run of that recipe, trained with it. docs/baselines.md's table of choices is
-generated from the records.
+seed-0 run of that recipe, trained with it. A trained candidate's folder keeps its recipe,
+command log, curve and `train.json`; its policy stays out of git (the record names its
+SHA-256: `--train` makes it again). docs/baselines.md's table of choices is generated from
+the records.
 
     python scripts/choices.py --list
     python scripts/choices.py --train slopes-gamma       # the candidates not trained yet
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import subprocess
 import sys
@@ -370,7 +373,10 @@ def evaluate(choice: Choice, workers: int = 1) -> dict[str, Any]:
             for task_id, task, episodes in zip(choice.tasks, tasks, played.episodes, strict=True)
         }
         score = total(row["normalized"] for row in by_task.values()) / len(by_task)
-        rows.append({"label": candidate.label, "policy": name, "tasks": by_task, "score": score})
+        row = {"label": candidate.label, "policy": name, "tasks": by_task, "score": score}
+        if choice.kind == "recipe":  # the trained file (kept out of git): its bytes, named
+            row["sha256"] = hashlib.sha256((ROOT / name).read_bytes()).hexdigest()
+        rows.append(row)
         print(f"{choice.name}: {candidate.label}: {score:.3f} ({time.monotonic() - start:.0f} s)")
     shipped = next(row for row in rows if row["label"] == choice.shipped)
     for row in rows:
