@@ -161,3 +161,15 @@ def test_an_empty_track_draws_its_figures_without_warnings():
         warnings.simplefilter("error")
         assert "<svg" in performance_profiles([])
         assert "<svg" in per_task_scores([], ["bbbench/FlatBalance-v1"])
+
+
+@pytest.mark.parametrize("episodes", ["0", "-1", "101"])
+@pytest.mark.parametrize("seeds", [[], ["--seeds", "0,1"]])
+def test_66_eval_episodes_outside_the_seeds_are_refused_before_training(
+    tmp_path, capsys, episodes, seeds
+):
+    out = tmp_path / "policy.zip"
+    argv = ["train", LATEST_FLAT, "--algo", "ppo", "--eval-episodes", episodes, *seeds]
+    err = one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert f"--eval-episodes {episodes}: expected 1 to 100" in err
+    assert list(tmp_path.iterdir()) == []

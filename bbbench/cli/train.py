@@ -81,6 +81,19 @@ def add_parser(commands) -> None:
     trainer.set_defaults(run=run)
 
 
+def check_eval_episodes(episodes: int | None, task_ids: list[str]) -> None:
+    """`ValueError` unless the final evaluation's episodes per task are 1 to the tasks'
+    evaluation seeds: checked before a training, not after it."""
+    from bbbench.tasks.suite import spec
+
+    most = min(len(spec(task_id).eval_seeds) for task_id in task_ids)
+    if episodes is not None and not 1 <= episodes <= most:
+        raise ValueError(
+            f"--eval-episodes {episodes}: expected 1 to {most} (the tasks' evaluation seeds; "
+            f"leave it out to play them all)"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     from bbbench import training  # lazy: bbbench.training
 
@@ -96,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
         check_seed(args.seed)
+        check_eval_episodes(args.eval_episodes, tasks)
         training.check_policy_path(args.algo, args.out)
         plan = training.recipe(args.algo, key, args.recipe)
         training.statistics_path(args.out, plan)
@@ -192,6 +206,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
         training.check_policy_path(args.algo, args.out)  # its folder holds the seeds' folders
+        check_eval_episodes(args.eval_episodes, tasks)
         plan = training.recipe(args.algo, key, args.recipe)
         _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
         for seed in seeds:
