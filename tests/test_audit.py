@@ -173,3 +173,10 @@ def test_66_eval_episodes_outside_the_seeds_are_refused_before_training(
     err = one_line_exit_2(capsys, *argv, "--out", str(out))
     assert f"--eval-episodes {episodes}: expected 1 to 100" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_66_rollout_without_a_task_plays_one_the_policy_fits(capsys):
+    assert main(["rollout", "--policy", "steer", "--episodes", "1"]) == 0
+    assert "bbbench/SteerTracking-v0: 1 episode(s) of the 'steer' policy" in capsys.readouterr().out
+    assert main(["rollout", "--episodes", "1"]) == 0  # pd: FlatBalance, as before
+    assert capsys.readouterr().out.startswith("bbbench/FlatBalance-v1: 1 episode(s)")

@@ -15,14 +15,21 @@ from bbbench.cli.common import (
     say_normalization,
 )
 from bbbench.policies import PolicyError, load_policy
+from bbbench.policies.policy import fitting_tasks
 from bbbench.portable import total
+
+DEFAULT_TASK = "bbbench/FlatBalance-v1"
 
 
 def add_parser(commands) -> None:
     rollout = commands.add_parser(
         "rollout", help="run a policy on a task's episodes and print a summary"
     )
-    rollout.add_argument("--task", default="bbbench/FlatBalance-v1", help="task ID")
+    rollout.add_argument(
+        "--task",
+        help=f"task ID (default {DEFAULT_TASK} if the policy plays it, else the first task "
+        f"of the suite it plays)",
+    )
     rollout.add_argument(
         "--policy",
         default="pd",
@@ -49,11 +56,21 @@ def add_parser(commands) -> None:
     rollout.set_defaults(run=run)
 
 
+def default_task(policy) -> str:
+    """The task a rollout plays when none is named: FlatBalance if the policy plays it,
+    else the first task of the suite (latest versions) it plays."""
+    fits = fitting_tasks(policy)
+    if not fits:
+        raise PolicyError(f"{policy.name} ({policy.spaces_text()}) plays no task of the suite")
+    return DEFAULT_TASK if DEFAULT_TASK in fits else fits[0]
+
+
 def run(args: argparse.Namespace) -> None:
     from bbbench.evaluation.video import check_video_path  # lazy: bbbench.evaluation.video
 
     try:
-        spec = bbbench.spec(args.task)
+        if args.task is not None:
+            bbbench.spec(args.task)
     except ValueError as error:
         raise UsageError(str(error)) from None
     if args.episodes < 1:
@@ -68,6 +85,7 @@ def run(args: argparse.Namespace) -> None:
             action_mode=args.action_mode,
             **contract_options(args),
         )
+        spec = bbbench.spec(args.task or default_task(policy))
         reason = policy.mismatch(spec.id)
         if reason:
             raise PolicyError(
