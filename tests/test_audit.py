@@ -180,3 +180,10 @@ def test_66_rollout_without_a_task_plays_one_the_policy_fits(capsys):
     assert "bbbench/SteerTracking-v0: 1 episode(s) of the 'steer' policy" in capsys.readouterr().out
     assert main(["rollout", "--episodes", "1"]) == 0  # pd: FlatBalance, as before
     assert capsys.readouterr().out.startswith("bbbench/FlatBalance-v1: 1 episode(s)")
+
+
+def test_66_a_batched_env_refuses_a_render_mode_it_cannot_honour():
+    from bbbench.envs.factory import make_batched
+
+    with pytest.raises(ValueError, match="a batched env does not render; watch one world"):
+        make_batched("bbbench/Swap-v0", worlds=2, render_mode="rgb_array")

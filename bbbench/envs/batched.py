@@ -217,6 +217,12 @@ class BatchedEnv:
                 f"or team task ({', '.join(list_tasks(multi_agent=True))}); for several "
                 f"single-bot envs use gymnasium.make_vec({task_id!r}, num_envs=...)"
             )
+        if env_kwargs.get("render_mode") is not None:
+            raise ValueError(
+                f"render_mode={env_kwargs['render_mode']!r}: a batched env does not render; "
+                f"watch one world with bbbench.make_parallel({task_id!r}, "
+                f"render_mode='rgb_array')"
+            )
         worlds = _whole(worlds, "worlds", 1)
         self.num_worlds = worlds
         self.workers = workers = _whole(workers, "workers", 1)
