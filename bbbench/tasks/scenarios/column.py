@@ -243,6 +243,6 @@ baseline is `pd` (a follower holds the 0 it observes); the classical team contro
 `team` (`bbbench.policies.controllers.team`); docs/tasks.md has the calibration."""
 
 
-def team_description(description: str) -> str:
-    """A team task's description, then what every team task shares."""
-    return f"{description}\n\n{_TEAM_WHY}"
+def team_description(description: str, shared: str = _TEAM_WHY) -> str:
+    """A team task's description, then what the team tasks of its robot share."""
+    return f"{description}\n\n{shared}"

@@ -243,6 +243,16 @@ class ConvoyTurns(Convoy):
         )
 
 
+# What ConvoyTurns shares with the two-wheel team tasks, in its own robot's terms.
+_TURNS_WHY = """\
+Only the front bot observes the team's target velocity and yaw rate; the others read 0 in
+those slots and must infer them from the tethers and from their neighbours. Every agent
+receives the team's reward, and a fall of any bot ends every agent's episode. The
+observation has 23 values per bot (`Box(23,)`, the actions `Discrete(27)`). The classical
+team controller is `team` (`bbbench.policies.controllers.team`; `pd`, a controller of the
+two-wheel bot, does not play this robot); docs/tasks.md has the calibration."""
+
+
 # The tasks it plays: each row states all it sets (`TaskSpec`'s defaults for the rest).
 TASKS = (
     TaskSpec(
@@ -280,7 +290,8 @@ reward is `TwistReward.terms` with the most tilted bot's pitch, the team's mean 
 velocity against the target velocity and the front bot's yaw rate against the target
 yaw rate: each step earns 0-0.1. Each bot observes the steering robot's eight values,
 the target yaw rate, the stretch of the tether ahead and of the one behind and their
-rates, then the bots ahead and behind."""
+rates, then the bots ahead and behind.""",
+            _TURNS_WHY,
         ),
         robot="two-wheel-steer",
         reward=TwistReward(),
