@@ -150,7 +150,8 @@ def keywords(task: TaskSpec, scenario) -> str:
     if not task.multi_agent and getattr(scenario, "scans_ground", False):
         rows.append(("height_scan", "append the ground's heights ahead", "`False`"))
     rows.append(("max_episode_steps", "the time limit, in steps", f"{task.max_episode_steps}"))
-    rows.append(("render_mode", '`"rgb_array"` or `"human"`', "`None`"))
+    shown = '`"rgb_array"`' if task.multi_agent else '`"rgb_array"` or `"human"`'
+    rows.append(("render_mode", shown, "`None`"))
     applies = [keyword for keyword in PERTURBATIONS if refusal(keyword, task) is None]
     if applies:
         listed = ", ".join(f"`{keyword}`" for keyword in applies)

@@ -79,6 +79,18 @@ def test_each_page_gives_its_tasks_own_spaces(task_id):
         assert f"- {entry}" in page
 
 
+@pytest.mark.parametrize("task_id", ["bbbench/MultiBalance-v1", "bbbench/FlatBalance-v1"])
+def test_each_render_mode_a_page_lists_is_taken(task_id):
+    task = SUITE[task_id]
+    page = (DOCS / "environments" / f"{task.name.lower()}.md").read_text()
+    (row,) = [line for line in page.splitlines() if line.startswith("| `render_mode` |")]
+    modes = re.findall(r'`"(\w+)"`', row.split("|")[2])
+    assert "rgb_array" in modes
+    make = bbbench.make_parallel if task.multi_agent else bbbench.make
+    for mode in modes:
+        make(task_id, render_mode=mode).close()
+
+
 def runnable_blocks() -> list[tuple[str, str, str]]:
     """(page, language, code) of every code block marked runnable in docs/."""
     found = []
