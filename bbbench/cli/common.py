@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import sys
 
 from rich.table import Table
@@ -103,3 +104,12 @@ def results_table(document: dict) -> Table:
 
 def builtin_policies() -> list[str]:
     return sorted(BUILTIN_POLICIES)
+
+
+def builtins_in_either_mode() -> list[str]:
+    """The built-ins that take an action mode (their factory's `action_mode`)."""
+    return sorted(
+        name
+        for name, factory in BUILTIN_POLICIES.items()
+        if "action_mode" in inspect.signature(factory).parameters
+    )

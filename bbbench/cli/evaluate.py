@@ -15,6 +15,7 @@ from bbbench.cli.common import (
     add_contract_options,
     add_play_options,
     builtin_policies,
+    builtins_in_either_mode,
     check_play_options,
     contract_options,
     results_table,
@@ -70,9 +71,9 @@ def add_parser(commands) -> None:
     evaluate.add_argument(
         "--action-mode",
         choices=("discrete", "continuous"),
-        help="the action mode of a built-in that acts in either (pd, stand, lqr, random, "
-        "zero; default discrete: the two-wheel bot's; random plays the wheel-legged "
-        "robot's tasks in continuous); a zip's is its own",
+        help=f"the action mode of a built-in that acts in either "
+        f"({', '.join(builtins_in_either_mode())}; default discrete; random plays the "
+        f"wheel-legged robot's tasks in continuous); a zip's is its own",
     )
     evaluate.set_defaults(run=run)
 

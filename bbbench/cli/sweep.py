@@ -36,8 +36,9 @@ def add_parser(commands) -> None:
         "value, the aggregate of the results document, and per task the robustness score "
         "(the mean normalized score over the values) and the worst case (their minimum). "
         f"Axes: {', '.join(AXES)}. Without --values, the axis's standard grid; without "
-        "--task, VelocityTracking for a perturbation (the robot's own: LeggedVelocityTracking "
-        "for the wheel-legged robot), the terrain tasks for difficulty and "
+        "--task, the robot's profile task for a perturbation (VelocityTracking for the "
+        "two-wheel bot, LeggedVelocityTracking for the wheel-legged robot, SteerTracking for "
+        "the steering robot), the terrain tasks for difficulty and "
         "the multi-bot tasks that take 2 to 16 bots for n_bots (each the latest version the "
         "policies fit).",
     )
