@@ -76,7 +76,14 @@ def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
         (["bbbench/FlatBalance-v1", "--algo", "mappo"], "is a single-bot task: MAPPO trains"),
         (["bbbench/BeamCarry-v0", "--algo", "qmix"], "unknown algorithm 'qmix'"),
         (["bbbench/BeamCarry-v0", "--algo", "ippo", "--out", "p.zip"], "ending in .onnx"),
-        (["bbbench/BeamCarry-v0", "--algo", "ippo", "--action-mode", "continuous"], "discrete"),
+        (
+            ["bbbench/BeamCarry-v0", "--algo", "ippo", "--action-mode", "continuous"],
+            "discrete actions (Discrete(9) on bbbench/BeamCarry-v0)",
+        ),
+        (
+            ["bbbench/Swap-v0", "--algo", "ippo", "--action-mode", "continuous"],
+            "discrete actions (Discrete(27) on bbbench/Swap-v0)",
+        ),
         (["bbbench/MultiBalance-v0", "--algo", "ippo"], "bbbench/MultiBalance-v1"),
         (["bbbench/BeamCarry-v0", "bbbench/Convoy-v0", "--algo", "ippo"], "one multi-bot task"),
         (["bbbench/BeamCarry-v0", "--algo", "ippo", "--steps", "0"], "--steps"),

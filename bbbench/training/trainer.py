@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from bbbench.tasks.suite import list_tasks, spec
+from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 from bbbench.training.algorithms import ALGORITHMS, BENCHMARL, TRAINABLE, trainable
 from bbbench.training.logs import Trained
 from bbbench.training.sb3.recipes import MIX
@@ -92,7 +92,8 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
             f"({', '.join(multi)}); train {task} with --algo ppo or sac"
         )
     if action_mode not in (None, "discrete"):
-        raise ValueError(f"{name} trains discrete actions (Discrete(9)): drop --action-mode")
+        space = agent_spaces(task, "discrete")[1]
+        raise ValueError(f"{name} trains discrete actions ({space} on {task}): drop --action-mode")
     recipe(algorithm, task, recipe_file)
     return tasks, task, "discrete"
 
