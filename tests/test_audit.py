@@ -187,3 +187,19 @@ def test_66_a_batched_env_refuses_a_render_mode_it_cannot_honour():
 
     with pytest.raises(ValueError, match="a batched env does not render; watch one world"):
         make_batched("bbbench/Swap-v0", worlds=2, render_mode="rgb_array")
+
+
+@pytest.mark.parametrize(
+    ("task_id", "wants", "scan"),
+    [
+        ("bbbench/SteerTracking-v0", "wants Box(9,) ->", False),
+        ("bbbench/Waypoints-v0", "wants Box(14,) ->", False),
+        ("bbbench/LeggedBumps-v0", "wants Box(17,) (wheel-legged:", True),
+    ],
+)
+def test_66_a_refusal_states_the_tasks_own_observation(task_id, wants, scan):
+    from bbbench.policies import load_policy
+
+    reason = load_policy(str(REFERENCE_ZIP)).mismatch(task_id)
+    assert wants in reason
+    assert ("with height_scan=True" in reason) == scan

@@ -48,12 +48,13 @@ class FilePolicy(Policy):
         robot = task.robot_model
         if task.multi_agent:
             wants = describe_space(agent_spaces(task_id, robot.default_action_mode)[0])
-        else:
-            wants = robot.describe_layout() + (
-                f" (or {describe_space(robot.observation_space(True))} with height_scan=True)"
-                if task.group is None
-                else ""
-            )
+        else:  # the task's own observation: the robot's layout, or a scenario's on top
+            observation = agent_spaces(task_id, robot.default_action_mode)[0]
+            own = observation.shape == robot.observation_space(False).shape
+            wants = robot.describe_layout() if own else describe_space(observation)
+            if getattr(task.scenario_class, "scans_ground", False):
+                scanned = agent_spaces(task_id, robot.default_action_mode, height_scan=True)[0]
+                wants += f" (or {describe_space(scanned)} with height_scan=True)"
         actions = " or ".join(
             describe_space(robot.action_space(mode)) for mode in robot.action_modes
         )
