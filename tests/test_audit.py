@@ -203,3 +203,13 @@ def test_66_a_refusal_states_the_tasks_own_observation(task_id, wants, scan):
     reason = load_policy(str(REFERENCE_ZIP)).mismatch(task_id)
     assert wants in reason
     assert ("with height_scan=True" in reason) == scan
+
+
+def test_66_a_recipe_that_is_not_yaml_is_refused_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yml"
+    bad.write_text("bbbench/FlatBalance-v1:\n  gamma: [0.99\n  n_envs: 4\n")
+    out = tmp_path / "policy.zip"
+    argv = ["train", LATEST_FLAT, "--algo", "ppo", "--recipe", str(bad), "--out", str(out)]
+    err = one_line_exit_2(capsys, *argv)
+    assert f"recipe file {bad}: not valid YAML at line" in err
+    assert not out.exists()

@@ -21,8 +21,16 @@ def read_recipe_file(algorithm: str, file: str | Path | None = None) -> dict[str
     source = Path(file) if file is not None else recipe_file(algorithm)
     try:
         table = yaml.safe_load(source.read_text())
-    except (OSError, yaml.YAMLError) as error:
+    except OSError as error:
         raise ValueError(f"recipe file {source}: {error}") from None
+    except yaml.YAMLError as error:  # one line: where, and what
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise ValueError(
+            f"recipe file {source}: not valid YAML{where}: {problem}; fix it, or copy the "
+            f"shipped {algorithm}.yml and change it"
+        ) from None
     if not isinstance(table, dict):
         raise ValueError(f"recipe file {source}: expected task IDs, each with its recipe")
     return table
