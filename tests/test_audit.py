@@ -213,3 +213,13 @@ def test_66_a_recipe_that_is_not_yaml_is_refused_in_one_line(tmp_path, capsys):
     err = one_line_exit_2(capsys, *argv)
     assert f"recipe file {bad}: not valid YAML at line" in err
     assert not out.exists()
+
+
+def test_66_a_log_folder_that_cannot_be_made_is_refused_before_training(tmp_path, capsys):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    out = tmp_path / "policy.zip"
+    argv = ["train", LATEST_FLAT, "--algo", "ppo", "--log", str(blocker / "logs")]
+    err = one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert f"--log {blocker / 'logs'}: cannot make the folder" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]

@@ -118,6 +118,13 @@ def run(args: argparse.Namespace) -> int:
             log = Path(args.log)
             if log.exists() and not log.is_dir():
                 raise ValueError(f"--log {args.log}: exists and is not a folder")
+            try:  # made now, so that a folder that cannot be made is said before training
+                log.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                raise ValueError(
+                    f"--log {args.log}: cannot make the folder ({error.strerror}); give a "
+                    f"folder you can write"
+                ) from None
     except ValueError as error:
         raise UsageError(str(error)) from None
     console = Console(stderr=True)
