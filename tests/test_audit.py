@@ -223,3 +223,23 @@ def test_66_a_log_folder_that_cannot_be_made_is_refused_before_training(tmp_path
     err = one_line_exit_2(capsys, *argv, "--out", str(out))
     assert f"--log {blocker / 'logs'}: cannot make the folder" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]
+
+
+def test_66_a_batched_env_refuses_a_bad_discrete_action_before_any_world_steps():
+    import numpy as np
+
+    from bbbench.envs.factory import make_batched
+
+    actions = np.random.default_rng(0).integers(0, 27, size=(6, 4, 4))
+    fresh = make_batched("bbbench/Swap-v0", worlds=4, workers=2)
+    fresh.reset(seed=3)
+    expected = [fresh.step(step)[0] for step in actions]
+    fresh.close()
+    env = make_batched("bbbench/Swap-v0", worlds=4, workers=2)
+    env.reset(seed=3)
+    for bad in (1.99, -0.7, float("nan"), 27, -1):
+        with pytest.raises(ValueError, match=f"action {bad!r}: .*no world was stepped"):
+            env.step(np.full((4, 4), bad))
+    got = [env.step(step)[0] for step in actions]  # as if nothing had been refused
+    env.close()
+    assert all(np.array_equal(a, b) for a, b in zip(expected, got, strict=True))

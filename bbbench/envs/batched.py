@@ -375,7 +375,22 @@ class BatchedEnv:
                 f"per bot of each world, shape {want} (worlds, bots"
                 f"{', 1' if len(want) == 3 else ''})"
             )
-        return array.reshape(want)
+        array = array.reshape(want)
+        space = self.single_action_space
+        if isinstance(space, spaces.Discrete):  # checked whole here: no world sees a bad one
+            if not np.issubdtype(array.dtype, np.number):
+                raise ValueError(f"actions of dtype {array.dtype}: {self.task_id} takes {space}")
+            values = array.astype(np.float64)
+            last = space.start + space.n - 1
+            bad = ~np.isfinite(values) | (values != np.round(values))
+            bad |= (values < space.start) | (values > last)
+            if bad.any():
+                first = array.flat[int(np.argmax(bad.flat))]
+                raise ValueError(
+                    f"action {first.item()!r}: {self.task_id}'s actions are {space}, whole numbers "
+                    f"from {space.start} to {last}; no world was stepped"
+                )
+        return array
 
     def _infos(self) -> dict[str, np.ndarray]:
         b = self.buffers
