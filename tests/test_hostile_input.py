@@ -178,6 +178,27 @@ def test_workers_die_with_a_killed_parent():
     assert not [pid for pid in workers if alive(pid)]
 
 
+BATCHED_SCRIPT = """
+import time
+from bbbench.envs.factory import make_batched
+env = make_batched("bbbench/Swap-v0", worlds=2, workers=2)
+env.reset(seed=0)
+time.sleep(120)
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM])
+def test_a_batched_envs_workers_die_with_its_killed_script(signum):
+    script = subprocess.Popen([sys.executable, "-c", BATCHED_SCRIPT], start_new_session=True)
+    workers = wait_for_workers(script, 1)
+    os.kill(script.pid, signum)
+    script.wait()
+    deadline = time.monotonic() + 5
+    while any(alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [pid for pid in workers if alive(pid)]
+
+
 @pytest.mark.parametrize(("signum", "code", "word"), [
     (signal.SIGINT, 130, "interrupted"),
     (signal.SIGTERM, 143, "terminated"),

@@ -32,6 +32,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import signal
 import traceback
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -40,6 +41,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
+from bbbench.children import die_with_parent
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import list_tasks, spec
 
@@ -166,8 +168,11 @@ class WorldSlice:
             env.close()
 
 
-def _serve(connection, task_id, env_kwargs, start, stop, blocks, layout) -> None:
-    """A worker process: its slice's worlds, advanced on each word from the batch."""
+def _serve(connection, task_id, env_kwargs, start, stop, blocks, layout, parent) -> None:
+    """A worker process: its slice's worlds, advanced on each word from the batch. It dies
+    with the process that made the batch, however that one dies."""
+    die_with_parent(parent)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the script's own handler
     views = iter(
         np.frombuffer(block, dtype=dtype, count=int(np.prod(shape))).reshape(shape)
         for block, shape, dtype in (blocks[i] for i in range(len(blocks)))
@@ -355,6 +360,7 @@ class BatchedEnv:
                     stop,
                     self._blocks,
                     self._layout,
+                    os.getpid(),
                 ),
                 daemon=True,
             )

@@ -20,6 +20,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
 
+from bbbench.children import die_with_parent
 from bbbench.evaluation.episodes import LockstepPlayer, Players
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.tasks.spec import TaskSpec
@@ -64,21 +65,6 @@ def keep_freed_memory() -> None:
 # -- local worker processes --------------------------------------------------------
 
 
-_PR_SET_PDEATHSIG = 1  # linux/prctl.h
-
-
-def _die_with_parent(parent: int) -> None:
-    """Have the kernel kill this worker when its parent dies (Linux), however it dies:
-    a worker must never outlive the command that started it."""
-    try:
-        prctl = ctypes.CDLL(None, use_errno=True).prctl
-    except (AttributeError, OSError):  # not Linux: the pipe's EOF is the signal there
-        return
-    prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-    if os.getppid() != parent:  # the parent died before the line above
-        os._exit(0)
-
-
 def _serve(
     connection: Connection,
     runner: LockstepPlayer | Players,
@@ -90,7 +76,7 @@ def _serve(
     `inherited`: the parent's ends of the other workers' pipes, which a forked
     worker holds copies of: closed, so that each pipe has exactly its two ends.
     """
-    _die_with_parent(parent)
+    die_with_parent(parent)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the command's own handler
     for other in inherited:
         other.close()
