@@ -243,3 +243,25 @@ def test_66_a_batched_env_refuses_a_bad_discrete_action_before_any_world_steps()
     got = [env.step(step)[0] for step in actions]  # as if nothing had been refused
     env.close()
     assert all(np.array_equal(a, b) for a, b in zip(expected, got, strict=True))
+
+
+def test_66_a_training_never_overwrites_a_policy_or_another_trainings_records(tmp_path, capsys):
+    out = tmp_path / "policy.zip"
+    out.write_bytes(b"a policy")
+    argv = ["train", LATEST_FLAT, "--algo", "ppo", "--steps", "64", "--n-envs", "1"]
+    err = one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert f"--out {out}: a file is there already" in err
+    assert out.read_bytes() == b"a policy"
+    (tmp_path / "train.json").write_text("{}")
+    err = one_line_exit_2(capsys, *argv, "--out", str(tmp_path / "other.zip"))
+    assert "holds another training's records (train.json)" in err
+    assert not (tmp_path / "other.zip").exists()
+    seeded = tmp_path / "runs" / "policy-s1"
+    seeded.mkdir(parents=True)
+    (seeded / "policy.zip").write_bytes(b"seed 1")
+    err = one_line_exit_2(
+        capsys, *argv, "--seeds", "0,1", "--out", str(tmp_path / "runs" / "policy.zip")
+    )
+    assert "a file is there already" in err
+    assert (seeded / "policy.zip").read_bytes() == b"seed 1"
+    assert not (tmp_path / "runs" / "policy-s0").exists()

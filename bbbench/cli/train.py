@@ -111,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
         check_seed(args.seed)
         check_eval_episodes(args.eval_episodes, tasks)
         training.check_policy_path(args.algo, args.out)
+        training.check_fresh(args.out, args.log)
         plan = training.recipe(args.algo, key, args.recipe)
         training.statistics_path(args.out, plan)
         _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)
@@ -220,6 +221,7 @@ def _run_seeds(args: argparse.Namespace) -> int:
             out = fanout.seed_out(args.out, seed)
             if out.parent.exists() and not out.parent.is_dir():
                 raise ValueError(f"--out {args.out}: seed {seed}'s folder {out.parent} is a file")
+            training.check_fresh(out)
             training.statistics_path(out, plan)
         if args.backend == "ray":
             check_ray(args.address)

@@ -12,7 +12,7 @@ beside (`beside`) and the fan-out of seeds (`fanout`).
 """
 
 from bbbench.training.algorithms import ALGORITHMS, MARL_TRAINABLE, TRAINABLE, trainable
-from bbbench.training.checks import check_collection, check_policy_path
+from bbbench.training.checks import check_collection, check_fresh, check_policy_path
 from bbbench.training.logs import Trained
 from bbbench.training.sb3.recipes import MIX, Recipe, statistics_path
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
@@ -27,6 +27,7 @@ __all__ = [
     "Recipe",
     "Trained",
     "check_collection",
+    "check_fresh",
     "check_policy_path",
     "check_request",
     "evaluation_seeds",

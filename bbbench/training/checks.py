@@ -26,6 +26,27 @@ def check_policy_path(algorithm: str, out: str | Path) -> Path:
     return check_output_path(out, "--out")
 
 
+TRAINING_RECORDS = ("train.json", "curve.json", "results.json")  # written beside a policy
+
+
+def check_fresh(out: str | Path, log_dir: str | Path | None = None) -> None:
+    """`ValueError` if a training to `out` (its logs in `log_dir`, default `out`'s folder)
+    would overwrite a policy or another training's records: a training never does."""
+    out = Path(out)
+    if out.exists():
+        raise ValueError(
+            f"--out {out}: a file is there already, and a training never overwrites one: "
+            f"give another name, or move it away first"
+        )
+    logs = Path(log_dir) if log_dir is not None else out.parent
+    taken = [name for name in TRAINING_RECORDS if (logs / name).exists()]
+    if taken:
+        raise ValueError(
+            f"{logs}/ holds another training's records ({', '.join(taken)}): give each "
+            f"training a folder of its own (--out in a new folder, or --log)"
+        )
+
+
 def whole_batches(steps: int, batch: int) -> tuple[int, str | None]:
     """A budget of `steps` as a training honours it: at least one batch (`batch` steps,
     the least a training collects before it learns); and the note that says so when it
