@@ -5,16 +5,21 @@ from __future__ import annotations
 import gymnasium as gym
 import pytest
 
-from bbbench.policies.sb3.algorithms import ALGORITHMS, algorithm_of, by_key, declared_parameters
+from bbbench.policies.sb3.algorithms import (
+    SB3_ALGORITHMS,
+    algorithm_of,
+    by_key,
+    declared_parameters,
+)
 from bbbench.robots.twowheel import ACTION_MODES
 
 FLAT = "bbbench/FlatBalance-v1"
 
 
 def test_every_record_names_classes_that_exist_and_keys_that_differ():
-    keys = [algorithm.key for algorithm in ALGORITHMS.values()]
+    keys = [algorithm.key for algorithm in SB3_ALGORITHMS.values()]
     assert len(set(keys)) == len(keys)
-    for algorithm in ALGORITHMS.values():
+    for algorithm in SB3_ALGORITHMS.values():
         model = algorithm.model_class()
         assert model.__name__ == algorithm.model.split(":")[1]
         assert set(algorithm.action_modes) <= set(ACTION_MODES)
@@ -37,10 +42,10 @@ def test_algorithms_that_share_a_policy_class_are_told_apart_by_their_data():
     assert algorithm_of("stable_baselines3.common.policies:ActorCriticCnnPolicy", {}) is None
 
 
-@pytest.mark.parametrize("name", list(ALGORITHMS))
+@pytest.mark.parametrize("name", list(SB3_ALGORITHMS))
 def test_declared_parameters_count_the_network_the_library_builds(name):
     """The count the zip reader refuses large networks by is the library's own."""
-    algorithm = ALGORITHMS[name]
+    algorithm = SB3_ALGORITHMS[name]
     env = gym.make(FLAT, action_mode=algorithm.action_modes[0])
     small = {} if algorithm.on_policy or algorithm.key == "ars" else {"buffer_size": 16}
     model = algorithm.model_class()("MlpPolicy", env, device="cpu", **small)

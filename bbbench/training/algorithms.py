@@ -19,8 +19,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 
-from bbbench.policies.sb3.algorithms import ALGORITHMS as SB3_ALGORITHMS
-from bbbench.policies.sb3.algorithms import unknown
+from bbbench.policies.sb3.algorithms import SB3_ALGORITHMS, unknown
 from bbbench.training.recipe_files import recipe_file
 
 SB3 = "sb3"

@@ -8,9 +8,10 @@ says how the numpy actor is extracted (`bbbench.policies.sb3.extract`) and how i
 parameters are counted before anything is built (`declared_parameters`).
 
 The zip reader (`bbbench.policies.sb3.reader`), the rebuild (`bbbench.policies.sb3.rebuild`),
-the recipes and `bbbench train` all read `ALGORITHMS`. Adding an algorithm is one
-record here plus its test (and a recipe file in `bbbench/training/recipes/` to train
-it with `bbbench train`).
+the recipes and `bbbench train` all read `SB3_ALGORITHMS`: the stable-baselines3 classes a
+zip may name (what `bbbench train` trains is `bbbench.training.ALGORITHMS`, built from it
+and BenchMARL's). Adding an algorithm is one record here plus its test (and a recipe file
+in `bbbench/training/recipes/` to train it with `bbbench train`).
 """
 
 from __future__ import annotations
@@ -131,7 +132,7 @@ def load_class(path: str) -> type:
 
 
 _AC_POLICY = "stable_baselines3.common.policies:ActorCriticPolicy"
-ALGORITHMS = {
+SB3_ALGORITHMS = {
     algorithm.name: algorithm
     for algorithm in (
         Algorithm(
@@ -183,7 +184,7 @@ LINEAR_POLICY = "sb3_contrib.ars.policies:ARSLinearPolicy"  # a policy without h
 def by_key(key: str) -> Algorithm:
     """The algorithm called `key` on the command line ("ppo", "qrdqn"); `ValueError`
     naming the known ones."""
-    keys = {algorithm.key: algorithm for algorithm in ALGORITHMS.values()}
+    keys = {algorithm.key: algorithm for algorithm in SB3_ALGORITHMS.values()}
     if key in keys:
         return keys[key]
     raise ValueError(unknown("algorithm", key, tuple(keys)))
@@ -199,7 +200,7 @@ def unknown(what: str, given: str, known: tuple[str, ...]) -> str:
 def algorithm_of(policy_class: str, data: dict[str, Any]) -> Algorithm | None:
     """The algorithm of a zip whose `policy_class` is "module:Name", told apart by the
     `data` keys only it writes where several share the class; None if unsupported."""
-    candidates = [a for a in ALGORITHMS.values() if policy_class in a.policies]
+    candidates = [a for a in SB3_ALGORITHMS.values() if policy_class in a.policies]
     marked = [a for a in candidates if a.marker is not None and a.marker in data]
     unmarked = [a for a in candidates if a.marker is None]
     return (marked or unmarked or [None])[0]

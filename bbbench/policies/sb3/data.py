@@ -18,7 +18,7 @@ from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import ACTIVATIONS
-from bbbench.policies.sb3.algorithms import ALGORITHMS, Algorithm, algorithm_of
+from bbbench.policies.sb3.algorithms import SB3_ALGORITHMS, Algorithm, algorithm_of
 
 _MAX_JSON_DEPTH = 32  # data nests a few levels; deeper is not a model.save() file
 
@@ -273,7 +273,7 @@ def algorithm_and_class(path: Path, data: dict[str, Any]) -> tuple[Algorithm, st
         what = next((label for marker, label in _UNSUPPORTED if marker in name), f"{module}.{name}")
         raise PolicyError(
             f"{path}: algorithm {what} is not supported: bbbench evaluates the MLP policies "
-            f"of {', '.join(ALGORITHMS)}"
+            f"of {', '.join(SB3_ALGORITHMS)}"
         )
     return algorithm, f"{module}:{name}"
 
