@@ -124,9 +124,9 @@ def test_a_rendered_episode_shows_its_goals_and_plays_as_an_unrendered_one(task_
     drawn, env = play("rgb_array")
     np.testing.assert_array_equal(plain, drawn)
     scenario = env.unwrapped.scene.scenario
-    if not hasattr(scenario, "_markers"):
+    if not hasattr(scenario, "markers"):
         return  # a commanded task: no goals to show
     client = env.unwrapped.scene.world.client
-    shown = [client.getBasePositionAndOrientation(body)[0][:2] for body in scenario._markers]
+    shown = [client.getBasePositionAndOrientation(body)[0][:2] for body in scenario.markers]
     goals = scenario.goals if hasattr(scenario, "goals") else scenario.course[scenario.goal :]
     np.testing.assert_allclose(shown, goals[: len(shown)], atol=1e-9)

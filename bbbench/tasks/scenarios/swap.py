@@ -79,6 +79,11 @@ class Swap(Scenario):
         self._client = client
         self._markers: list[int] = []  # what `draw` shows of the goals
 
+    @property
+    def markers(self) -> tuple[int, ...]:
+        """The bodies `draw` shows of the goals (none before the first frame drawn)."""
+        return tuple(self._markers)
+
     def draw(self, scene: Any) -> None:
         """Each bot's goal as a grey disc on the ground: bodies without mass or collision
         shape, made at the first frame."""

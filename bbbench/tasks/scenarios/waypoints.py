@@ -115,6 +115,11 @@ class Waypoints(Solo):
         self._client = client
         self._markers: list[int] = []  # what `draw` shows of the course
 
+    @property
+    def markers(self) -> tuple[int, ...]:
+        """The bodies `draw` shows of the course (none before the first frame drawn)."""
+        return tuple(self._markers)
+
     def draw(self, scene: Any) -> None:
         """The goal (red) and the next waypoints (grey) as discs on the ground: bodies
         without mass or collision shape, made at the first frame."""
