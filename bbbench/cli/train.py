@@ -84,7 +84,7 @@ def add_parser(commands) -> None:
 def check_eval_episodes(episodes: int | None, task_ids: list[str]) -> None:
     """`ValueError` unless the final evaluation's episodes per task are 1 to the tasks'
     evaluation seeds: checked before a training, not after it."""
-    from bbbench.tasks.suite import spec
+    from bbbench.tasks.suite import spec  # lazy: bbbench.tasks
 
     most = min(len(spec(task_id).eval_seeds) for task_id in task_ids)
     if episodes is not None and not 1 <= episodes <= most:
