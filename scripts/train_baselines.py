@@ -267,8 +267,12 @@ def table(root: Path, board: Path, which: str = "all") -> str:
         records = [json.loads((root / run["slug"] / "train.json").read_text()) for run in done]
         minutes = " / ".join(f"{record['wall_time_s'] / 60:.1f}" for record in records)
         if task_id == "generalist":
-            scores = " / ".join(f"{score(done[0]['slug'], task):.3f}" for task in LATEST_SINGLE)
-            name, pd = "generalist (the six before PushRecovery; by task, in that order)", ""
+            scores = "; ".join(
+                " / ".join(f"{score(run['slug'], task):.3f}" for task in LATEST_SINGLE)
+                for run in done
+            )
+            name = "generalist (by task: the six before PushRecovery, in order; seeds apart by ;)"
+            pd = ""
         else:
             scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
             classical = classical_controller(task_id)
