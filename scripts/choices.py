@@ -262,6 +262,10 @@ def train(choice: Choice) -> None:
         if candidate.board_run or (folder / "policy.zip").exists():
             continue
         folder.mkdir(parents=True, exist_ok=True)
+        for name in ("train.json", "curve.json", "curve.png", "results.json"):
+            # a clone's candidate, its policy out of git: trained again, its records made
+            # again in place (git diff shows any difference; the record names the SHA-256)
+            (folder / name).unlink(missing_ok=True)
         recipe_path = folder / "recipe.yml"
         recipe_path.write_text(yaml.safe_dump(candidate_recipe(choice, candidate)))
         command = [
