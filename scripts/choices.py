@@ -74,6 +74,26 @@ def _ppo(task: str, label: str, slug: str, override: dict, board: str | None = N
     return Candidate(label, slug, {"task": task, "override": override}, board)
 
 
+def _learning_rate(task: str, question: str, shipped: str, other: str, was: str) -> Choice:
+    """A wheel-legged task's PPO learning rate: `other` trained, against the board's own
+    seed 0 at the rate shipped."""
+    short = task.removeprefix("bbbench/").lower()
+    name = short.removeprefix("legged").removesuffix("-v0")
+    return Choice(
+        name=f"legged-{'tracking' if name == 'velocitytracking' else name}-learning-rate",
+        question=question,
+        kind="recipe",
+        tasks=(task,),
+        candidates=(
+            _ppo(task, other, f"lr-{other}", {"learning_rate": float(other)}),
+            _ppo(task, shipped, f"lr-{shipped}", {}, f"ppo-{short}/s0"),
+        ),
+        shipped=shipped,
+        rule=BEST,
+        was=was,
+    )
+
+
 CHOICES: dict[str, Choice] = {
     choice.name: choice
     for choice in [
@@ -126,65 +146,25 @@ CHOICES: dict[str, Choice] = {
             rule=BEST,
             was="the evaluation seeds, at 2M bot-steps: 0.240, 0.221, 0.251, 0.308",
         ),
-        Choice(
-            name="legged-bumps-learning-rate",
-            question="LeggedBumps-v0's PPO learning rate",
-            kind="recipe",
-            tasks=("bbbench/LeggedBumps-v0",),
-            candidates=(
-                _ppo("bbbench/LeggedBumps-v0", "3e-4", "lr-3e-4", {"learning_rate": 3e-4}),
-                _ppo("bbbench/LeggedBumps-v0", "1e-4", "lr-1e-4", {}, "ppo-leggedbumps-v0/s0"),
-            ),
+        _learning_rate(
+            "bbbench/LeggedBumps-v0",
+            "LeggedBumps-v0's PPO learning rate",
             shipped="1e-4",
-            rule=BEST,
+            other="3e-4",
             was="the evaluation seeds: 0.284 at 3e-4, 0.422 at 1e-4",
         ),
-        Choice(
-            name="legged-tracking-learning-rate",
-            question="LeggedVelocityTracking-v0's PPO learning rate (2M steps)",
-            kind="recipe",
-            tasks=("bbbench/LeggedVelocityTracking-v0",),
-            candidates=(
-                _ppo(
-                    "bbbench/LeggedVelocityTracking-v0",
-                    "3e-4",
-                    "lr-3e-4",
-                    {"learning_rate": 3e-4},
-                ),
-                _ppo(
-                    "bbbench/LeggedVelocityTracking-v0",
-                    "1e-4",
-                    "lr-1e-4",
-                    {},
-                    "ppo-leggedvelocitytracking-v0/s0",
-                ),
-            ),
+        _learning_rate(
+            "bbbench/LeggedVelocityTracking-v0",
+            "LeggedVelocityTracking-v0's PPO learning rate (2M steps)",
             shipped="1e-4",
-            rule=BEST,
+            other="3e-4",
             was="the evaluation seeds: 0.157 at 3e-4 and 1M steps, 0.538 at 1e-4 and 2M",
         ),
-        Choice(
-            name="legged-obstacles-learning-rate",
-            question="LeggedObstacles-v0's PPO learning rate",
-            kind="recipe",
-            tasks=("bbbench/LeggedObstacles-v0",),
-            candidates=(
-                _ppo(
-                    "bbbench/LeggedObstacles-v0",
-                    "1e-4",
-                    "lr-1e-4",
-                    {"learning_rate": 1e-4},
-                ),
-                _ppo(
-                    "bbbench/LeggedObstacles-v0",
-                    "3e-4",
-                    "lr-3e-4",
-                    {},
-                    "ppo-leggedobstacles-v0/s0",
-                ),
-            ),
+        _learning_rate(
+            "bbbench/LeggedObstacles-v0",
+            "LeggedObstacles-v0's PPO learning rate",
             shipped="3e-4",
-            rule=BEST,
+            other="1e-4",
             was="not tried: 1e-4 was not trained on this task",
         ),
         Choice(
