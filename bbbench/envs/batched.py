@@ -386,10 +386,10 @@ class BatchedEnv:
         if isinstance(space, spaces.Discrete):  # checked whole here: no world sees a bad one
             if not np.issubdtype(array.dtype, np.number):
                 raise ValueError(f"actions of dtype {array.dtype}: {self.task_id} takes {space}")
-            values = array.astype(np.float64)
             last = space.start + space.n - 1
-            bad = ~np.isfinite(values) | (values != np.round(values))
-            bad |= (values < space.start) | (values > last)
+            bad = (array < space.start) | (array > last)
+            if not np.issubdtype(array.dtype, np.integer):  # a policy's usual ints skip this
+                bad |= ~np.isfinite(array) | (array != np.round(array))
             if bad.any():
                 first = array.flat[int(np.argmax(bad.flat))]
                 raise ValueError(
