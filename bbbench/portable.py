@@ -25,7 +25,7 @@ here by its value, not by the machine:
 
 Measured: on a machine without AVX2, a stored SAC episode played from the
 numpy `@` and `np.tanh` of an AVX-512 machine took other actions from the first
-step (docs/tasks.md, "The same episode on every machine").
+step (docs/notebook.md, "The same episode on every machine").
 """
 
 from __future__ import annotations

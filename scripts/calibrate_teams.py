@@ -1,10 +1,15 @@
 """The team tasks' calibration (issue 39): the suite's team tasks, and the candidates
 explored before them, played by the random policy, PD alone on every bot (naive: a
-follower holds the 0 it observes) and the team controller (`bbbench.policies.controllers.team`), on
-the first evaluation seeds; with `--shared-ppo`, also MultiBalance-v1's shared PPO.
+follower holds the 0 it observes) and the team controller
+(`bbbench.policies.controllers.team`), on the first seeds of a split (the candidates were
+first played on the evaluation seeds); with `--shared-ppo`, also MultiBalance-v1's shared
+PPO.
 
     python scripts/calibrate_teams.py [--episodes 100] [--workers 2] [--only TEXT]
-        [--shared-ppo]
+        [--shared-ppo] [--seeds evaluation|validation]
+    python scripts/calibrate_teams.py --evaluate   # the suite's three, validation seeds:
+                                                   # baselines/calibrations/teams.json
+    python scripts/calibrate_teams.py --table      # docs/tasks.md's block, from the record
 
 Each candidate is a spec made from MultiBalance-v1's row with a column scenario, a
 coupling and a target range (`CANDIDATES`, `bbbench.dev.teams.candidate_task`). A row
@@ -19,6 +24,8 @@ finishing none.
 from __future__ import annotations
 
 import argparse
+import json
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -32,7 +39,7 @@ from bbbench.policies import load_policy
 from bbbench.policies.controllers.pd import PDController
 from bbbench.policies.controllers.team import TeamController
 from bbbench.tasks.scenarios import Beam, Tether
-from bbbench.tasks.spec import EVAL_SEEDS
+from bbbench.tasks.spec import EVAL_SEEDS, VALIDATION_SEEDS
 from bbbench.tasks.suite import spec
 from bbbench.terrain import Bumps, HeightfieldTerrain
 
@@ -42,6 +49,9 @@ TEAM_TASKS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Conv
 # the shared five and its 3 nearest bots' offsets and velocities, nearest first, zeros
 # beyond; a column bot's neighbours are the bots ahead and behind (`crossing_view`).
 SHARED_PPO = Path(__file__).parents[1] / "leaderboards/submissions/ppo-multibalance-v1-s0"
+RECORD = Path(__file__).parents[1] / "baselines" / "calibrations" / "teams.json"
+SPLITS = {"evaluation": EVAL_SEEDS, "validation": VALIDATION_SEEDS}
+TEAM_CEILING, FINISHED_CEILING = 0.7, 0.6  # team at most this normalized, or finished
 
 
 def crossing_view(observation: np.ndarray, layout: list[str]) -> np.ndarray:
@@ -124,50 +134,141 @@ def play(job: tuple[str, str, int]) -> tuple[int, float]:
     return result.length, result.episode_return
 
 
+def figures(name: str, policies: tuple[str, ...], seeds, pool) -> dict:
+    """Each policy's episodes of a candidate: (length, team return) per seed, the share
+    finished, the normalized mean, and P(team > naive) with the targets it meets."""
+    jobs = [(name, policy, seed) for policy in policies for seed in seeds]
+    played = dict(zip(jobs, pool.map(play, jobs, chunksize=4), strict=True))
+    best = CANDIDATES[name].max_return
+    returns = {p: [played[name, p, seed][1] for seed in seeds] for p in policies}
+    lengths = {p: [played[name, p, seed][0] for seed in seeds] for p in policies}
+    zero = float(np.mean(returns["random"]))
+    normalized = {p: (np.array(returns[p]) - zero) / (best - zero) for p in policies}
+    point, (low, high) = stats.probability_of_improvement(
+        [normalized["team"]], [normalized["naive"]]
+    )
+    rows = {
+        p: {
+            "returns": returns[p],
+            "lengths": lengths[p],
+            "finished": float(np.mean([length == 1500 for length in lengths[p]])),
+            "mean_return": float(np.mean(returns[p])),
+            "normalized": float(normalized[p].mean()),
+        }
+        for p in policies
+    }
+    team = rows["team"]
+    meets = bool(
+        low > 0.5
+        and (team["normalized"] <= TEAM_CEILING or team["finished"] <= FINISHED_CEILING)
+        and rows["random"]["finished"] == 0
+    )
+    return {"policies": rows, "p_team_over_naive": [point, [low, high]], "meets": meets}
+
+
+def explore(args) -> None:
+    """Print a row per candidate (the first way of the calibration)."""
+    seeds = SPLITS[args.seeds][: args.episodes]
+    policies = (*POLICIES, "shared PPO") if args.shared_ppo else POLICIES
+    print(f"{args.episodes} {args.seeds} seeds per policy; finished, mean return / max")
+    with ProcessPoolExecutor(args.workers) as pool:
+        for name, task in CANDIDATES.items():
+            if args.only not in name:
+                continue
+            found = figures(name, policies, seeds, pool)
+            rows, best = found["policies"], task.max_return
+            point, (low, high) = found["p_team_over_naive"]
+            cells = "; ".join(
+                f"{p} {rows[p]['finished']:.0%} {rows[p]['mean_return'] / best:.3f}"
+                for p in policies
+            )
+            scores = ", ".join(f"{p} {rows[p]['normalized']:.3f}" for p in policies[1:])
+            print(
+                f"{name}: {cells}; normalized {scores}; P(team > naive) {point:.2f} "
+                f"[{low:.2f}, {high:.2f}]",
+                flush=True,
+            )
+
+
+def evaluate(workers: int) -> dict:
+    """The record: the suite's three team tasks on their 100 validation seeds."""
+    from bbbench.evaluation import machine
+
+    start = time.monotonic()
+    with ProcessPoolExecutor(workers) as pool:
+        tasks = {name: figures(name, POLICIES, VALIDATION_SEEDS, pool) for name in TEAM_TASKS}
+    return {
+        "schema": "bbbench-calibration/1",
+        "calibration": "the team tasks",
+        "split": "validation",
+        "seeds": {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)},
+        "rule": (
+            "team clearly above naive (P's interval above 0.5), team at most "
+            f"{TEAM_CEILING} normalized or at most {FINISHED_CEILING:.0%} finished, random "
+            "finishing none"
+        ),
+        "was": "the evaluation seeds",
+        "tasks": tasks,
+        "holds": all(task["meets"] for task in tasks.values()),
+        "command": "python scripts/calibrate_teams.py --evaluate",
+        "seconds": round(time.monotonic() - start, 1),
+        "machine": machine.described(machine.record()),
+        "date": time.strftime("%Y-%m-%d"),
+    }
+
+
+def table(record: dict) -> str:
+    """docs/tasks.md's block: the record's table, and whether the targets hold."""
+    lines = [
+        "| task | random finishes | naive: finished, normalized | team: finished, normalized "
+        "| P(team > naive) [95% CI] | meets the targets |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for name, task in record["tasks"].items():
+        rows = task["policies"]
+        shown = [
+            f"{rows[p]['finished']:.0%}, {rows[p]['normalized']:.3f}" for p in ("naive", "team")
+        ]
+        point, (low, high) = task["p_team_over_naive"]
+        lines.append(
+            f"| {name.removeprefix('bbbench/')} | {rows['random']['finished']:.0%} | "
+            f"{' | '.join(shown)} | {point:.2f} [{low:.2f}, {high:.2f}] | "
+            f"{'yes' if task['meets'] else 'no'} |"
+        )
+    verdict = "Every target holds" if record["holds"] else "**Not every target holds**"
+    scores = [task["policies"]["team"]["normalized"] for task in record["tasks"].values()]
+    lines += [
+        "",
+        f"{verdict} on the {record['seeds']['count']} validation seeds: {record['rule']} "
+        f"(team {min(scores):.2f}-{max(scores):.2f} normalized: headroom for learning).",
+    ]
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", default="", help="only the candidates whose name has this")
+    parser.add_argument("--seeds", choices=sorted(SPLITS), default="validation")
     parser.add_argument(
         "--shared-ppo",
         action="store_true",
         help="also MultiBalance-v1's shared PPO (seed 0), each bot seeing its column "
         "neighbours as its nearest bots",
     )
+    parser.add_argument("--evaluate", action="store_true", help="write the suite's record")
+    parser.add_argument("--table", action="store_true", help="print docs/tasks.md's block")
     args = parser.parse_args()
-    seeds = EVAL_SEEDS[: args.episodes]
-    print(f"{args.episodes} evaluation seeds per policy; finished, mean return / max")
-    with ProcessPoolExecutor(args.workers) as pool:
-        for name, task in CANDIDATES.items():
-            if args.only not in name:
-                continue
-            policies = (*POLICIES, "shared PPO") if args.shared_ppo else POLICIES
-            jobs = [(name, policy, seed) for policy in policies for seed in seeds]
-            played = dict(zip(jobs, pool.map(play, jobs, chunksize=4), strict=True))
-            best = task.max_return
-            returns = {
-                policy: np.array([played[name, policy, seed][1] for seed in seeds])
-                for policy in policies
-            }
-            finished = {
-                policy: np.mean([played[name, policy, seed][0] == 1500 for seed in seeds])
-                for policy in policies
-            }
-            zero = returns["random"].mean()
-            normalized = {p: (returns[p] - zero) / (best - zero) for p in policies[1:]}
-            point, (low, high) = stats.probability_of_improvement(
-                [normalized["team"]], [normalized["naive"]]
-            )
-            cells = "; ".join(
-                f"{p} {finished[p]:.0%} {returns[p].mean() / best:.3f}" for p in policies
-            )
-            scores = ", ".join(f"{p} {normalized[p].mean():.3f}" for p in policies[1:])
-            print(
-                f"{name}: {cells}; normalized {scores}; P(team > naive) {point:.2f} "
-                f"[{low:.2f}, {high:.2f}]",
-                flush=True,
-            )
+    if args.evaluate:
+        RECORD.parent.mkdir(parents=True, exist_ok=True)
+        partial = RECORD.with_suffix(".json.partial")
+        partial.write_text(json.dumps(evaluate(args.workers), indent=1) + "\n")
+        partial.replace(RECORD)
+    if args.table:
+        print(table(json.loads(RECORD.read_text())))
+    if not (args.evaluate or args.table):
+        explore(args)
 
 
 if __name__ == "__main__":

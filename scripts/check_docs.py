@@ -23,7 +23,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-DOCS = (Path("docs/baselines.md"),)
+DOCS = (Path("docs/baselines.md"), Path("docs/tasks.md"))
 BLOCK = re.compile(
     r"^<!-- (?P<name>[^:>]+): (?P<command>python [^>]+?) -->\n"
     r"(?P<body>.*?)^<!-- (?P=name): end -->$",

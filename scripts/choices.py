@@ -8,13 +8,12 @@ shipped. A recipe's candidates are trained first (seed 0, the shipped budget), e
 `baselines/choices/<name>/<candidate>/`; the shipped value's candidate is the board's own
 seed-0 run of that recipe, trained with it. A trained candidate's folder keeps its recipe,
 command log, curve and `train.json`; its policy stays out of git (the record names its
-SHA-256: `--train` makes it again). docs/baselines.md's table of choices is generated from
-the records.
+SHA-256: `--train` makes it again). docs/baselines.md's table of choices, and docs/tasks.md's
+tables of the task calibrations, are generated from the records (scripts/choice_tables.py).
 
     python scripts/choices.py --list
     python scripts/choices.py --train slopes-gamma       # the candidates not trained yet
     python scripts/choices.py --evaluate slopes-gamma    # their record, on validation seeds
-    python scripts/choices.py --table                    # the Markdown table of the records
 """
 
 from __future__ import annotations
@@ -94,6 +93,81 @@ def _learning_rate(task: str, question: str, shipped: str, other: str, was: str)
     )
 
 
+def _difficulty(task: str, ground: str, values, shipped: str, rule: str, was: str) -> Choice:
+    """A task's calibration of its difficulty: its classical controller at each value."""
+    short = task.removeprefix("bbbench/")
+    return Choice(
+        name=f"{short.rsplit('-v', 1)[0].lower()}-difficulty",
+        question=f"{short}'s difficulty ({ground})",
+        kind="task",
+        tasks=(task,),
+        candidates=tuple(
+            Candidate(f"{value}", f"difficulty-{value}", {"difficulty": value}) for value in values
+        ),
+        shipped=shipped,
+        rule=rule,
+        was=was,
+    )
+
+
+BAND_RULE = "{} finishes 20-60% of the episodes (the calibration band{})"
+# A task's difficulty calibrated against its classical controller: the task, its ground,
+# the values played, the value shipped, the rule, and what it was first chosen on.
+DIFFICULTIES = [
+    (
+        "bbbench/WaypointsBumps-v0",
+        "hills 0.01 m + 0.30 m x difficulty",
+        (0.75, 0.8, 0.85, 0.9, 0.95),
+        "0.85",
+        BAND_RULE.format("the steering law", ""),
+        "pilots on training seeds 1000-1019, then the evaluation seeds: 31 of 100",
+    ),
+    (
+        "bbbench/Bumps-v2",
+        "hills 0.01 m + 0.10 m x difficulty",
+        (0.5, 0.75, 0.9, 1.0),
+        "0.9",
+        BAND_RULE.format("PD", " of the terrain"),
+        "the evaluation seeds (on -v1, the same episodes): PD finished 52%, 37% and 23% at "
+        "0.75, 0.9 and 1",
+    ),
+    (
+        "bbbench/Obstacles-v2",
+        "boxes, steps and gaps",
+        (0.25, 0.5, 0.75, 1.0),
+        "0.5",
+        BAND_RULE.format("PD", " of the terrain"),
+        "the evaluation seeds (on -v1, the same episodes): PD finished 68%, 36% and 20% at "
+        "0.25, 0.5 and 0.75",
+    ),
+    (
+        "bbbench/Slopes-v2",
+        "ramps up to 0.5 rad x difficulty",
+        (0.5, 0.7, 0.9, 1.0),
+        "0.9",
+        BAND_RULE.format("PD", " of the terrain"),
+        "the evaluation seeds (on -v1, the same episodes): PD finished 87%, 55% and 38% at "
+        "0.5, 0.9 and 1",
+    ),
+    (
+        "bbbench/LeggedBumps-v0",
+        "hills 0.01 m + 0.25 m x difficulty",
+        (0.75, 0.8, 0.85, 0.9, 0.95),
+        "0.85",
+        BAND_RULE.format("the legged controller", ""),
+        "the evaluation seeds: 72, 63 and 48 of 100 at 0.75, 0.8 and 0.85",
+    ),
+    (
+        "bbbench/LeggedObstacles-v0",
+        "Obstacles-v2's course",
+        (0.7, 0.75, 0.8, 0.85, 0.9),
+        "0.8",
+        BAND_RULE.format("the legged controller", ""),
+        "the evaluation seeds: 96 of 100 at 0.5 (Obstacles-v2's), 47 at 0.8",
+    ),
+]
+
+
 CHOICES: dict[str, Choice] = {
     choice.name: choice
     for choice in [
@@ -115,32 +189,19 @@ CHOICES: dict[str, Choice] = {
             question="the team tasks' PPO learning rate and gamma (BeamCarry-v0, 1M bot-steps)",
             kind="recipe",
             tasks=("bbbench/BeamCarry-v0",),
-            candidates=(
-                _ppo(
-                    "bbbench/BeamCarry-v0",
-                    "3e-4, gamma 0.99",
-                    "lr-3e-4-gamma-0.99",
-                    {"learning_rate": 3e-4},
-                ),
-                _ppo(
-                    "bbbench/BeamCarry-v0",
-                    "3e-4, gamma 0.995",
-                    "lr-3e-4-gamma-0.995",
-                    {"learning_rate": 3e-4, "gamma": 0.995},
-                ),
-                _ppo(
-                    "bbbench/BeamCarry-v0",
-                    "1e-4, gamma 0.995",
-                    "lr-1e-4-gamma-0.995",
-                    {"gamma": 0.995},
-                ),
-                _ppo(
-                    "bbbench/BeamCarry-v0",
-                    "1e-4, gamma 0.99",
-                    "lr-1e-4-gamma-0.99",
-                    {},
-                    "ppo-beamcarry-v0/s0",
-                ),
+            candidates=tuple(
+                _ppo("bbbench/BeamCarry-v0", label, slug, override, board)
+                for label, slug, override, board in [
+                    ("3e-4, gamma 0.99", "lr-3e-4-gamma-0.99", {"learning_rate": 3e-4}, None),
+                    (
+                        "3e-4, gamma 0.995",
+                        "lr-3e-4-gamma-0.995",
+                        {"learning_rate": 3e-4, "gamma": 0.995},
+                        None,
+                    ),
+                    ("1e-4, gamma 0.995", "lr-1e-4-gamma-0.995", {"gamma": 0.995}, None),
+                    ("1e-4, gamma 0.99", "lr-1e-4-gamma-0.99", {}, "ppo-beamcarry-v0/s0"),
+                ]
             ),
             shipped="1e-4, gamma 0.99",
             rule=BEST,
@@ -201,19 +262,7 @@ CHOICES: dict[str, Choice] = {
             rule="PD finishes 20-60% of the episodes (the calibration band of the task)",
             was="30-40 evaluation seeds, then all 100: PD finished 47 of 100 at 0.068",
         ),
-        Choice(
-            name="waypointsbumps-difficulty",
-            question="WaypointsBumps-v0's difficulty (hills 0.01 m + 0.30 m x difficulty)",
-            kind="task",
-            tasks=("bbbench/WaypointsBumps-v0",),
-            candidates=tuple(
-                Candidate(f"{difficulty}", f"difficulty-{difficulty}", {"difficulty": difficulty})
-                for difficulty in (0.75, 0.8, 0.85, 0.9, 0.95)
-            ),
-            shipped="0.85",
-            rule="the steering law finishes 20-60% of the episodes (the calibration band)",
-            was="pilots on training seeds 1000-1019, then the evaluation seeds: 31 of 100",
-        ),
+        *(_difficulty(*row) for row in DIFFICULTIES),
     ]
 }
 
@@ -413,46 +462,6 @@ def write_record(record: dict[str, Any]) -> None:
     partial.replace(path)
 
 
-def table() -> str:
-    """The Markdown table of the records: one row per choice."""
-    lines = [
-        "| choice | on | candidates: normalized (finished) | the rule's evidence | picked "
-        "| shipped |",
-        "|---|---|---|---|---|---|",
-    ]
-    for choice in CHOICES.values():
-        path = record_path(choice.name)
-        if not path.exists():
-            lines.append(
-                f"| {choice.question} | not made again yet | | {choice.rule} | | {choice.shipped} |"
-            )
-            continue
-        record = json.loads(path.read_text())
-        shown = "; ".join(
-            f"{row['label']}: {row['score']:.3f} ("
-            + ", ".join(f"{task['finished']:.0%}" for task in row["tasks"].values())
-            + ")"
-            for row in record["candidates"]
-        )
-        seeds = record["seeds"]
-        where = f"{seeds['count']} validation seeds"
-        verdict = "the same" if record["holds"] else f"**{record['picked']}**"
-        if record["kind"] == "task":
-            against = f"in the band: {', '.join(record['in_band']) or 'none'}"
-        else:
-            others = [row for row in record["candidates"] if "p_over_shipped" in row]
-            best = max(others, key=lambda row: row["score"])
-            point, (low, high) = best["p_over_shipped"]
-            against = (
-                f"best other, {best['label']}: P(it > shipped) {point:.3f} [{low:.3f}, {high:.3f}]"
-            )
-        lines.append(
-            f"| {record['question']} | {where} | {shown} | {against} | {verdict} | "
-            f"{record['shipped']} |"
-        )
-    return "\n".join(lines)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--list", action="store_true", help="the choices and their state")
@@ -461,7 +470,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--evaluate", nargs="*", metavar="NAME", help="score these choices' candidates"
     )
     parser.add_argument("--workers", type=int, default=1)
-    parser.add_argument("--table", action="store_true", help="print the table of the records")
     args = parser.parse_args(argv)
     if args.list:
         for choice in CHOICES.values():
@@ -473,8 +481,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.evaluate is not None:
         for name in args.evaluate or list(CHOICES):
             write_record(evaluate(CHOICES[name], args.workers))
-    if args.table:
-        print(table())
     return 0
 
 

@@ -1,4 +1,4 @@
-"""The MARL campaign's sample-efficiency curves (docs/baselines.md, "The field's budget"):
+"""The MARL campaign's sample-efficiency curves (docs/notebook.md, "The field's budget"):
 for each task, the IQM of the normalized return over every seed's training episodes at
 each evaluation point, with its 95% stratified-bootstrap interval (the seeds are the
 strata: rliable's and marl-eval's curve), IPPO and MAPPO, and the classical

@@ -1,7 +1,8 @@
-"""The MARL comparison tables of docs/baselines.md ("BenchMARL: IPPO and MAPPO"), from the
-runs' own files: each run's `baselines/<slug>/results.json` (its policy on the task's 100
-evaluation seeds, written by `bbbench train`) and `train.json` (bot-steps, wall time),
-and the classical controller's episodes on the board (`leaderboards/results/`).
+"""The MARL comparison tables of docs/baselines.md (IPPO and MAPPO at 300k and 3M world
+steps), from the runs' own files: each run's `baselines/<slug>/results.json` (its policy
+on the task's 100 evaluation seeds, written by `bbbench train`) and `train.json`
+(bot-steps, wall time), and the classical controller's episodes on the board
+(`leaderboards/results/`).
 
     python scripts/marl_tables.py [--root baselines] [--board leaderboards] [--campaign]
 

@@ -9,7 +9,7 @@ Each SLUG names a run of the board (`pd`, `ippo-multibalance-v1-3m-s0`: a built-
 graph or an SB3 zip with its statistics), loaded and checked as `bbbench leaderboard
 check` loads it; it plays the task's first `--episodes` evaluation seeds
 deterministically, as `bbbench eval` plays them, and the output is one Markdown row per
-entry. docs/baselines.md ("Where IPPO loses to PD") quotes it. Only the crossing tasks
+entry. docs/notebook.md ("Where IPPO loses to PD") quotes it. Only the crossing tasks
 (MultiBalance, MultiBumps): a team task's observation has another layout, and one bot's
 fall ends the team.
 """

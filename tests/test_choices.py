@@ -31,6 +31,11 @@ def test_a_record_is_its_choice_on_the_validation_seeds(name):
     assert [row["label"] for row in record["candidates"]] == [c.label for c in choice.candidates]
     assert record["tasks"] == list(choice.tasks)
     assert record["shipped"] == choice.shipped
+    assert (record["question"], record["rule"], record["was"]) == (
+        choice.question,
+        choice.rule,
+        choice.was,
+    )
     for row in record["candidates"]:
         assert list(row["tasks"]) == list(choice.tasks)
         assert all(len(task["returns"]) == len(VALIDATION_SEEDS) for task in row["tasks"].values())

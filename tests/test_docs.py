@@ -99,25 +99,46 @@ def test_every_task_has_its_own_class_and_docstring_with_version_history(task_id
     assert doc.lstrip().startswith(f"`{newest}`")
 
 
-def test_the_baselines_tables_are_what_their_scripts_print_from_the_files(monkeypatch):
-    from conftest import load_script
-
-    check = load_script("check_docs")
-    monkeypatch.chdir(Path(__file__).resolve().parents[1])
-    text = Path("docs/baselines.md").read_text()
-    found = check.blocks(text)
-    names = [m["name"] for m in found]
-    assert names == [
+GENERATED = {
+    "docs/baselines.md": [
         "choices table",
         "baselines table",
         "marl table",
         "campaign table",
         "legged table",
         "steering table",
-    ]
+    ],
+    "docs/tasks.md": [
+        "reward calibration",
+        "every task table",
+        "pushrecovery-growth calibration",
+        "team calibration",
+        "leggedbumps-difficulty calibration",
+        "leggedobstacles-difficulty calibration",
+        "two robots table",
+        "steering calibration",
+        "waypointsbumps-difficulty calibration",
+        "swap table",
+        "convoyturns sentence",
+        "bumps-difficulty calibration",
+        "obstacles-difficulty calibration",
+        "slopes-difficulty calibration",
+    ],
+}
+
+
+@pytest.mark.parametrize("page", sorted(GENERATED))
+def test_the_docs_tables_are_what_their_scripts_print_from_the_files(monkeypatch, page):
+    from conftest import load_script
+
+    check = load_script("check_docs")
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    assert [str(path) for path in check.DOCS] == sorted(GENERATED)
+    found = check.blocks(Path(page).read_text())
+    assert [m["name"] for m in found] == GENERATED[page]
     for match in found:
         assert check.printed(match["command"]) == match["body"], match["name"]
-    tampered = found[2]["body"].replace("0.", "9.", 1)  # one figure of the MARL table
+    tampered = found[2]["body"].replace("0.", "9.", 1)  # one figure of a table
     assert tampered != check.printed(found[2]["command"])
 
 
@@ -158,23 +179,50 @@ def recorded_seed_figures(root: Path) -> set[str]:
     return shown
 
 
-def test_the_per_seed_figures_in_the_baselines_prose_are_the_records():
-    """The prose of docs/baselines.md, outside its generated tables, quotes seeds' scores as
-    "a / b / c": each such run of figures must be what the records give, seed by seed."""
-    from conftest import load_script
-
+def test_the_per_seed_figures_in_the_notebook_are_the_records():
+    """The notebook (docs/notebook.md) quotes seeds' scores as "a / b / c": each such run
+    of figures must be what the records give, seed by seed."""
     root = Path(__file__).resolve().parents[1]
-    text = (root / "docs" / "baselines.md").read_text()
-    for block in reversed(load_script("check_docs").blocks(text)):
-        text = text[: block.start()] + text[block.end() :]
+    text = (root / "docs" / "notebook.md").read_text()
     quoted = re.findall(r"-?\d\.\d{3}(?: / -?\d\.\d{3})+", text)
-    assert len(quoted) >= 30  # the prose quotes its seeds this way
+    assert len(quoted) >= 30  # the notebook quotes its seeds this way
     recorded = recorded_seed_figures(root)
     assert [figures for figures in quoted if figures not in recorded] == []
     # A figure typed wrong is found: one seed's score moved by 0.001.
     first = quoted[0]
     wrong = first[:4] + str((int(first[4]) + 1) % 10) + first[5:]
     assert wrong not in recorded
+
+
+# A score as the board prints it (0.556, -0.440), or an interval of figures ([0.486,
+# 0.619], [0.71, 0.83]); a range of integers ([-2, 2] m/s) is a task's parameter.
+SCORE = re.compile(r"(?<![\w.`])-?\d\.\d{3}(?![\w.])|\[-?\d+\.\d+, -?\d+\.\d+\]")
+VERDICTS = re.compile(r"^<!-- verdicts: .*?^<!-- verdicts: end -->$", re.MULTILINE | re.DOTALL)
+
+
+def typed_scores(text: str, blocks) -> list[str]:
+    """The scores and intervals of a page outside its generated blocks (and code)."""
+    for block in reversed(blocks(text)):
+        text = text[: block.start()] + text[block.end() :]
+    text = VERDICTS.sub("", text)
+    text = re.sub(r"`[^`\n]*`", "", text)
+    return SCORE.findall(text)
+
+
+@pytest.mark.parametrize("page", sorted(GENERATED))
+def test_no_score_is_typed_by_hand_outside_the_generated_blocks(page):
+    """Every score and interval docs/baselines.md and docs/tasks.md show is printed from the
+    board or a record (the notebook keeps the pilots' figures as they were measured)."""
+    from conftest import load_script
+
+    blocks = load_script("check_docs").blocks
+    text = (Path(__file__).resolve().parents[1] / page).read_text()
+    assert typed_scores(text, blocks) == []
+    # a score typed into the prose is found
+    assert typed_scores(text + "\nPD scores 0.305 [0.266, 0.345].\n", blocks) == [
+        "0.305",
+        "[0.266, 0.345]",
+    ]
 
 
 def test_the_robots_page_names_each_robots_tasks():

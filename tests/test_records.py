@@ -96,53 +96,6 @@ def test_a_runs_budget_is_in_world_steps_as_its_training_counted_them(slug):
     assert RUNS[slug]["recipe"]["world_steps"] == record["steps"] // bots
 
 
-# docs/tasks.md's table of every task on the shipped reward: the board's numbers.
-REWARD_TABLE_TASKS = (
-    "bbbench/Bumps-v2",
-    "bbbench/FlatBalance-v1",
-    "bbbench/NoisySensors-v1",
-    "bbbench/Obstacles-v2",
-    "bbbench/Slopes-v2",
-    "bbbench/VelocityTracking-v1",
-    "bbbench/MultiBalance-v1",
-    "bbbench/MultiBumps-v1",
-)
-
-
-def reward_table_rows() -> list[str]:
-    """Each task's row as the board gives it: random's mean return, stand, PD and LQR
-    normalized, and the best learned method on it (its mean over runs), whichever task
-    it trained on."""
-    import bbbench
-
-    board = json.loads((ROOT / "leaderboards" / "bbbench-v0.json").read_text())
-    rows = []
-    for task_id in REWARD_TABLE_TASKS:
-        scores = {
-            method["slug"]: (method["tasks"][task_id]["normalized_score"], method["submission"])
-            for track in board["tracks"]
-            for method in track["methods"]
-            if task_id in method["tasks"]
-        }
-        learned = [
-            (score, submission["name"])
-            for score, submission in scores.values()
-            if "builtin" not in submission
-        ]
-        best, name = max(learned, key=lambda pair: pair[0])
-        builtins = " | ".join(f"{scores[slug][0]:.3f}" for slug in ("stand", "pd", "lqr"))
-        rows.append(
-            f"| {task_id.removeprefix('bbbench/')} | 0 ({bbbench.spec(task_id).random_return:.2f}) "
-            f"| {builtins} | {best:.3f} ({name}) |"
-        )
-    return rows
-
-
-def test_the_tasks_pages_reward_table_is_the_boards():
-    page = (ROOT / "docs" / "tasks.md").read_text()
-    assert "\n".join(reward_table_rows()) in page
-
-
 def test_every_runs_results_are_todays_harness():
     """A run's own results (baselines/<slug>/results.json) are played as the board plays."""
     from bbbench.evaluation.results import HARNESS_VERSION

@@ -59,7 +59,7 @@ def test_pd_finishes_only_some_episodes_at_the_default_difficulty(task_id):
 
 @pytest.mark.parametrize("task_id", V1_TERRAIN)
 def test_the_shipped_ppo_policy_finishes_more_episodes_than_pd(task_id):
-    """Learning pays: the PPO policy trained on the task (docs/tasks.md) finishes at least
+    """Learning pays: the PPO policy trained on the task (docs/notebook.md) finishes at least
     15 points more of the first 16 eval seeds than PD does. Terrain made impossible, or
     easy enough for PD to finish everything, fails this."""
     from bbbench.evaluation import evaluate

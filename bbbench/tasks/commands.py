@@ -120,6 +120,6 @@ VELOCITY_TARGETS = PiecewiseConstantVelocity(low=-1.0, high=1.0, hold=(2.0, 5.0)
 # On terrain the bot must make progress across it: forward targets only (the -v0 terrain,
 # the crossings).
 FORWARD_TARGETS = PiecewiseConstantVelocity(low=0.2, high=0.8, hold=(2.0, 5.0))
-# The -v1 terrain: crossed at speed. Why: docs/tasks.md, "The terrain: why -v0 had no
+# The -v1 terrain: crossed at speed. Why: docs/notebook.md, "The terrain: why -v0 had no
 # headroom, and what -v1 changes".
 SPEED_TARGETS = PiecewiseConstantVelocity(low=1.0, high=2.0, hold=(2.0, 5.0))

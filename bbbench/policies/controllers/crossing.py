@@ -18,7 +18,7 @@ its line (|right_velocity| < `parallel`), or not there (its block all zeros) is 
 conflict. Own velocity is PD's estimate, wheel radius x (wheel speed + pitch rate).
 
 Gains, chosen on MultiBalance-v1's training seeds 0-39 from a grid of margin, slow and
-fast (`scripts/crossing_gains.py`; docs/baselines.md): horizon 3 s, margin 1.4 s, slow 0
+fast (`scripts/crossing_gains.py`; docs/notebook.md): horizon 3 s, margin 1.4 s, slow 0
 (the later bot stops until the crossing is clear), fast 1.3, top speed 1.0 m/s, parallel
 0.05 m/s. Stateless: one observation in, one action out.
 """

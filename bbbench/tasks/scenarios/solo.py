@@ -73,14 +73,14 @@ class Solo(Scenario):
 # The first rewards were `RewardWeights`; the latest versions score the shared reward in
 # which staying up never costs (`StayUpReward`; `stay_up_history` says so in each).
 # The -v1 terrain: on cells fine enough to have edges, on a strip that repeats across.
-# Why each number is what it is: docs/tasks.md, "The terrain: why -v0 had no headroom,
+# Why each number is what it is: docs/notebook.md, "The terrain: why -v0 had no headroom,
 # and what -v1 changes".
 _V1_STRIP = dict(size=(2.4, 24.0), start_margin=1.0, lateral_period=1.2)
 _V1_FINE_CELLS = 0.05
 _WHY_V1 = """\
 Why the terrain is built this way (speed, fine cells, a strip that repeats across and
-follows the bot), from the robot's own numbers: docs/tasks.md, "The terrain: why -v0 had
-no headroom, and what -v1 changes"; its calibration against PD is the table after it."""
+follows the bot), from the robot's own numbers: docs/notebook.md, "The terrain: why -v0 had
+no headroom, and what -v1 changes"; its calibration against PD is in docs/tasks.md."""
 
 _FLAT_BALANCE_SUMMARY = "stay upright and in place on flat ground (the tutorial's task)"
 _FLAT_BALANCE_DESCRIPTION = (

@@ -75,7 +75,7 @@ def observation_statistics(
     are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
     0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
     random play, or raw observations, IPPO and MAPPO fell more as they trained
-    (docs/baselines.md, "BenchMARL: IPPO and MAPPO")."""
+    (docs/notebook.md, "BenchMARL: IPPO and MAPPO")."""
     env = bbbench.make_parallel(task_id, action_mode=ACTION_MODE, **config)
     controller = load_policy(classical_controller(task_id)).actor(task_id)
     rng = np.random.default_rng([seed, 7])

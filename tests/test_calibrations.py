@@ -1,0 +1,179 @@
+"""The records docs/tasks.md prints its calibrations from. The shared reward's calibration,
+made again on validation seeds (scripts/calibrate_reward.py): the record is of the
+candidates as declared, on the validation seeds; its figures follow from its own returns;
+its pick follows the rule; and the shipped reward's returns are what the real env pays.
+The two robots on the same ground (scripts/two_robots.py): each robot's episodes on its
+own tasks are the board's, and on the other's ground what it plays. The team tasks'
+calibration (scripts/calibrate_teams.py): on the validation seeds, its verdicts follow
+from its episodes, and an episode replays."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bbbench
+from bbbench.evaluation.harness import play_tasks
+from bbbench.policies import load_policy
+from bbbench.portable import total
+from bbbench.tasks.spec import VALIDATION_SEEDS
+from conftest import load_script
+
+ROOT = Path(__file__).resolve().parents[1]
+calibrate = load_script("calibrate_reward")
+
+
+def _read(path: Path, script: str) -> dict:
+    assert path.exists(), f"{path.name}: run python scripts/{script}.py --evaluate"
+    return json.loads(path.read_text())
+
+
+@pytest.fixture(scope="module")
+def record() -> dict:
+    return _read(calibrate.RECORD, "calibrate_reward")
+
+
+def _shipped(record: dict) -> dict:
+    return next(row for row in record["candidates"] if row["label"] == calibrate.SHIPPED_LABEL)
+
+
+def test_the_record_is_the_declared_candidates_on_the_validation_seeds(record):
+    assert record["split"] == "validation"
+    assert record["seeds"] == {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)}
+    assert record["tasks"] == list(calibrate.TASKS)
+    assert [row["label"] for row in record["candidates"]] == list(calibrate.CANDIDATES)
+    for row, reward in zip(record["candidates"], calibrate.CANDIDATES.values(), strict=True):
+        assert row["weights"] == calibrate.weights(reward)
+    # the shipped shape is the suite's reward, on every task the record covers
+    for task_id in calibrate.TASKS:
+        assert bbbench.spec(task_id).reward == calibrate.SHIPPED
+
+
+def test_the_normalized_figures_follow_from_the_records_returns(record):
+    for row in record["candidates"]:
+        best_step = calibrate.CANDIDATES[row["label"]].max_step
+        for task_id, task in row["tasks"].items():
+            best = best_step * bbbench.spec(task_id).max_episode_steps
+            means = task["mean_return"]
+            for name in ("stand", "pd"):
+                expected = (means[name] - means["random"]) / (best - means["random"])
+                assert task[name] == expected, (row["label"], task_id, name)
+    for task_id, task in _shipped(record)["tasks"].items():
+        spec = bbbench.spec(task_id)
+        bots = spec.group.n_bots if spec.multi_agent else 1
+        for name, returns in task["returns"].items():
+            assert len(returns) == len(VALIDATION_SEEDS) * bots  # every bot-episode
+            assert task["mean_return"][name] == total(returns) / len(returns)
+
+
+def test_the_pick_follows_the_rule_and_the_rule_can_refuse(record):
+    assert record["picked"] == calibrate.pick(record["candidates"])
+    assert record["holds"] == (record["picked"] == calibrate.SHIPPED_LABEL)
+    # the rule reads the figures: a shipped shape whose stand passes 0.4 on one task is out
+    rows = copy.deepcopy(record["candidates"])
+    _shipped({"candidates": rows})["tasks"]["bbbench/Bumps-v2"]["stand"] = 0.41
+    assert calibrate.pick(rows) != calibrate.SHIPPED_LABEL
+    # and a shape without a tail never passes, whatever its figures
+    no_tail = next(row for row in rows if row["label"] == "share 0.10, no tail")
+    assert not calibrate.admitted(no_tail)
+
+
+@pytest.mark.parametrize(
+    ("task_id", "policy"), [("bbbench/VelocityTracking-v1", "stand"), ("bbbench/Bumps-v2", "pd")]
+)
+def test_the_shipped_rewards_returns_are_what_the_env_pays(record, task_id, policy):
+    seeds = bbbench.spec(task_id).seeds("validation")[:3]
+    played = play_tasks(load_policy(policy), [bbbench.spec(task_id)], workers=1, seeds=[seeds])
+    paid = [episode.episode_return for episode in played.episodes[0]]
+    stored = _shipped(record)["tasks"][task_id]["returns"][policy][:3]
+    assert paid == stored  # bit for bit: the steps summed as the env sums them
+
+
+# -- the two robots on the same ground (scripts/two_robots.py) ------------------------
+
+two_robots = load_script("two_robots")
+
+
+@pytest.fixture(scope="module")
+def robots_record() -> dict:
+    return _read(two_robots.RECORD, "two_robots")
+
+
+def _board_returns(slug: str, task_id: str) -> list[float]:
+    document = json.loads((ROOT / "leaderboards" / "results" / f"{slug}.json").read_text())
+    (block,) = [block for block in document["tasks"] if block["task"] == task_id]
+    return [episode["return"] for episode in block["episodes"]]
+
+
+def test_each_robot_on_its_own_tasks_is_the_boards_controller(robots_record):
+    """Where the robot is the task's own, the record's episodes are the board's, bit for
+    bit: the same controller, ground, seeds and targets."""
+    assert list(robots_record["tasks"]) == list(two_robots.TASKS)
+    for task_id, by_robot in robots_record["tasks"].items():
+        assert list(by_robot) == list(two_robots.ROBOTS)
+        own = bbbench.spec(task_id).robot
+        slug = "legged" if own == "wheel-legged" else "pd"
+        recorded = [episode["return"] for episode in by_robot[own]]
+        assert recorded == _board_returns(slug, task_id), task_id
+
+
+def test_a_robot_on_the_other_robots_ground_plays_the_recorded_episodes(robots_record):
+    seeds = bbbench.spec("bbbench/LeggedBumps-v0").eval_seeds[:2]
+    played = two_robots.play("bbbench/LeggedBumps-v0", "two-wheel", seeds)
+    assert played == robots_record["tasks"]["bbbench/LeggedBumps-v0"]["two-wheel"][:2]
+
+
+# -- the team tasks (scripts/calibrate_teams.py --evaluate) ---------------------------
+
+teams = load_script("calibrate_teams")
+
+
+@pytest.fixture(scope="module")
+def teams_record() -> dict:
+    return _read(teams.RECORD, "calibrate_teams")
+
+
+def test_the_team_calibration_is_the_suites_tasks_on_the_validation_seeds(teams_record):
+    assert teams_record["split"] == "validation"
+    assert teams_record["seeds"] == {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)}
+    assert list(teams_record["tasks"]) == list(teams.TEAM_TASKS)
+    for task in teams_record["tasks"].values():
+        assert list(task["policies"]) == list(teams.POLICIES)
+        for row in task["policies"].values():
+            assert len(row["returns"]) == len(row["lengths"]) == len(VALIDATION_SEEDS)
+
+
+def test_the_team_calibrations_verdicts_follow_from_its_episodes(teams_record):
+    from bbbench.evaluation import stats
+
+    for name, task in teams_record["tasks"].items():
+        rows = task["policies"]
+        zero = float(np.mean(rows["random"]["returns"]))
+        best = bbbench.spec(name).max_return
+        normalized = {p: (np.array(r["returns"]) - zero) / (best - zero) for p, r in rows.items()}
+        for policy, row in rows.items():
+            assert row["normalized"] == float(normalized[policy].mean())
+            assert row["finished"] == float(np.mean([n == 1500 for n in row["lengths"]]))
+        point, interval = stats.probability_of_improvement(
+            [normalized["team"]], [normalized["naive"]]
+        )
+        assert task["p_team_over_naive"] == [point, list(interval)]
+        team = rows["team"]
+        meets = (
+            interval[0] > 0.5
+            and (team["normalized"] <= 0.7 or team["finished"] <= 0.6)
+            and rows["random"]["finished"] == 0
+        )
+        assert task["meets"] == meets, name
+    assert teams_record["holds"] == all(task["meets"] for task in teams_record["tasks"].values())
+
+
+def test_a_team_calibration_episode_is_what_the_controller_plays(teams_record):
+    seed = VALIDATION_SEEDS[0]
+    length, team_return = teams.play(("bbbench/Convoy-v0", "team", seed))
+    row = teams_record["tasks"]["bbbench/Convoy-v0"]["policies"]["team"]
+    assert (length, team_return) == (row["lengths"][0], row["returns"][0])
