@@ -3,6 +3,7 @@ held by a test: one line and exit code 2, with nothing written, or the right rec
 
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 from importlib import resources
@@ -265,3 +266,32 @@ def test_66_a_training_never_overwrites_a_policy_or_another_trainings_records(tm
     assert "a file is there already" in err
     assert (seeded / "policy.zip").read_bytes() == b"seed 1"
     assert not (tmp_path / "runs" / "policy-s0").exists()
+
+
+def test_66_tasks_whose_observations_differ_are_refused_before_training(tmp_path, capsys):
+    out = tmp_path / "policy.zip"
+    argv = ["train", "bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "--algo", "ppo"]
+    err = one_line_exit_2(capsys, *argv, "--out", str(out))
+    assert "bbbench/SteerTracking-v0 9 values, bbbench/Waypoints-v0 14 values" in err
+    assert list(tmp_path.iterdir()) == []
+    # the generalist's mix shares one layout and is taken
+    from bbbench.training import check_request
+
+    mix = ["bbbench/FlatBalance-v1", "bbbench/Bumps-v2", "bbbench/Slopes-v2"]
+    assert check_request(mix, "ppo", None, None)[0] == mix
+
+
+def test_66_an_n_bots_sweep_plays_the_grid_values_each_task_takes(tmp_path):
+    from bbbench.evaluation.sweep import applying_tasks, standard_grid
+
+    assert standard_grid("n_bots") == (2, 4, 8, 16)
+    assert standard_grid("n_bots", ["bbbench/MultiBalance-v1"]) == (2, 4, 8, 16)
+    assert standard_grid("n_bots", ["bbbench/Swap-v0"]) == (2, 4, 8)
+    assert standard_grid("n_bots", ["bbbench/Swap-v0", "bbbench/ConvoyTurns-v0"]) == (2, 4)
+    assert {"bbbench/Swap-v0", "bbbench/ConvoyTurns-v0"} <= set(applying_tasks("n_bots"))
+    document = tmp_path / "sweep.json"
+    argv = ["sweep", "random", "--task", "bbbench/ConvoyTurns-v0", "--axis", "n_bots"]
+    assert main([*argv, "--episodes", "1", "--json", str(document)]) == 0
+    written = json.loads(document.read_text())
+    assert written["values"] == [2, 4]
+    assert written["standard_grid"] is True

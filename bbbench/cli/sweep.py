@@ -39,8 +39,8 @@ def add_parser(commands) -> None:
         "--task, the robot's profile task for a perturbation (VelocityTracking for the "
         "two-wheel bot, LeggedVelocityTracking for the wheel-legged robot, SteerTracking for "
         "the steering robot), the terrain tasks for difficulty and "
-        "the multi-bot tasks that take 2 to 16 bots for n_bots (each the latest version the "
-        "policies fit).",
+        "for n_bots the multi-bot tasks that take 2 to 16 bots, or else those the policies "
+        "fit (each the latest version the policies fit).",
     )
     sweep.add_argument(
         "policy",
@@ -51,7 +51,10 @@ def add_parser(commands) -> None:
     )
     sweep.add_argument("--axis", required=True, help="the parameter to vary")
     sweep.add_argument(
-        "--values", metavar="V1,V2,...", help="the values to play (default: the standard grid)"
+        "--values",
+        metavar="V1,V2,...",
+        help="the values to play (default: the standard grid; on n_bots, the values of "
+        "2, 4, 8, 16 every task takes)",
     )
     sweep.add_argument("--task", action="extend", nargs="+", metavar="ID", help="task ID(s)")
     add_play_options(sweep, episodes="the first N eval seeds at each value (default: all)")
@@ -133,7 +136,7 @@ def _checked(args: argparse.Namespace):
     check_play_options(args)
     try:
         axis = check_axis(args.axis)
-        values = standard_grid(axis) if args.values is None else parse_values(axis, args.values)
+        values = None if args.values is None else parse_values(axis, args.values)
         check_distinct_outputs({"--json": args.json, "--plot": args.plot})
         if args.json is not None:
             check_output_path(args.json, "--json")
@@ -148,6 +151,8 @@ def _checked(args: argparse.Namespace):
         check_distinct_policies(args.policy)
         policies = [load_policy(name) for name in args.policy]
         requested = args.task or _default_tasks(axis, policies)
+        if values is None:  # the grid every task takes (on n_bots, a team's is 2 and 4)
+            values = standard_grid(axis, [bbbench.spec(task_id).id for task_id in requested])
         for policy in policies:  # each fits every task, and every pair can be made
             task_ids = select_tasks(policy, requested)
             sweep_tasks(task_ids, axis, values, policy.height_scan)
@@ -166,7 +171,11 @@ def _checked(args: argparse.Namespace):
 
 def _default_tasks(axis: str, policies) -> list[str]:
     """The tasks the axis is swept on when none is given."""
-    from bbbench.evaluation.sweep import applying_tasks  # lazy: bbbench.evaluation.sweep
+    from bbbench.evaluation.sweep import (  # lazy: bbbench.evaluation.sweep
+        applying_tasks,
+        most_bots,
+        standard_grid,
+    )
     from bbbench.policies.policy import fitting_tasks  # lazy: bbbench.policies
 
     if axis not in ("difficulty", "n_bots"):
@@ -183,6 +192,9 @@ def _default_tasks(axis: str, policies) -> list[str]:
         return list(tasks)
     applies = applying_tasks(axis)
     fits = [t for t in applies if all(t in fitting_tasks(policy) for policy in policies)]
+    if axis == "n_bots":  # those that take the whole grid, where the policies fit one
+        whole = [t for t in fits if most_bots(bbbench.spec(t)) >= max(standard_grid(axis))]
+        fits = whole or fits
     if not fits:
         kind = "terrain" if axis == "difficulty" else "multi-bot"
         raise ValueError(

@@ -53,13 +53,20 @@ def check_axis(axis: str) -> str:
     raise ValueError(f"unknown axis {axis!r}: {hint}the axes are {', '.join(AXES)}")
 
 
-def standard_grid(axis: str) -> tuple[float, ...]:
-    """The values the robustness profile plays on `axis`."""
+def standard_grid(axis: str, task_ids: Sequence[str] = ()) -> tuple[float, ...]:
+    """The values the robustness profile plays on `axis`; on `n_bots`, those every one of
+    `task_ids` takes (a team takes 2 to 4 bots, Swap-v0 2 to 8)."""
     if axis == "difficulty":
         return DIFFICULTY_GRID
     if axis == "n_bots":
-        return N_BOTS_GRID
+        most = min((most_bots(spec(task_id)) for task_id in task_ids), default=MAX_BOTS)
+        return tuple(value for value in N_BOTS_GRID if value <= most)
     return PERTURBATIONS[check_axis(axis)].grid
+
+
+def most_bots(task: TaskSpec) -> int:
+    """The most bots a multi-bot task's world takes: its scenario's limit, or the suite's."""
+    return task.scenario_class.most_bots or MAX_BOTS
 
 
 def unit(axis: str, task_ids: Sequence[str] = ()) -> str:
@@ -131,12 +138,8 @@ def applying_tasks(axis: str) -> list[str]:
     latest = [spec(task_id) for task_id in list_tasks(latest=True)]
     if axis == "difficulty":
         return [task.id for task in latest if task.difficulty is not None]
-    if axis == "n_bots":  # those that take the whole grid: a team takes 2 to 4 bots
-        return [
-            task.id
-            for task in latest
-            if task.multi_agent and (task.scenario_class.most_bots or MAX_BOTS) >= N_BOTS_GRID[-1]
-        ]
+    if axis == "n_bots":  # every multi-bot task, each on the grid values it takes
+        return [task.id for task in latest if task.multi_agent]
     return [task.id for task in latest if refusal(axis, task) is None]
 
 
@@ -164,7 +167,7 @@ def sweep(
     of `axis` (default: its standard grid), as the sweep document (deterministic actions).
     `on_result(n, results)` is called as each group of n episodes ends."""
     axis = check_axis(axis)
-    values = list(standard_grid(axis) if values is None else values)
+    values = list(standard_grid(axis, task_ids) if values is None else values)
     entries = []
     for policy in policies:
         tasks = sweep_tasks(task_ids, axis, values, policy.height_scan)
@@ -191,7 +194,7 @@ def sweep(
         "axis": axis,
         "unit": unit(axis, task_ids),
         "values": values,
-        "standard_grid": tuple(values) == tuple(standard_grid(axis)),
+        "standard_grid": tuple(values) == tuple(standard_grid(axis, task_ids)),
         "deterministic": True,
         "statistics": stats.method(),
         "policies": entries,

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from bbbench.tasks.suite import agent_spaces, list_tasks, spec
+from bbbench.tasks.suite import agent_layout, agent_spaces, list_tasks, spec
 from bbbench.training.algorithms import ALGORITHMS, BENCHMARL, TRAINABLE, trainable
 from bbbench.training.logs import Trained
 from bbbench.training.sb3.recipes import MIX
@@ -53,6 +53,14 @@ def check_request(
             f"{' and '.join(sorted(robot.name for robot in robots))}"
         )
     (robot,) = robots
+    layouts = {t: agent_layout(t) for t in tasks}
+    if len(set(layouts.values())) > 1:  # the same robot, another scenario's observation
+        shown = ", ".join(f"{t} {len(layout)} values" for t, layout in layouts.items())
+        raise ValueError(
+            f"one policy trains on tasks whose observations mean the same: {shown}, laid out "
+            f"differently; train a policy per task, or mix tasks of one layout (`bbbench list "
+            f"TASK` shows a task's)"
+        )
     # The algorithm's first mode the robot takes (PPO: discrete on the two-wheel bot,
     # continuous on the wheel-legged robot).
     modes = [m for m in algo.action_modes if m in robot.action_modes]
