@@ -23,6 +23,7 @@ import textwrap
 from pathlib import Path
 
 import bbbench
+from bbbench.policies import classical_controller
 from bbbench.robots import FALL_TILT
 from bbbench.robots.layout import fields_markdown
 from bbbench.tasks.group import MIN_BOTS
@@ -31,6 +32,8 @@ from bbbench.tasks.scenario import Scenario
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE, list_tasks
 from bbbench.tasks.tracks import TRACKS, track_of
+from bbbench.training import ALGORITHMS, MARL_TRAINABLE
+from bbbench.training.recipe_files import read_recipe_file
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
@@ -96,6 +99,7 @@ def glance(task: TaskSpec, scenario) -> str:
             f"returns from 0 to {task.max_return:g}",
         ),
         ("Evaluation seeds", f"{len(task.eval_seeds)}, from {task.eval_seeds[0]}"),
+        ("Classical controller", f"`{classical_controller(task.id)}` (built in: below)"),
         (
             "Board",
             f"the {track.label} track ([leaderboard](../leaderboard/index.html#{track.name}))",
@@ -205,6 +209,34 @@ def scores(task: TaskSpec, tracks: list[dict]) -> str:
     )
 
 
+def run_it(task: TaskSpec) -> str:
+    """How to score the task's classical controller, and train and score a policy with
+    each shipped recipe for it."""
+    controller = classical_controller(task.id)
+    trained = [a for a in ALGORITHMS if task.id in read_recipe_file(a)]
+    short = slug(task)
+    lines = [
+        "```bash",
+        f"bbbench eval {controller} --task {task.id}   # the classical controller",
+    ]
+    for algorithm in trained[:1]:  # the first recipe; `--algo` takes the others
+        out = f"{short}-{algorithm}.{'onnx' if algorithm in MARL_TRAINABLE else 'zip'}"
+        lines += [
+            f"bbbench train {task.id} --algo {algorithm} --out {out}",
+            f"bbbench eval {out} --task {task.id}",
+        ]
+    lines.append("```")
+    names = [a.upper() for a in trained]
+    recipes = " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
+    return (
+        "\n".join(lines)
+        + f"\n\n`bbbench eval` plays the {len(task.eval_seeds)} evaluation seeds (`--episodes N`"
+        f" the first N). The shipped recipes train {recipes or 'no algorithm'} on this task "
+        "(`--algo`), from its own reward ([training](../guides/training-sb3.md), "
+        "[multi-agent training](../guides/training-marl.md))."
+    )
+
+
 def history(task: TaskSpec) -> str:
     earlier = sorted(
         (other for other in SUITE.values() if other.name == task.name and other is not task),
@@ -247,6 +279,8 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
         f"\n\n{observation}{scan}",
         "## Keywords",
         keywords(task, scenario),
+        "## Run it",
+        run_it(task),
         "## Scores",
         scores(task, tracks),
         "## Version history",

@@ -79,6 +79,23 @@ def test_each_page_gives_its_tasks_own_spaces(task_id):
         assert f"- {entry}" in page
 
 
+@pytest.mark.parametrize("task_id", bbbench.list_tasks(latest=True))
+def test_each_page_says_how_to_run_its_task_with_commands_that_are_taken(task_id):
+    """The page's "Run it" block: its classical controller fits the task, and the training
+    command's algorithm has a shipped recipe for it."""
+    from bbbench.policies import load_policy
+    from bbbench.training import check_request
+
+    task = SUITE[task_id]
+    page = (DOCS / "environments" / f"{task.name.lower()}.md").read_text()
+    block = page.split("## Run it", 1)[1].split("```bash\n", 1)[1].split("```", 1)[0]
+    (controller,) = re.findall(rf"^bbbench eval (\S+) --task {task_id}   #", block, re.M)
+    assert load_policy(controller).mismatch(task_id) is None
+    assert f"| Classical controller | `{controller}`" in page
+    for algorithm in re.findall(rf"^bbbench train {task_id} --algo (\w+) --out", block, re.M):
+        assert check_request([task_id], algorithm, None, None)[0] == [task_id]
+
+
 @pytest.mark.parametrize("task_id", ["bbbench/MultiBalance-v1", "bbbench/FlatBalance-v1"])
 def test_each_render_mode_a_page_lists_is_taken(task_id):
     task = SUITE[task_id]
