@@ -151,7 +151,7 @@ def keywords(task: TaskSpec, scenario) -> str:
         rows.append(("n_bots", f"{MIN_BOTS} to {most}", f"{task.group.n_bots}"))
     if task.difficulty is not None:
         rows.append(("difficulty", "0 to 1: the terrain's height", f"{task.difficulty:g}"))
-    if not task.multi_agent and getattr(scenario, "scans_ground", False):
+    if not task.multi_agent and scenario.scans_ground:
         rows.append(("height_scan", "append the ground's heights ahead", "`False`"))
     rows.append(("max_episode_steps", "the time limit, in steps", f"{task.max_episode_steps}"))
     shown = '`"rgb_array"`' if task.multi_agent else '`"rgb_array"` or `"human"`'
@@ -259,7 +259,7 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
     scan = (
         "\n\nWith `height_scan=True` the vector goes on with the ground's heights ahead "
         "(11 values, [robots](../robots.md))."
-        if not task.multi_agent and getattr(scenario, "scans_ground", False)
+        if not task.multi_agent and scenario.scans_ground
         else ""
     )
     parts = [

@@ -295,3 +295,17 @@ def test_66_an_n_bots_sweep_plays_the_grid_values_each_task_takes(tmp_path):
     written = json.loads(document.read_text())
     assert written["values"] == [2, 4]
     assert written["standard_grid"] is True
+
+
+@pytest.mark.parametrize(
+    ("task_id", "scans"), [("bbbench/SteerTracking-v0", False), ("bbbench/FlatBalance-v1", True)]
+)
+def test_66_the_unknown_keyword_error_lists_height_scan_only_where_it_is_taken(task_id, scans):
+    import bbbench
+
+    with pytest.raises(TypeError, match="accepted keyword arguments are") as raised:
+        bbbench.make(task_id, foo=1)
+    assert ("height_scan" in str(raised.value)) == scans
+    if not scans:
+        with pytest.raises(ValueError, match="observes no height scan"):
+            bbbench.make(task_id, height_scan=True)

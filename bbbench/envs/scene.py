@@ -393,7 +393,12 @@ def requested_task(
     terrain = task.difficulty is not None
     robot = task.robot_model
     accepted = [f"action_mode={robot.action_modes}", f"render_mode={(None, *render_modes)}"]
-    accepted += [name for name in options if name != "difficulty" or terrain]
+    scans = task.scenario_class.scans_ground
+    accepted += [
+        name
+        for name in options
+        if (name != "difficulty" or terrain) and (name != "height_scan" or scans)
+    ]
     accepted += [keyword for keyword in PERTURBATIONS if refusal(keyword, task) is None]
     perturbations = {k: unknown.pop(k) for k in list(unknown) if k in PERTURBATIONS}
     wrong = sorted(unknown)

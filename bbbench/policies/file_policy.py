@@ -52,7 +52,7 @@ class FilePolicy(Policy):
             observation = agent_spaces(task_id, robot.default_action_mode)[0]
             own = observation.shape == robot.observation_space(False).shape
             wants = robot.describe_layout() if own else describe_space(observation)
-            if getattr(task.scenario_class, "scans_ground", False):
+            if task.scenario_class.scans_ground:
                 scanned = agent_spaces(task_id, robot.default_action_mode, height_scan=True)[0]
                 wants += f" (or {describe_space(scanned)} with height_scan=True)"
         actions = " or ".join(

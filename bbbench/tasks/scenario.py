@@ -135,6 +135,8 @@ class Scenario(abc.ABC):
             perturbation says (BeamCarry's payload is the beam's).
         steers: its targets are (velocity, yaw rate) pairs (`PiecewiseConstantTwist`),
             scored by `TwistReward`; else forward velocities, scored by the others.
+        scans_ground: it observes the ground's heights ahead when the task asks
+            (`height_scan=True`); else `height_scan` is refused.
     """
 
     name: ClassVar[str]
@@ -147,6 +149,7 @@ class Scenario(abc.ABC):
     most_bots: ClassVar[int | None] = None
     units: ClassVar[dict[str, str]] = {}
     steers: ClassVar[bool] = False
+    scans_ground: ClassVar[bool] = False
 
     def __init__(self, task: Task) -> None:
         self.task = task
