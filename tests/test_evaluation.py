@@ -342,6 +342,28 @@ def test_video_writes_the_first_episode(tmp_path, capsys, task_id, suffix, shape
     assert f"episode seed {bbbench.spec(task_id).eval_seeds[0]}" in stdout
 
 
+def test_a_swap_videos_last_frame_is_of_a_step_with_bots_in_the_world():
+    """Swap's bots leave the world as they fall: the video ends on the last step with a bot
+    in it, not on the empty world after the last one fell."""
+    from bbbench.evaluation.episodes import action_generator
+    from bbbench.evaluation.play import MultiEpisode
+    from bbbench.evaluation.video import FRAME_EVERY, _play
+    from bbbench.policies import load_policy
+
+    task = bbbench.spec("bbbench/Swap-v0")
+    policy, seed = load_policy("random"), task.eval_seeds[0]
+    act = policy.acting(task.id, False)
+    frames = []
+    _play(task, policy, act, action_generator(seed), seed, frames)
+    env = bbbench.make_parallel(task.id, render_mode="rgb_array")
+    played = MultiEpisode(env, act, seed, action_generator(seed)).play()
+    env.close()
+    assert played.falls == 4  # every bot fell, before the time limit
+    assert played.length < task.max_episode_steps
+    with_bots = range(played.length)  # after step `length` the world is empty
+    assert len(frames) == len([step for step in with_bots if step % FRAME_EVERY == 0])
+
+
 # -- bad input ---------------------------------------------------------------------------
 
 

@@ -72,10 +72,14 @@ def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -
         rngs = None if rng is None else [rng]
         played = Lockstep([env], act, [seed], task.max_episode_steps, rngs)
         steps = (step.step for step in played if not step.ended)
+    last = task.max_episode_steps - 1  # a time limit's last step, bots still in the world
     try:
         for step in steps:
-            if step % FRAME_EVERY == 0:
+            if step % FRAME_EVERY == 0 or (task.multi_agent and step == last):
                 frames.append(env.render())
     finally:
-        frames.append(env.render())
+        # the world as the episode left it; on a multi-bot task whose bots leave the world
+        # as they end (not a team's), that is an empty world: the last frame with bots stands
+        if not task.multi_agent or env.agents or task.scenario_class.team:
+            frames.append(env.render())
         env.close()
