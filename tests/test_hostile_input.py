@@ -224,6 +224,26 @@ def test_ctrl_c_and_sigterm_stop_in_one_line_leaving_nothing_behind(tmp_path, si
     assert not [pid for pid in workers if alive(pid)]
 
 
+@pytest.mark.slow
+def test_ctrl_c_stops_a_marl_training_in_one_line_with_no_leaked_semaphore(tmp_path):
+    """Ctrl-C in the middle of an IPPO training with worker processes: one line, exit 130,
+    no worker left, nothing written, and no warning of leaked semaphores after it."""
+    command = run_bbbench(
+        "train", "bbbench/Swap-v0", "--algo", "ippo", "--workers", "2",
+        "--out", str(tmp_path / "policy.onnx"),
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    workers = wait_for_workers(command, 2)  # the resource tracker and a worlds worker
+    time.sleep(5)  # well into the first batch's collection
+    os.killpg(command.pid, signal.SIGINT)
+    _, err = command.communicate(timeout=60)
+    assert command.returncode == 130, err
+    assert err.strip() == "bbbench: interrupted; nothing written"
+    assert list(tmp_path.iterdir()) == []
+    time.sleep(0.5)
+    assert not [pid for pid in workers if alive(pid)]
+
+
 # -- 9, 10. files -----------------------------------------------------------------------
 
 

@@ -4,6 +4,7 @@ one-line errors, Ctrl-C and SIGTERM)."""
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import signal
 import sys
@@ -64,7 +65,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         what = "interrupted" if isinstance(interruption, KeyboardInterrupt) else "terminated"
         kept = f"wrote {', '.join(args.written)} only" if args.written else "nothing written"
         print(f"bbbench: {what}; {kept}", file=sys.stderr)
-        return 130 if isinstance(interruption, KeyboardInterrupt) else 143
+        code = 130 if isinstance(interruption, KeyboardInterrupt) else 143
+    # The interrupted frames are free once the handler is left: what they held (a
+    # training's multiprocessing locks) is collected now, as the quick exit skips teardown
+    # and the resource tracker would warn of leaked semaphores.
+    gc.collect()
+    return code
 
 
 def _terminate(signum, frame) -> NoReturn:

@@ -224,16 +224,18 @@ def train_marl(
             seed,
         )
         experiment = plan.build_experiment(task, seed, budget, n_envs, Path(scratch), [callback])
-        experiment.run()
-        callback.evaluate_now()  # the end of the budget is a point of the curve
-        experiment.close()
-        callback.close()
-        frames = experiment.total_frames
-        # TorchRL's replay buffers hold multiprocessing locks, unlinked when they are
-        # collected: collected now, as `bbbench`'s quick exit (os._exit) skips teardown
-        # and the resource tracker would warn of leaked semaphores.
-        callback.experiment = experiment = None
-        gc.collect()
+        try:
+            _run(experiment)
+            callback.evaluate_now()  # the end of the budget is a point of the curve
+            frames = experiment.total_frames
+            experiment.close()
+        finally:  # at the end, or interrupted (Ctrl-C, SIGTERM)
+            callback.close()
+            # TorchRL's replay buffers hold multiprocessing locks, unlinked when they are
+            # collected: collected now, as `bbbench`'s quick exit (os._exit) skips teardown
+            # and the resource tracker would warn of leaked semaphores.
+            callback.experiment = experiment = None
+            gc.collect()
     seconds = time.perf_counter() - began
     write_atomic(out, callback.last)
 
@@ -265,6 +267,18 @@ def train_marl(
     return Trained(
         out, log_dir, None, callback.curve, results, seconds, plan, kept=callback.curve[-1]
     )
+
+
+def _run(experiment) -> None:
+    """BenchMARL's `Experiment.run`, which closes the experiment itself when it raises.
+    Closing after a Ctrl-C can fail inside TorchRL (a module left mid-call): that is the
+    interruption, and is raised as one."""
+    try:
+        experiment.run()
+    except Exception as error:
+        if isinstance(error.__context__, KeyboardInterrupt):
+            raise KeyboardInterrupt from None
+        raise
 
 
 class _NoBar:
