@@ -23,7 +23,6 @@ from bbbench.portable import total
 from bbbench.tasks.spec import VALIDATION_SEEDS
 from conftest import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
 calibrate = load_script("calibrate_reward")
 
 
@@ -96,17 +95,12 @@ def test_the_shipped_rewards_returns_are_what_the_env_pays(record, task_id, poli
 # -- the two robots on the same ground (scripts/two_robots.py) ------------------------
 
 two_robots = load_script("two_robots")
+board_tables = load_script("board_tables")
 
 
 @pytest.fixture(scope="module")
 def robots_record() -> dict:
     return _read(two_robots.RECORD, "two_robots")
-
-
-def _board_returns(slug: str, task_id: str) -> list[float]:
-    document = json.loads((ROOT / "leaderboards" / "results" / f"{slug}.json").read_text())
-    (block,) = [block for block in document["tasks"] if block["task"] == task_id]
-    return [episode["return"] for episode in block["episodes"]]
 
 
 def test_each_robot_on_its_own_tasks_is_the_boards_controller(robots_record):
@@ -118,7 +112,8 @@ def test_each_robot_on_its_own_tasks_is_the_boards_controller(robots_record):
         own = bbbench.spec(task_id).robot
         slug = "legged" if own == "wheel-legged" else "pd"
         recorded = [episode["return"] for episode in by_robot[own]]
-        assert recorded == _board_returns(slug, task_id), task_id
+        board = board_tables.controller(slug, task_id)["episodes"]
+        assert recorded == [episode["return"] for episode in board], task_id
 
 
 def test_a_robot_on_the_other_robots_ground_plays_the_recorded_episodes(robots_record):
