@@ -225,6 +225,34 @@ def test_no_score_is_typed_by_hand_outside_the_generated_blocks(page):
     ]
 
 
+def test_a_verdict_on_a_saturated_task_says_so():
+    """docs/baselines.md's verdicts: a row on a task the board marks saturated (FlatBalance-v1
+    today, where 0.999 against 1.000 is "below") says it is a check; no other row does."""
+    import bbbench.leaderboard.verdicts as verdicts
+
+    root = Path(__file__).resolve().parents[1]
+    board = json.loads((root / "leaderboards" / "bbbench-v0.json").read_text())
+    saturated = {
+        task["task"].removeprefix("bbbench/")
+        for track in board["tracks"]
+        for task in track["tasks"]
+        if task["saturated"]
+    }
+    assert "FlatBalance-v1" in saturated
+    table = VERDICTS.search((root / "docs" / "baselines.md").read_text()).group()
+    rows = [
+        line.split(" | ")
+        for line in table.splitlines()
+        if line.startswith("| ") and "---" not in line
+    ][1:]
+    assert rows
+    for row in rows:
+        task, said = row[0].removeprefix("| "), row[-1]
+        assert ("saturated" in said) == (task in saturated), row
+    assert verdicts.verdict(0.0, 0.33, 3, saturated=True).startswith("below (a saturated")
+    assert verdicts.verdict(0.4, 0.6, 1) == "not separated by 1 run"
+
+
 def test_the_robots_page_names_each_robots_tasks():
     from bbbench.robots import ROBOTS
     from bbbench.tasks.suite import list_tasks, spec

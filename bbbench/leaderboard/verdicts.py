@@ -6,7 +6,9 @@ A verdict follows one rule: "above" where the 95% interval of P(method > control
 lies above 0.5, "below" where it lies below, and otherwise "not separated" (by that many
 runs). P compares runs (`bbbench.evaluation.stats.run_improvement`): per task, the
 chance that a run of the method scores above the controller's run, its interval from
-the two-level bootstrap (runs, then episodes).
+the two-level bootstrap (runs, then episodes). On a saturated task (`ranking.SATURATED`:
+the controller and most methods at 0.95 or more) the verdict says so: there, "below"
+can mean 0.999 against 1.000, and the task is a check outside the track's overall.
 """
 
 from __future__ import annotations
@@ -34,12 +36,14 @@ def _runs(method: dict[str, Any], task_id: str, results: Mapping[str, dict]) -> 
     return stats.Runs((scores,), seed=stats.method_seed(method["slug"]))
 
 
-def verdict(low: float, high: float, runs: int) -> str:
+def verdict(low: float, high: float, runs: int, saturated: bool = False) -> str:
     if low > 0.5:
-        return "above"
-    if high < 0.5:
-        return "below"
-    return f"not separated by {runs} run{'s' * (runs != 1)}"
+        said = "above"
+    elif high < 0.5:
+        said = "below"
+    else:
+        said = f"not separated by {runs} run{'s' * (runs != 1)}"
+    return f"{said} (a saturated task: a check, not in the overall)" if saturated else said
 
 
 def rows(document: dict[str, Any], results: Mapping[str, dict]) -> list[str]:
@@ -48,6 +52,7 @@ def rows(document: dict[str, Any], results: Mapping[str, dict]) -> list[str]:
     lines = list(HEADER)
     for track in document["tracks"]:
         methods = {method["slug"]: method for method in track["methods"]}
+        saturated = {task["task"] for task in track["tasks"] if task["saturated"]}
         for method in sorted(track["methods"], key=lambda m: m["slug"]):
             recipe = method["submission"]["recipe"]
             if recipe["world_steps"] == 0:
@@ -62,10 +67,11 @@ def rows(document: dict[str, Any], results: Mapping[str, dict]) -> list[str]:
                 theirs = _runs(controller, task_id, results)
                 point, (low, high) = stats.run_improvement(mine, theirs)
                 ours, theirs_block = block, controller["tasks"][task_id]
+                said = verdict(low, high, runs, task_id in saturated)
                 lines.append(
                     f"| {task_name(task_id)} | {method['submission']['name']} | {runs} | "
                     f"{_score(ours)} | {controller['slug']} | {_score(theirs_block)} | "
-                    f"{point:.2f} [{low:.2f}, {high:.2f}] | {verdict(low, high, runs)} |"
+                    f"{point:.2f} [{low:.2f}, {high:.2f}] | {said} |"
                 )
     return lines
 
