@@ -28,8 +28,7 @@ import numpy as np
 
 import bbbench
 from bbbench.envs.balance import BalanceEnv
-from bbbench.policies import PDController
-from bbbench.policies.controllers.legged import LeggedController
+from bbbench.policies import load_policy
 from bbbench.tasks.spec import TaskSpec
 
 REFERENCE = "bbbench/FlatBalance-v0"
@@ -56,8 +55,10 @@ class RandomActions:
 
 
 def classical_controller(task: TaskSpec):
-    """The task's robot's classical controller: the PD baseline, or the wheel-legged one."""
-    return LeggedController() if task.robot == "wheel-legged" else PDController()
+    """The task's robot's classical controller (`Robot.controller`: PD, or the wheel-legged
+    one), on one observation."""
+    actor = load_policy(task.robot_model.controller).actor(task.id)
+    return lambda observation: actor(observation[None])[0]
 
 
 class TaskLoop:

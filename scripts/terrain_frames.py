@@ -31,8 +31,7 @@ import numpy as np
 from PIL import Image
 
 import bbbench
-from bbbench.policies import PDController, load_policy
-from bbbench.policies.controllers.legged import LeggedController
+from bbbench.policies import classical_controller, load_policy
 from bbbench.policies.controllers.team import TeamController
 
 TASKS = (
@@ -51,12 +50,12 @@ OUT = Path(__file__).resolve().parent.parent / "docs" / "images"
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     for task_id in TASKS:
-        legged = bbbench.spec(task_id).robot == "wheel-legged"
-        policy = LeggedController() if legged else PDController()
-        env = bbbench.make(task_id, render_mode="rgb_array")
+        policy = load_policy(classical_controller(task_id))
+        actor = policy.actor(task_id)
+        env = bbbench.make(task_id, render_mode="rgb_array", action_mode=policy.action_mode)
         observation, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
         for _ in range(150):
-            observation, *_ = env.step(policy(observation))
+            observation, *_ = env.step(actor(observation[None])[0])
         path = OUT / f"{task_id.split('/')[1].lower()}.png"
         Image.fromarray(env.render()).save(path, optimize=True)
         env.close()

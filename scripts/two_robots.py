@@ -35,15 +35,14 @@ TASKS = {  # task -> what its ground is, as the table says
 ROBOTS = {"wheel-legged": "wheel-legged, classical", "two-wheel": "two-wheel, PD"}
 
 
-def player(robot: str):
-    """The robot's classical controller, as the evaluation harness plays it."""
-    from bbbench.policies.controllers.legged import LeggedController
-    from bbbench.policies.controllers.pd import PDController
-    from bbbench.policies.policy import PDActor
+def player(robot: str, task_id: str):
+    """The robot's classical controller (`Robot.controller`) on the task, as the
+    evaluation harness plays it, and its action mode."""
+    from bbbench.policies import load_policy
+    from bbbench.robots import ROBOTS as MODELS
 
-    if robot == "wheel-legged":
-        return PDActor(LeggedController()), "continuous"
-    return PDActor(PDController(action_mode="discrete")), "discrete"
+    policy = load_policy(MODELS[robot].controller)
+    return policy.actor(task_id), policy.action_mode
 
 
 def variant(task_id: str, robot: str):
@@ -58,7 +57,7 @@ def play(task_id: str, robot: str, seeds: Sequence[int]) -> list[dict[str, Any]]
     from bbbench.evaluation.episodes import LockstepPlayer
     from bbbench.evaluation.harness import LOCKSTEP
 
-    actor, mode = player(robot)
+    actor, mode = player(robot, task_id)
     runner = LockstepPlayer(actors={task_id: actor}, action_mode=mode, sampled=False)
     task, episodes = variant(task_id, robot), []
     try:  # in the harness's groups of seeds (an episode depends on its seed alone)

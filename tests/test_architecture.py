@@ -88,6 +88,48 @@ def test_the_reading_of_task_ids_sees_one_in_code(tmp_path):
     assert code_naming_a_task(module, tmp_path) == ["probe.py:2: 'bbbench/FlatBalance-v1'"]
 
 
+def comparisons_of_a_name(path: Path, names: set[str], root: Path = ROOT) -> list[str]:
+    """Where `path` compares something with a scenario's or robot's name (==, !=, in):
+    a special case kept outside the scenario or robot it is about."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return [
+        f"{path.relative_to(root)}:{node.lineno}: {ast.unparse(node)}"
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Compare)
+        and any(isinstance(op, (ast.Eq, ast.NotEq, ast.In, ast.NotIn)) for op in node.ops)
+        and any(
+            isinstance(side, ast.Constant) and side.value in names
+            for side in (node.left, *node.comparators)
+        )
+    ]
+
+
+def test_no_code_outside_a_scenario_or_robot_compares_its_name():
+    """A scenario declares its classical controller and what a steering bot heads for; a
+    robot its controller and its task classes' interface: no code elsewhere, in the
+    package or its scripts, keys a special case on their names."""
+    from bbbench.robots import ROBOTS
+
+    names = set(SCENARIOS) | set(ROBOTS)
+    owners = (ROOT / "bbbench" / "tasks" / "scenarios", ROOT / "bbbench" / "robots")
+    found = [
+        where
+        for folder in (ROOT / "bbbench", ROOT / "scripts")
+        for path in sorted(folder.rglob("*.py"))
+        if not any(path.is_relative_to(owner) for owner in owners)
+        for where in comparisons_of_a_name(path, names)
+    ]
+    assert found == []
+
+
+def test_the_reading_of_comparisons_sees_one(tmp_path):
+    module = tmp_path / "probe.py"
+    module.write_text('def f(task):\n    return task.scenario == "swap" or "x" in "xy"\n')
+    assert comparisons_of_a_name(module, {"swap"}, tmp_path) == [
+        "probe.py:2: task.scenario == 'swap'"
+    ]
+
+
 def test_the_recipes_name_the_scenarios_registry_and_rows():
     text = recipes()
     for name in ("register_scenario", "MODULES", "TASKS", "bbbench/tasks/scenarios/__init__.py"):

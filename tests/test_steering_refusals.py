@@ -20,7 +20,7 @@ from conftest import one_line_exit_2
         ("steer", "bbbench/FlatBalance-v1", "steer controls the two-wheel-steer robot"),
         ("steer-avoid", "bbbench/MultiBalance-v1", "steer-avoid"),
         # the avoiding law off Swap
-        ("steer-avoid", "bbbench/Waypoints-v0", "Waypoints-v0 is not a swap task"),
+        ("steer-avoid", "bbbench/Waypoints-v0", "Waypoints-v0 is not a task of bots each heading"),
     ],
 )
 def test_the_command_refuses_a_policy_off_its_robot_in_one_line(

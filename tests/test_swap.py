@@ -76,7 +76,7 @@ def test_the_seeds_repeat_the_episode():
 def test_steer_avoid_plays_the_swap_tasks_only():
     policy = load_policy("steer-avoid")
     assert policy.mismatch(SWAP) is None
-    assert "not a swap task" in policy.mismatch("bbbench/Waypoints-v0")
+    assert "not a task of bots each heading for a goal" in policy.mismatch("bbbench/Waypoints-v0")
     assert "two-wheel robot" in policy.mismatch("bbbench/MultiBalance-v1")
     assert load_policy("steer").mismatch(SWAP) is None
 

@@ -42,14 +42,7 @@ def task_class(name: str) -> type[TaskEnv]:
         + (f" {task.description.strip()}" if task.description != newest.description else "")
         for task in sorted(versions, key=lambda task: -task.version)[1:]
     )
-    shared = (
-        "Everything shared by the suite (actions, observations, reward, starting state, "
-        "episode end, keyword arguments) is documented in `BalanceEnv`."
-        if newest.robot == "two-wheel"
-        else f"{newest.robot_model.interface_markdown()}\n\nEverything else the suite "
-        "shares (reward, starting state, episode end, keyword arguments) is documented in "
-        f"`BalanceEnv`: the {newest.robot} robot plays it as the two-wheel bot does."
-    )
+    shared = newest.robot_model.task_interface()
     doc = (
         f"`{newest.id}`: {newest.summary}.\n\n{newest.description.strip()}\n\n"
         f"{shared}\n\n"

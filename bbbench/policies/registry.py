@@ -66,19 +66,11 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
 def classical_controller(task_id: str) -> str:
     """The built-in controller of a task: the one its learned baselines are set against
     (docs/baselines.md) and whose play a MARL recipe's observation statistics are measured
-    on. The wheel-legged robot's controller on its tasks, the team controller on the team
-    tasks, `steer-avoid` on Swap, `steer` on the steering robot's other tasks, PD on the
-    rest. Raises ValueError for an unknown task."""
+    on. Its scenario's (`Scenario.controller`: `team` on the team tasks, `steer-avoid` on
+    Swap), else its robot's (`Robot.controller`: PD, `legged`, `steer`). Raises ValueError
+    for an unknown task."""
     task = spec(task_id)
-    if task.robot == "wheel-legged":
-        return "legged"
-    if task.scenario_class.team:
-        return "team"
-    if task.scenario == "swap":
-        return "steer-avoid"
-    if task.robot == "two-wheel-steer":
-        return "steer"
-    return "pd"
+    return task.scenario_class.controller or task.robot_model.controller
 
 
 def register_policy(name: str, factory: Callable[[], Policy]) -> None:

@@ -39,6 +39,9 @@ class Robot:
     summary: ClassVar[str]  # one line, for `bbbench list` and error messages
     model: ClassVar[WheeledModel]  # the facts read from its URDF
     action_modes: ClassVar[tuple[str, ...]]  # the first is the default
+    # The built-in policy that is its tasks' classical controller, where the task's
+    # scenario names none (`Scenario.controller`).
+    controller: ClassVar[str]
 
     @property
     def urdf_path(self) -> Path:
@@ -126,6 +129,14 @@ class Robot:
     def interface_markdown(self) -> str:
         """The action and observation spaces as Markdown tables, for its tasks' docstrings."""
         raise NotImplementedError
+
+    def task_interface(self) -> str:
+        """What its task classes' docstrings say of its spaces (`bbbench.envs.task_envs`)."""
+        return (
+            f"{self.interface_markdown()}\n\nEverything else the suite shares (reward, "
+            "starting state, episode end, keyword arguments) is documented in `BalanceEnv`: "
+            f"the {self.name} robot plays it as the two-wheel bot does."
+        )
 
     def actions_markdown(self) -> str:
         """The action spaces (every mode) in Markdown, for the site's task pages."""

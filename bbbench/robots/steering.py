@@ -340,6 +340,7 @@ class TwoWheelSteer(Robot):
     """The two-wheel bot with its wheels commanded apart (`SteeringBot`)."""
 
     name = "two-wheel-steer"
+    controller = "steer"  # bbbench.policies.controllers.steer
     summary = "the two-wheel bot commanding its wheels apart: it turns (1.0 kg, 0.5 m tall)"
     model = MODEL
     action_modes = ACTION_MODES

@@ -84,6 +84,7 @@ class TwoWheel(Robot):
     """The tutorial's balancing bot: a torso on two wheels on one axle (`BalanceBot`)."""
 
     name = "two-wheel"
+    controller = "pd"  # bbbench.policies.controllers.pd
     summary = "the tutorial's two-wheeled balancing bot (1.0 kg, 0.5 m tall)"
     model = MODEL
     action_modes = ACTION_MODES
@@ -100,6 +101,12 @@ class TwoWheel(Robot):
 
     def own_layout(self) -> tuple[ObservationField, ...]:
         return OBSERVATION_LAYOUT
+
+    def task_interface(self) -> str:
+        return (
+            "Everything shared by the suite (actions, observations, reward, starting state, "
+            "episode end, keyword arguments) is documented in `BalanceEnv`."
+        )
 
     def actions_markdown(self) -> str:
         table = [

@@ -258,6 +258,7 @@ class WheelLegged(Robot):
     """The wheel-legged balancer (`WheelLeggedBot`): continuous actions only."""
 
     name = "wheel-legged"
+    controller = "legged"  # bbbench.policies.controllers.legged
     summary = "a wheel-legged balancer: hip, knee and wheel per leg (1.2 kg)"
     model = LEGGED_MODEL
     action_modes = ("continuous",)

@@ -137,6 +137,11 @@ class Scenario(abc.ABC):
             scored by `TwistReward`; else forward velocities, scored by the others.
         scans_ground: it observes the ground's heights ahead when the task asks
             (`height_scan=True`); else `height_scan` is refused.
+        controller: the built-in policy that is its tasks' classical controller (the one
+            learned methods are set against); None for its robot's (`Robot.controller`).
+        heads_for: what a steering controller heads for on it, read from its observation:
+            "the command" (the target twist) or "the goal" (its distance and bearing);
+            None where the steering controllers do not play it.
     """
 
     name: ClassVar[str]
@@ -150,6 +155,8 @@ class Scenario(abc.ABC):
     units: ClassVar[dict[str, str]] = {}
     steers: ClassVar[bool] = False
     scans_ground: ClassVar[bool] = False
+    controller: ClassVar[str | None] = None
+    heads_for: ClassVar[str | None] = None
 
     def __init__(self, task: Task) -> None:
         self.task = task

@@ -112,19 +112,21 @@ def agent_spaces(
     task_id: str, action_mode: str, height_scan: bool = False
 ) -> tuple[spaces.Box, spaces.Space]:
     """The observation and action space of one bot of a task (every bot's, on a multi-bot
-    task), without building the task's world: the robot's layout on a solo task (with the
-    height scan if asked), else the scenario's, which has none."""
+    task), without building the task's world: its scenario's, with the height scan if
+    asked where the scenario scans the ground (`height_scan` is ignored elsewhere)."""
     task = spec(task_id)
-    robot = task.robot_model
-    if task.scenario == "solo":  # the robot's layout, with or without the scan
-        return robot.observation_space(height_scan), robot.action_space(action_mode)
-    return task.scenario_class(task).observation_space(), robot.action_space(action_mode)
+    scenario = _scenario(task, height_scan)
+    return scenario.observation_space(), task.robot_model.action_space(action_mode)
 
 
 def agent_layout(task_id: str, height_scan: bool = False) -> tuple[str, ...]:
     """The names of one bot's observation values on a task, in order: what its
     observation means, where `agent_spaces` gives only its width."""
-    task = spec(task_id)
-    if task.scenario == "solo":
-        return tuple(field.name for field in task.robot_model.layout(height_scan))
-    return tuple(field.name for field in task.scenario_class(task).layout)
+    return tuple(field.name for field in _scenario(spec(task_id), height_scan).layout)
+
+
+def _scenario(task: TaskSpec, height_scan: bool) -> Any:
+    """The task's scenario, not built into a world: what it observes."""
+    if task.scenario_class.scans_ground:
+        task = task.with_height_scan(height_scan)
+    return task.scenario_class(task)

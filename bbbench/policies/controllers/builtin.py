@@ -172,7 +172,7 @@ class SteerPolicy(Policy):
     """The steering robot's classical controller (`bbbench.policies.controllers.steer`):
     PD balance on the forward command and a yaw-rate law on the turning command, towards
     the (velocity, yaw rate) its task asks for or that heads for its goal. It fits every
-    steering task whose scenario it has a guide for."""
+    steering task whose scenario says what a bot heads for (`Scenario.heads_for`)."""
 
     name = algorithm = "steer"
     robot = "two-wheel-steer"
@@ -182,29 +182,32 @@ class SteerPolicy(Policy):
 
     def mismatch(self, task_id: str) -> str | None:
         refused = robot_mismatch(self, task_id)
-        scenario = spec(task_id).scenario_class.name
-        if refused is None and scenario not in GUIDES:
-            return f"{task_id}: steer has no guide for its {scenario!r} scenario"
+        scenario = spec(task_id).scenario_class
+        if refused is None and scenario.heads_for not in GUIDES:
+            return f"{task_id}: steer has no guide for its {scenario.name!r} scenario"
         return refused
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
-        scenario = spec(task_id).scenario_class.name
+        scenario = spec(task_id).scenario_class
         return PDActor(SteerController.for_scenario(scenario, self.action_mode))
 
 
 class SteerAvoidPolicy(SteerPolicy):
     """`steer` with collision avoidance (`bbbench.policies.controllers.steer.Avoiding`):
     each bot heads for its goal, pushed away from the neighbours it observes within
-    1.5 m and keeping to the right of the one ahead. It plays the swap tasks only; on
-    them, `steer` is the law without avoidance."""
+    1.5 m and keeping to the right of the one ahead. It plays the multi-bot tasks whose
+    bots head for goals (Swap); on them, `steer` is the law without avoidance."""
 
     name = algorithm = "steer-avoid"
 
     def mismatch(self, task_id: str) -> str | None:
         refused = robot_mismatch(self, task_id)
-        if refused is None and spec(task_id).scenario_class.name != "swap":
-            swaps = [t for t in list_tasks(latest=True) if spec(t).scenario_class.name == "swap"]
-            return f"{task_id} is not a swap task; steer-avoid plays {', '.join(swaps)}"
+        if refused is None and not _among_others_to_goals(task_id):
+            plays = [t for t in list_tasks(latest=True) if _among_others_to_goals(t)]
+            return (
+                f"{task_id} is not a task of bots each heading for a goal among the others; "
+                f"steer-avoid plays {', '.join(plays)}"
+            )
         return refused
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
@@ -212,6 +215,11 @@ class SteerAvoidPolicy(SteerPolicy):
         slots = task.scenario_class(task).slots()
         guide = Avoiding(slots.own, slots.count, radius=1.5, keep_right=2.0)
         return PDActor(SteerController(self.action_mode, guide=guide))
+
+
+def _among_others_to_goals(task_id: str) -> bool:
+    scenario = spec(task_id).scenario_class
+    return scenario.multi_agent and scenario.heads_for == "the goal"
 
 
 class RandomPolicy(Policy):

@@ -126,8 +126,8 @@ class Avoiding:
         return heading_for(forward, right, speed)
 
 
-# Each steering scenario's guide, by the scenario's name.
-GUIDES: dict[str, Guide] = {"steer": commanded, "waypoints": toward_goal, "swap": toward_goal}
+# The guide for what a scenario says a steering bot heads for (`Scenario.heads_for`).
+GUIDES: dict[str, Guide] = {"the command": commanded, "the goal": toward_goal}
 
 
 class SteerController:
@@ -156,9 +156,9 @@ class SteerController:
         self.feed_forward = TRACK / (2 * TWO_WHEEL_STEER.wheel_radius)
 
     @classmethod
-    def for_scenario(cls, scenario: str, action_mode: str = "discrete") -> SteerController:
-        """The law with the guide of the steering scenario called `scenario`."""
-        return cls(action_mode, guide=GUIDES[scenario])
+    def for_scenario(cls, scenario: type, action_mode: str = "discrete") -> SteerController:
+        """The law with the guide for what the steering `scenario` (a class) heads for."""
+        return cls(action_mode, guide=GUIDES[scenario.heads_for])
 
     def changes(self, observation: np.ndarray) -> tuple[float, float]:
         """The changes of the forward and turning commands (rad/s) the law wants."""

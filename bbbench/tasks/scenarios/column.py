@@ -58,6 +58,7 @@ class Column(Scenario):
 
     multi_agent = True
     team = True
+    controller = "team"  # bbbench.policies.controllers.team: the bots as one team
     robots: ClassVar[tuple[str, ...] | None] = ("two-wheel",)  # the hinges hold its torso
     most_bots = MAX_TEAM
     coupling_type: ClassVar[type]

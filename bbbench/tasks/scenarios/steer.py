@@ -40,6 +40,7 @@ class Steer(Solo):
     metrics = ("velocity_error", "yaw_rate_error")
     steers = True
     scans_ground = False
+    heads_for = "the command"
 
     def __init__(self, task) -> None:
         super().__init__(task)

@@ -54,6 +54,9 @@ class Swap(Scenario):
     robots = ("two-wheel-steer",)
     metrics = ("velocity_error", "goal_distance")
     most_bots = MOST_BOTS
+    heads_for = "the goal"
+    # steer-avoid (bbbench.policies.controllers.steer.Avoiding): steer, past the others
+    controller = "steer-avoid"
 
     def __init__(self, task) -> None:
         super().__init__(task)

@@ -93,6 +93,7 @@ class Waypoints(Solo):
     robots = ("two-wheel-steer",)
     metrics = ("velocity_error", "waypoints_per_minute")
     scans_ground = False
+    heads_for = "the goal"
 
     def __init__(self, task) -> None:
         super().__init__(task)
