@@ -156,3 +156,20 @@ def test_a_command_refuses_a_speed_that_is_not_a_number(speed):
         ConstantVelocity(velocity=speed)
     with pytest.raises(ValueError, match="finite speed"):
         PiecewiseConstantVelocity(low=-1.0, high=speed)
+
+
+def test_a_robot_lacking_a_declared_part_is_refused_when_registered():
+    from bbbench.robots import TWO_WHEEL
+    from bbbench.robots.robot import Robot, registered
+
+    class Half(Robot):
+        name = "half"
+        summary = "a robot with no controller and no body"
+        model = MODEL
+        action_modes = ("discrete",)
+
+    with pytest.raises(TypeError, match=r"robot Half lacks controller, body\(\), action_space"):
+        registered([Half()])
+    with pytest.raises(ValueError, match="two robots are called 'two-wheel'"):
+        registered([TWO_WHEEL, TWO_WHEEL])
+    assert registered(ROBOTS.values()) == ROBOTS

@@ -244,3 +244,18 @@ def test_a_scenarios_layout_names_every_value_a_bot_observes(task_id):
         widths = {len(env.reset(seed=0)[0])}
     env.close()
     assert widths == {len(names)}
+
+
+def test_a_scenario_heading_for_what_no_guide_follows_is_refused_when_registered():
+    from bbbench.policies.controllers.steer import GUIDES
+    from bbbench.tasks.scenario import HEADINGS, register_scenario
+
+    assert tuple(GUIDES) == HEADINGS
+
+    class Wander(Solo):
+        name = "wander"
+        heads_for = "the nearest tree"
+
+    with pytest.raises(ValueError, match="heads_for is 'the nearest tree'; it is one of"):
+        register_scenario(Wander)
+    assert "wander" not in SCENARIOS

@@ -11,14 +11,12 @@ from bbbench.robots.balancebot import (
     read_model,
 )
 from bbbench.robots.body import Body
-from bbbench.robots.robot import Robot
+from bbbench.robots.robot import Robot, registered
 from bbbench.robots.steering import TWO_WHEEL_STEER, SteeringBot, SteerState
 from bbbench.robots.twowheel import TWO_WHEEL
 from bbbench.robots.wheel_legged import WHEEL_LEGGED
 
-ROBOTS: dict[str, Robot] = {
-    robot.name: robot for robot in (TWO_WHEEL, WHEEL_LEGGED, TWO_WHEEL_STEER)
-}
+ROBOTS: dict[str, Robot] = registered((TWO_WHEEL, WHEEL_LEGGED, TWO_WHEEL_STEER))
 
 
 def robot(name: str) -> Robot:

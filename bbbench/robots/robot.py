@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -157,3 +157,28 @@ class Robot:
 @functools.cache
 def _space(robot: Robot, height_scan: bool) -> spaces.Box:
     return box(robot.layout(height_scan))
+
+
+# What a robot declares (class attributes) and writes (methods): `registered` refuses a
+# robot without one, when the robot is registered rather than when a task plays it.
+DECLARED = ("name", "summary", "model", "action_modes", "controller")
+WRITTEN = ("body", "action_space", "action_decoder", "own_layout", "observe")
+
+
+def registered(robots: Iterable[Robot]) -> dict[str, Robot]:
+    """`robots` by name (`bbbench.robots.ROBOTS`): a TypeError that names what a robot
+    lacks of `DECLARED` and `WRITTEN`, a ValueError for a name given twice."""
+    table: dict[str, Robot] = {}
+    for robot in robots:
+        kind = type(robot)
+        lacks = [name for name in DECLARED if not hasattr(kind, name)]
+        lacks += [f"{name}()" for name in WRITTEN if getattr(kind, name) is getattr(Robot, name)]
+        if lacks:
+            raise TypeError(
+                f"robot {kind.__name__} lacks {', '.join(lacks)}: a robot declares "
+                f"{', '.join(DECLARED)} and writes {', '.join(WRITTEN)} (bbbench/robots/robot.py)"
+            )
+        if robot.name in table:
+            raise ValueError(f"two robots are called {robot.name!r}")
+        table[robot.name] = robot
+    return table

@@ -96,10 +96,21 @@ class Slots(NamedTuple):
 SCENARIOS: dict[str, type[Scenario]] = {}
 
 
+# What a steering bot can head for (`Scenario.heads_for`): a guide of the steering
+# controllers (`bbbench.policies.controllers.steer.GUIDES`) follows each.
+HEADINGS = ("the command", "the goal")
+
+
 def register_scenario(cls: type[Scenario]) -> type[Scenario]:
-    """Register the scenario `cls` under its `name`; `ValueError` if the name is taken."""
+    """Register the scenario `cls` under its `name`; `ValueError` if the name is taken or
+    it heads for what no steering guide follows."""
     if cls.name in SCENARIOS:
         raise ValueError(f"a scenario is already called {cls.name!r}")
+    if cls.heads_for is not None and cls.heads_for not in HEADINGS:
+        raise ValueError(
+            f"scenario {cls.name!r}: heads_for is {cls.heads_for!r}; it is one of "
+            f"{', '.join(map(repr, HEADINGS))}, or None where steering controllers do not play"
+        )
     SCENARIOS[cls.name] = cls
     return cls
 
