@@ -486,11 +486,23 @@ def test_commands_print_no_pybullet_banner():
     assert done.stderr == ""
 
 
-def test_a_world_whose_connect_was_interrupted_is_collected_without_a_traceback(capsys):
-    from bbbench.sim import _Client
+def test_a_world_whose_connect_was_interrupted_is_collected_without_a_traceback(
+    capsys, monkeypatch
+):
+    import gc
 
-    half_made = _Client.__new__(_Client)  # as a Ctrl-C inside pybullet.connect leaves it
-    half_made._pid = os.getpid()
-    half_made.__del__()  # pybullet_utils' own: it read `_client`, which was never set
-    del half_made
+    import pybullet
+
+    from bbbench.sim import World
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt  # a Ctrl-C inside pybullet.connect
+
+    unraisable = []  # what Python prints as "Exception ignored in ..."
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    monkeypatch.setattr(pybullet, "connect", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        World(time_step=0.01).client  # noqa: B018 (connects)
+    gc.collect()  # the half-made client's __del__ (pybullet_utils') ran: it read `_client`
+    assert unraisable == []
     assert capsys.readouterr().err == ""
