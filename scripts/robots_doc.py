@@ -1,5 +1,5 @@
-"""Write docs/robots.md: the robots, with the wheel-legged robot's facts and spaces as its
-module computes them (tests/test_wheel_legged.py checks the file carries the same tables).
+"""Write docs/robots.md: the robots, each robot's tasks from the suite, and each robot's
+facts and spaces as its module computes them (tests/test_docs.py holds the file to it).
 
     python scripts/robots_doc.py
 """
@@ -9,25 +9,50 @@ from __future__ import annotations
 from pathlib import Path
 
 from bbbench.files import write_atomic
-from bbbench.robots import steering
+from bbbench.robots import ROBOTS, TWO_WHEEL, steering
+from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, SCAN_OFFSETS, fields_markdown
+from bbbench.robots.twowheel import OBSERVATION_LAYOUT
 from bbbench.robots.wheel_legged import LEG_POSITION_GAIN, facts_markdown, interface_markdown
+from bbbench.tasks.suite import SUITE
 
 RADIUS = steering.MODEL.wheel_radius  # m
 OUT = Path(__file__).resolve().parent.parent / "docs" / "robots.md"
-ROBOT_ROWS = "\n".join(
-    [
-        "| `two-wheel` | FlatBalance, VelocityTracking, NoisySensors, Bumps, Obstacles, Slopes, "
-        "PushRecovery, MultiBalance, MultiBumps | `Discrete(9)` or `Box(-1, 1, (1,))`: a change "
-        "of the wheels' commanded speed | `Box(5,)`: the five shared values |",
-        "| `wheel-legged` | LeggedFlatBalance, LeggedVelocityTracking, LeggedBumps, "
-        "LeggedObstacles | `Box(-1, 1, (6,))`: four leg targets, two wheel-speed changes | "
-        "`Box(17,)`: the five, then the legs |",
-        "| `two-wheel-steer` | none yet: the steering tasks come with it (issue 52) | "
-        "`Discrete(27)` or `Box(-1, 1, (2,))`: changes of the forward and turning commands | "
-        "`Box(8,)`: the five, then yaw rate, wheel speed difference, turning command; a "
-        "task's own fields after them |",
-    ]
-)
+# Each robot's actions and observation, in a few words.
+SPACES = {
+    "two-wheel": "`Discrete(9)` or `Box(-1, 1, (1,))`: a change of the wheels' commanded speed "
+    "| `Box(5,)`: the five shared values",
+    "wheel-legged": "`Box(-1, 1, (6,))`: four leg targets, two wheel-speed changes | "
+    "`Box(17,)`: the five, then the legs",
+    "two-wheel-steer": "`Discrete(27)` or `Box(-1, 1, (2,))`: changes of the forward and "
+    "turning commands | `Box(8,)`: the five, then yaw rate, wheel speed difference, turning "
+    "command; a task's own fields after them",
+}
+
+
+def robot_rows() -> str:
+    """A row per robot: its tasks' names in the suite's order, its spaces."""
+    rows = []
+    for name in ROBOTS:
+        tasks = dict.fromkeys(task.name for task in SUITE.values() if task.robot == name)
+        rows.append(f"| `{name}` | {', '.join(tasks)} | {SPACES[name]} |")
+    return "\n".join(rows)
+
+
+def height_scan_markdown() -> str:
+    """The height scan's values as a table: where each is read, ahead of the axle."""
+    first = len(OBSERVATION_LAYOUT)
+    rows = (
+        f"| {first + k} | {field.name} | {field.low:g} | {field.high:g} | {field.unit} | "
+        f"{offset:.1f} |"
+        for k, (field, offset) in enumerate(zip(HEIGHT_SCAN_LAYOUT, SCAN_OFFSETS, strict=True))
+    )
+    return "\n".join(
+        (
+            "| Num | Observation | Min | Max | Unit | Ahead (m) |",
+            "|-----|-------------|-----|-----|------|-----------|",
+            *rows,
+        )
+    )
 
 
 def text() -> str:
@@ -44,12 +69,44 @@ The leaderboard ranks each robot's tasks on a track of its own.
 
 | robot | tasks | actions | observation |
 |---|---|---|---|
-{ROBOT_ROWS}
+{robot_rows()}
 
 ## The two-wheel bot
 
-The tutorial's robot: a 0.8 kg torso on two 0.1 m wheels on one axle, 1.0 kg and 0.5 m
-tall (`bbbench/robots/balancebot.urdf`; `BalanceEnv`'s docstring has its tables).
+The tutorial's robot: a 0.8 kg torso, 0.2 x 0.05 x 0.4 m, on two 0.1 m wheels of 0.1 kg
+on one axle, 1.0 kg and 0.5 m tall (`bbbench/robots/balancebot.urdf`,
+`bbbench.robots.twowheel`). The wheels' velocity servos hold a commanded wheel speed with
+at most 0.6 N m of torque each, up to 24.6 rad/s (2.46 m/s). It is an inverted pendulum:
+left alone it falls; a policy keeps it up by changing the commanded wheel speed, driving
+the wheels under the torso.
+
+### Action Space
+
+{TWO_WHEEL.actions_markdown()}
+
+An action outside the space (or NaN) raises `ValueError`; nothing is clamped silently.
+
+### Observation Space
+
+`Box(5,)` of `float32` on its single-bot tasks; the multi-bot and team tasks append
+their own fields (each task's page). Forward is the bot's own +y axis; angles are
+measured in the bot's own frame against gravity, so they mean the same whatever the
+heading or slope. The gyro saturates at 2000 deg/s, a common MEMS gyro's full scale; the
+encoders at 50 rad/s, about twice the motors' top speed.
+
+{fields_markdown(OBSERVATION_LAYOUT)}
+
+### Height Scan
+
+`height_scan=True` (default False, on the single-bot tasks) appends 11 ground heights
+ahead of the bot: `Box(16,)`. Each is the ground's height at a point on the bot's
+heading, so many metres ahead of the axle, minus the axle's height (flat ground reads
+-0.1, the wheel radius), clipped to +-3 m, read from the episode's heightmap at the node
+nearest each point (no ray casts). The first five values are the blind observation,
+unchanged: one policy plays every task. A height-scan task is a different spec
+(`spec.with_height_scan()`) with its own fingerprint.
+
+{height_scan_markdown()}
 
 ## The wheel-legged robot
 

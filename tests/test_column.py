@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -195,10 +196,13 @@ def test_the_team_controller_refuses_a_task_without_a_column():
 TEAM_TASKS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0")
 
 
-def _table_rows(doc: str, header: str) -> dict[int, list[str]]:
-    """The rows of the docstring table whose header's second cell is `header`, by Num."""
-    lines = doc.splitlines()
-    start = next(i for i, line in enumerate(lines) if f"| Num | {header} " in line)
+def page_observation_rows(task_id: str) -> dict[int, list[str]]:
+    """The rows of the observation table on a task's page (docs/environments/, written by
+    scripts/site_pages.py), by Num: where the task's tables live."""
+    name = task_id.split("/")[1].rsplit("-", 1)[0].lower()
+    page = (Path(__file__).parents[1] / "docs" / "environments" / f"{name}.md").read_text()
+    lines = page.split("## Observation space")[1].splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| Num | Observation |"))
     rows = {}
     for line in lines[start + 2 :]:
         if not line.strip().startswith("|"):
@@ -208,20 +212,18 @@ def _table_rows(doc: str, header: str) -> dict[int, list[str]]:
     return rows
 
 
-def test_the_docstring_tables_are_the_layouts():
-    doc = MultiBalanceEnv.__doc__
-    both = _table_rows(doc, "Both")
-    for header, task_id in (("BeamCarry", TEAM_TASKS[0]), ("Convoy", TEAM_TASKS[2])):
-        task = bbbench.spec(task_id)
-        layout = task.scenario_class(task).layout
-        rows = {**_table_rows(doc, header), **both}
-        assert sorted(rows) == list(range(5, 19))
-        for num, (name, low, high, unit, _) in rows.items():
-            field_ = layout[num]
-            assert (name, unit) == (field_.name, field_.unit)
-            assert float(low) == pytest.approx(field_.low, abs=1e-4)
-            assert float(high) == pytest.approx(field_.high, abs=1e-4)
-        assert [f.name for f in layout[:5]] == list(INDEX)
+@pytest.mark.parametrize("task_id", TEAM_TASKS)
+def test_the_task_pages_observation_tables_are_the_layouts(task_id):
+    task = bbbench.spec(task_id)
+    layout = task.scenario_class(task).layout
+    rows = page_observation_rows(task_id)
+    assert sorted(rows) == list(range(len(layout)))
+    for num, (name, low, high, unit, _) in rows.items():
+        field_ = layout[num]
+        assert (name, unit) == (field_.name, field_.unit)
+        assert float(low) == pytest.approx(field_.low, rel=1e-4)
+        assert float(high) == pytest.approx(field_.high, rel=1e-4)
+    assert [f.name for f in layout[:5]] == list(INDEX)
 
 
 @pytest.mark.parametrize("task_id", TEAM_TASKS)

@@ -486,17 +486,18 @@ def test_wrong_constructors_say_which_to_use():
         bbbench.make_parallel(MULTI, bots=3)
 
 
-def test_docstring_table_matches_the_neighbour_block():
-    doc = MultiBalanceEnv.__doc__
-    first = neighbour_layout(Group())[: len(NEIGHBOUR_FIELDS)]  # the nearest neighbour's
-    for k, (name, field) in enumerate(zip(NEIGHBOUR_FIELDS, first, strict=True)):
-        row = next(line for line in doc.splitlines() if f"| {5 + k} + 4k |" in line)
-        cells = [cell.strip() for cell in row.strip().strip("|").split("|")]
-        assert cells[1] == name
-        assert field.name.endswith(name)
-        assert float(cells[2]) == field.low
-        assert float(cells[3]) == field.high
-    assert "MultiBalance: v0: initial release." in doc
+def test_the_task_pages_table_matches_the_neighbour_block():
+    from test_column import page_observation_rows
+
+    rows = page_observation_rows(MULTI)
+    block = neighbour_layout(Group())  # every neighbour's slot, the nearest first
+    assert len(rows) == 5 + len(block)
+    for k, field in enumerate(block):
+        name, low, high, unit, _ = rows[5 + k]
+        assert (name, unit) == (field.name, field.unit)
+        assert field.name.endswith(NEIGHBOUR_FIELDS[k % len(NEIGHBOUR_FIELDS)])
+        assert (float(low), float(high)) == (field.low, field.high)
+    assert "MultiBalance: v0: initial release." in MultiBalanceEnv.__doc__
 
 
 # -- stable-baselines3 ------------------------------------------------------------------

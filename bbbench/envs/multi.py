@@ -21,163 +21,60 @@ CAMERA_YAW, CAMERA_PITCH = 30.0, -50.0  # deg: from above and aside, the whole g
 
 
 class MultiBalanceEnv(ParallelEnv):
-    """Several balancing bots in one world: each keeps its balance and its target.
+    """Several bots in one pybullet world: the PettingZoo parallel env of every multi-bot
+    and team task.
 
     ## Description
 
-    `n_bots` copies of the suite's bot (see `bbbench.envs.balance.BalanceEnv`
-    for the robot) share one pybullet world. They start spread around a circle
-    of radius 2.5 m, each heading for its centre (give or take 0.3 rad), so
-    their paths cross: each must keep upright and follow its own target
-    velocity without knocking the others over. The bots cannot steer; a bot
-    avoids another by slowing down, stopping or backing off, at a cost in
-    velocity tracking. A bot that falls leaves the world at once (as its
-    agent leaves `env.agents`): it is no obstacle, and no neighbour, to the
-    others.
-
-    | Task            | Ground                   | Target velocity (m/s), per bot | Bots        |
-    |-----------------|--------------------------|--------------------------------|-------------|
-    | MultiBalance-v1 | flat                     | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
-    | MultiBumps-v1   | smooth hills, difficulty | U(0.2, 0.8), held 2-5 s        | 4 (2 to 16) |
-
-    The -v0 versions play the same episodes under the first reward (Rewards, below).
-
-    MultiBumps' ground is a 12 x 12 m square of Bumps-v0's hills centred on
-    the start circle, level within 0.5 m of the circle, flat ground around it.
-
-    Agents are named `bot_0` ... `bot_{n-1}`. One `step()` sets every live
-    bot's motors, advances the world once (one `stepSimulation`) and reads
-    every bot.
+    `bbbench.make_parallel("bbbench/Swap-v0")` plays a task's row of the suite
+    (`bbbench.spec(id)`): its robot, scenario (the crossings, Swap, the team columns),
+    group of bots, ground, commands and reward. Each task's page (docs/environments/,
+    or `bbbench list TASK`) gives its rules, spaces, keywords and scores, printed from
+    the code and the board. Agents are `bot_0` ... `bot_{n-1}`; one `step()` sets every
+    live bot's motors, advances the world once and reads every bot.
 
     ## Action Space
 
-    Per agent, the single-bot action space (`action_mode="discrete"`:
-    `Discrete(9)`, `"continuous"`: `Box(-1, 1, (1,))`), a change of the
-    commanded wheel speed, documented in `BalanceEnv`. `step()` takes a dict
-    with one action for every agent in `env.agents`; actions for agents whose
-    episode has ended are ignored (TorchRL sends one for every possible agent),
-    and an unknown agent name is refused.
+    Per agent, the robot's single-bot space (`Discrete(9)` on the two-wheel bot,
+    `Discrete(27)` on the steering robot; `action_mode="continuous"`: a `Box`).
+    `step()` takes one action for every agent in `env.agents`; actions for agents whose
+    episode has ended are ignored (TorchRL sends one per possible agent), and an unknown
+    agent, an action outside the space or NaN is refused with `ValueError`.
 
     ## Observation Space
 
-    Per agent, `Box(5 + 4K,)` of float32 (K = 3 nearest neighbours: 17
-    values). The first 5 are the single-bot layout, unchanged (`BalanceEnv`):
-
-    | Num    | Observation      | Min | Max | Unit | Meaning                            |
-    |--------|------------------|-----|-----|------|------------------------------------|
-    | 0-4    | single-bot       |     |     |      | `BalanceEnv`'s five, unchanged     |
-    | 5 + 4k | right            | -5  | 5   | m    | neighbour k's distance to the right|
-    | 6 + 4k | forward          | -5  | 5   | m    | its distance ahead                 |
-    | 7 + 4k | right_velocity   | -10 | 10  | m/s  | its velocity minus this bot's, right|
-    | 8 + 4k | forward_velocity | -10 | 10  | m/s  | the same, ahead                    |
-
-    for k = 0 (nearest) to K - 1, measured horizontally in this bot's own frame
-    (forward along its heading, right along its axle) between the bots' torso
-    centres, with the axles' velocities. Neighbours are the other bots in the
-    world (fallen ones have left it) within 5 m; slots beyond the bots in
-    range are zeros. Relative velocities saturate at 10 m/s.
+    Per agent, `Box(n,)` of `float32`, named value by value by the scenario's layout
+    (`bbbench.tasks.suite.agent_layout(id)`): the robot's values, then what the scenario
+    adds (the goal, the coupling's readings), then the neighbours' slots
+    (`Scenario.slots`): each bot sees only its nearest neighbours within range, in its
+    own frame, zeros in empty slots.
 
     ## Rewards
 
-    Per agent, the single-bot tasks' reward, judged by the same rules
-    (`bbbench.tasks.reward.step_outcome`): on -v1, the reward in which staying up
-    never costs, between 0 and 0.1 a step (0.01 for being upright, up to 0.09
-    more for tracking the bot's own target; `BalanceEnv` has the formula); on -v0
-    the first reward, `0.1 * (1 - |pitch|) - 0.1 * |forward_velocity -
-    target_velocity|`, at most 0.1. There is no collision penalty: a collision
-    costs what it costs, a fall ends that bot's episode. `infos[agent]` carries
-    the two terms, `"reward_upright"` and `"reward_velocity"`,
-    `"velocity_error"`, |forward_velocity - target_velocity| in m/s, and
-    `"episode_seed"`: the same keys at reset (the terms the starting state would
-    earn) and at every step. The rules are the task's scenario's
-    (`bbbench.tasks.scenarios.Crossing`).
+    The scenario's (`Scenario.outcome`): each bot's own shared reward on the crossings
+    and Swap, the team's on the team tasks (every agent gets it). `infos[agent]` carries
+    the reward's terms, the scenario's metrics and `"episode_seed"`, with the same keys
+    at reset and at every step.
 
     ## Starting State
 
-    An episode is decided by one integer seed, as in the single-bot tasks: the
-    spawn circle's turn, each bot's place on it (spaced evenly, each moved by
-    up to a quarter of the spacing), heading, initial lean U(-0.1, 0.1) rad
-    and target schedule, and the terrain. `reset(seed=s)` plays episode s;
-    `reset()` a training seed drawn from the env's generator (seeded by the
-    last `reset(seed=...)`); `infos[agent]["episode_seed"]` says which.
-    `bbbench.spec(id).eval_seeds` are the evaluation seeds.
+    One integer decides an episode (`reset(seed=s)`; `reset()` draws a training seed;
+    `infos[agent]["episode_seed"]` says which): the bots' places, headings, leans,
+    targets and the ground. `bbbench.spec(id).eval_seeds` are the evaluation seeds.
 
     ## Episode End
 
-    - Termination, per agent: its torso tilts more than 1 rad from vertical (a
-      fall). It is terminated in that step's dicts, leaves `env.agents`, and
-      its bot leaves the world; it is never revived.
-    - Truncation: after 1500 steps (15 s) every agent left is truncated.
+    - Termination: a bot that falls is terminated, leaves `env.agents` and, on the
+      crossings and Swap, the world. On a team task a fall (or a broken tether) ends
+      every agent's episode (multiwalker's `terminate_on_fall`).
+    - Truncation: every agent left, after the task's `max_episode_steps` (1500).
     - `step({})` once no agent is left returns empty dicts.
-
-    ## Teams: BeamCarry, BeamCarryBumps, Convoy
-
-    In the team tasks (`bbbench.tasks.scenarios.column`) the bots need each
-    other. 3 bots (`n_bots` 2 to 4) stand in a column on one heading, centred
-    on the origin and 0.6 m apart, coupled: one beam hinged to the top of every
-    torso (BeamCarry; over hills in BeamCarryBumps), or a spring-damper tether
-    from each bot to the next (Convoy). The team follows one target schedule,
-    U(-2, 2) m/s held 2-5 s; only the front bot (`bot_0`) observes it, the
-    others read 0 in its slot.
-
-    Every agent receives the team's reward, the shared reward's form on the
-    team: `StayUpReward.terms(pitch, error)` with `pitch` the most tilted bot's
-    and `error` = |team velocity - target| (the beam's velocity along its
-    length; the convoy's mean forward velocity), 0-0.1 a step. `infos` carry
-    the team's terms. A fall of any bot, or a broken tether, terminates every
-    agent (multiwalker's `terminate_on_fall`); the bots stay where they are.
-
-    Per agent, `Box(19,)` of float32: the single-bot five (`BalanceEnv`'s,
-    unchanged but that only `bot_0` reads the target; the others read 0), four
-    values of the coupling, then the bot ahead and the bot behind:
-
-    | Num | BeamCarry          | Min      | Max     | Unit  | Meaning (the hinges' force)   |
-    |-----|--------------------|----------|---------|-------|-------------------------------|
-    | 5   | hinge_force_along  | -50      | 50      | N     | on the bot along the beam, + forward |
-    | 6   | hinge_force_across | -50      | 50      | N     | on the bot, square to it, + up |
-    | 7   | beam_pitch         | -1.5708  | 1.5708  | rad   | the beam's front end up       |
-    | 8   | beam_pitch_rate    | -34.9066 | 34.9066 | rad/s | its rate                      |
-
-    | Num | Convoy              | Min | Max | Unit | Meaning                               |
-    |-----|---------------------|-----|-----|------|---------------------------------------|
-    | 5   | stretch_ahead       | -5  | 5   | m    | the tether ahead beyond its rest length |
-    | 6   | stretch_rate_ahead  | -10 | 10  | m/s  | its rate                              |
-    | 7   | stretch_behind      | -5  | 5   | m    | the tether behind, the same           |
-    | 8   | stretch_rate_behind | -10 | 10  | m/s  | its rate                              |
-
-    | Num | Both                    | Min | Max | Unit | Meaning                           |
-    |-----|-------------------------|-----|-----|------|-----------------------------------|
-    | 9   | ahead_present           | 0   | 1   |      | 1 if there is a bot ahead, else 0 |
-    | 10  | ahead_right             | -5  | 5   | m    | the bot ahead: to the right       |
-    | 11  | ahead_forward           | -5  | 5   | m    | its distance ahead                |
-    | 12  | ahead_right_velocity    | -10 | 10  | m/s  | its velocity minus this bot's, right |
-    | 13  | ahead_forward_velocity  | -10 | 10  | m/s  | the same, ahead                   |
-    | 14  | behind_present          | 0   | 1   |      | 1 if there is a bot behind, else 0 |
-    | 15  | behind_right            | -5  | 5   | m    | the bot behind: to the right      |
-    | 16  | behind_forward          | -5  | 5   | m    | its distance ahead (negative)     |
-    | 17  | behind_right_velocity   | -10 | 10  | m/s  | its velocity minus this bot's, right |
-    | 18  | behind_forward_velocity | -10 | 10  | m/s  | the same, ahead                   |
-
-    Measured as the crossing tasks' neighbours, saturated; an end bot's missing
-    neighbour is all zeros, its presence bit 0. The hinge force is the force on
-    the bot (minus the constraint's force on the beam), 0 at reset.
 
     ## Arguments
 
-    ```python
-    import bbbench
-
-    env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=4, action_mode="discrete")
-    ```
-
-    - `n_bots`: 2 to 16 (default 4; the team tasks 2 to 4, default 3);
-      changes the task's fingerprint.
-    - `action_mode`: `"discrete"` (default) or `"continuous"`.
-    - `render_mode`: `None` or `"rgb_array"` (480 x 360 frames showing the
-      whole group, headless).
-    - `difficulty` (MultiBumps and BeamCarryBumps only): in [0, 1], default
-      0.3 (MultiBumps) or 0.6 (BeamCarryBumps).
-    - `max_episode_steps`: the time limit, default 1500.
+    `n_bots` (the task's range), `action_mode`, `render_mode` (`None` or `"rgb_array"`),
+    `difficulty` (on ground that takes one), `max_episode_steps`, and one keyword per
+    perturbation (`bbbench.tasks.perturbations`).
 
     ## Version History
 

@@ -133,9 +133,9 @@ class Robot:
     def task_interface(self) -> str:
         """What its task classes' docstrings say of its spaces (`bbbench.envs.task_envs`)."""
         return (
-            f"{self.interface_markdown()}\n\nEverything else the suite shares (reward, "
-            "starting state, episode end, keyword arguments) is documented in `BalanceEnv`: "
-            f"the {self.name} robot plays it as the two-wheel bot does."
+            f"{self.interface_markdown()}\n\nThe reward, starting state, episode end and "
+            "keywords are on the task's page (docs/environments/); `BalanceEnv` documents "
+            f"the API, which the {self.name} robot plays as the two-wheel bot does."
         )
 
     def actions_markdown(self) -> str:

@@ -104,8 +104,9 @@ class TwoWheel(Robot):
 
     def task_interface(self) -> str:
         return (
-            "Everything shared by the suite (actions, observations, reward, starting state, "
-            "episode end, keyword arguments) is documented in `BalanceEnv`."
+            "The robot's actions and observation are in docs/robots.md; the task's page "
+            "(docs/environments/) gives them with its reward, starting state, episode end "
+            "and keywords; `BalanceEnv` documents the API."
         )
 
     def actions_markdown(self) -> str:

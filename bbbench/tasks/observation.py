@@ -48,7 +48,7 @@ def group_observations(
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
     then the bot's `extras` if given (a scenario's own fields, a tuple per bot), then its
     `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
-    (`bbbench.envs.multi.MultiBalanceEnv` documents the layout).
+    (`bbbench.tasks.observation.neighbour_layout` names the slots; the task pages show them).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
