@@ -19,6 +19,7 @@ import pytest
 from pettingzoo.test import parallel_api_test
 
 import bbbench
+from bbbench.envs.balance import BalanceEnv
 from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.evaluation.play import MultiEpisode
 from bbbench.robots.layout import ObservationField
@@ -259,3 +260,64 @@ def test_a_scenario_heading_for_what_no_guide_follows_is_refused_when_registered
     with pytest.raises(ValueError, match="heads_for is 'the nearest tree'; it is one of"):
         register_scenario(Wander)
     assert "wander" not in SCENARIOS
+
+
+def ledger(base: type[Scenario]) -> type[Scenario]:
+    """`base`, noting the order the env calls its rules in."""
+
+    class Ledger(base):
+        name = f"{base.name}-ledger"
+
+        def __init__(self, task) -> None:
+            super().__init__(task)
+            self.calls: list[tuple[str, int]] = []
+
+        def observe(self, scene, states, commands, targets, step):
+            self.calls.append(("observe", step))
+            return super().observe(scene, states, commands, targets, step)
+
+        def outcome(self, agents, states, targets, seed):
+            self.calls.append(("outcome", seed))
+            return super().outcome(agents, states, targets, seed)
+
+    return Ledger
+
+
+@pytest.mark.parametrize(
+    ("scenario", "row"), [(ledger(Solo), "FlatBalance-v1"), (ledger(Crossing), "MultiBalance-v1")]
+)
+def test_both_envs_follow_one_step_protocol(monkeypatch, scenario, row):
+    """After every reset and every step, observe and then outcome, with the episode's
+    seed: the order `Scenario.observe_and_score` writes once, in either env."""
+    monkeypatch.setitem(SCENARIOS, scenario.name, scenario)
+    task = dataclasses.replace(SUITE[f"bbbench/{row}"], scenario=scenario.name)
+    if task.multi_agent:
+        env = MultiBalanceEnv(task)
+        env.reset(seed=11)
+        for _ in range(2):
+            env.step({agent: 4 for agent in env.agents})
+    else:
+        env = BalanceEnv(task)
+        env.reset(seed=11)
+        for _ in range(2):
+            env.step(4)
+    assert env.scene.scenario.calls == [
+        ("observe", 0), ("outcome", 11), ("observe", 1), ("outcome", 11),
+        ("observe", 2), ("outcome", 11),
+    ]  # fmt: skip
+    env.close()
+
+
+def test_a_scenario_that_overrides_the_step_protocol_is_refused_when_registered():
+    from bbbench.tasks.scenario import register_scenario
+
+    class Backwards(Solo):
+        name = "backwards"
+
+        def observe_and_score(self, scene, agents, states, commands, targets, seed):
+            outcome = self.outcome(agents, states, targets, seed)
+            return self.observe(scene, states, commands, targets, scene.steps), outcome
+
+    with pytest.raises(ValueError, match="'backwards' overrides observe_and_score"):
+        register_scenario(Backwards)
+    assert "backwards" not in SCENARIOS

@@ -3,10 +3,16 @@ through a seeded course; the steering law (`steer`) gets round it."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import bbbench
+from bbbench.envs.balance import BalanceEnv
+from bbbench.evaluation.harness import play_draws
 from bbbench.policies import classical_controller, load_policy
 from bbbench.policies.controllers.steer import SteerController
 from bbbench.tasks.scenarios.waypoints import (
@@ -14,6 +20,8 @@ from bbbench.tasks.scenarios.waypoints import (
     COURSE_RADIUS,
     MIN_LEG,
     REACH,
+    SCORED_AS_PUBLISHED,
+    Waypoints,
     draw_course,
 )
 
@@ -52,7 +60,7 @@ def test_the_goal_is_observed_in_the_bot_frame_and_moves_on_when_reached():
     assert observation[9] == pytest.approx(gy / np.hypot(gx, gy), abs=0.02)
     assert observation[10] == pytest.approx(-gx / np.hypot(gx, gy), abs=0.02)
     assert observation[9] ** 2 + observation[10] ** 2 == pytest.approx(1.0, abs=1e-5)
-    law = SteerController.for_scenario("waypoints")
+    law = SteerController.for_scenario(Waypoints)
     reached = []
     for step in range(1500):
         observation, _, terminated, _, info = env.step(law(observation))
@@ -68,7 +76,7 @@ def test_the_goal_is_observed_in_the_bot_frame_and_moves_on_when_reached():
 
 def test_driving_at_the_goal_earns_more_than_driving_past_it():
     env = bbbench.make("bbbench/Waypoints-v0")
-    law = SteerController.for_scenario("waypoints")
+    law = SteerController.for_scenario(Waypoints)
     blind = SteerController("discrete", guide=lambda o: (float(o[4]), 0.0))  # straight on
     returns = []
     for policy in (law, blind):
@@ -130,3 +138,36 @@ def test_a_rendered_episode_shows_its_goals_and_plays_as_an_unrendered_one(task_
     shown = [client.getBasePositionAndOrientation(body)[0][:2] for body in scenario.markers]
     goals = scenario.goals if hasattr(scenario, "goals") else scenario.course[scenario.goal :]
     np.testing.assert_allclose(shown, goals[: len(shown)], atol=1e-9)
+
+
+RESULTS = Path(__file__).resolve().parents[1] / "leaderboards" / "results"
+
+
+@pytest.mark.parametrize("task_id", WAYPOINTS)
+def test_the_published_rows_replay_the_boards_episodes_under_the_step_protocol(task_id):
+    """Waypoints' published rows were scored before they were observed; under the one
+    step protocol they keep it (`SCORED_AS_PUBLISHED`): `steer`'s first board episode
+    that reaches a waypoint replays its record in full, its metrics too."""
+    document = json.loads((RESULTS / "steer.json").read_text())
+    (block,) = [block for block in document["tasks"] if block["task"] == task_id]
+    record = next(e for e in block["episodes"] if e["waypoints_per_minute"] > 0.0)
+    (played,) = play_draws([(load_policy("steer"), bbbench.spec(task_id), record["seed"])])
+    assert played.record() == record
+
+
+def test_a_new_row_scores_a_reached_waypoint_in_the_step_that_reaches_it():
+    published = bbbench.spec("bbbench/Waypoints-v0")
+    assert published.id in SCORED_AS_PUBLISHED
+    fresh = dataclasses.replace(published, id="bbbench/WaypointsProbe-v0")
+    reached = []
+    for task in (published, fresh):
+        env = BalanceEnv(task)
+        law = SteerController.for_scenario(Waypoints)
+        observation, _ = env.reset(seed=7)
+        for step in range(1, 1501):
+            observation, _, _, _, info = env.step(law(observation))
+            if info["waypoints_per_minute"]:
+                reached.append(step)
+                break
+        env.close()
+    assert reached[1] == reached[0] - 1  # a step earlier than the published rows say

@@ -105,8 +105,9 @@ class BalanceEnv(Env):
         scenario = scene.scenario
         self.observation_space = scenario.observation_space()
         self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per step
-        # The task's rules, bound once: the step's hot path calls them.
-        self._observe, self._outcome = scenario.observe, scenario.outcome
+        # The step protocol (observe, then outcome), bound once: the hot path calls it.
+        self._play = scenario.observe_and_score
+        self._episode_seed = -1
         self._last_frame_time = 0.0
 
     @property
@@ -127,21 +128,22 @@ class BalanceEnv(Env):
         episode_seed = int(self.np_random.integers(TRAINING_SEEDS.stop)) if seed is None else seed
         scene = self._scene
         states = scene.reset(episode_seed)
+        self._episode_seed = episode_seed
         commands, targets = [scene.bots[0].wheel_command], [scene.target(0)]
-        observation = self._observe(scene, states, commands, targets, 0)[0]
+        observations, _ = self._play(scene, _AGENT, states, commands, targets, episode_seed)
         if self._human:
             self._render_human()
-        return observation, {"episode_seed": episode_seed}
+        return observations[0], {"episode_seed": episode_seed}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         scene = self._scene
         command, state, target = scene.step_one(action)
-        states, targets = (state,), (target,)
-        outcome = self._outcome(_AGENT, states, targets, 0)
+        observations, outcome = self._play(
+            scene, _AGENT, (state,), (command,), (target,), self._episode_seed
+        )
         if self._human:
             self._render_human()
-        observation = self._observe(scene, states, (command,), targets, scene.steps)[0]
-        return observation, outcome.rewards[0], outcome.over, False, outcome.infos[0]
+        return observations[0], outcome.rewards[0], outcome.over, False, outcome.infos[0]
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):

@@ -158,10 +158,8 @@ class MultiBalanceEnv(ParallelEnv):
         self._episode_seed = episode_seed
         self.agents = agents = self.possible_agents[:]
         self.ended_at = {}
-        targets = scene.live_targets(0)
-        observations = self._observe(states, targets, 0)
-        # The same keys as every step's: what the starting states would earn.
-        self.outcome = outcome = self._scenario.outcome(agents, states, targets, episode_seed)
+        # At reset, infos with every step's keys: what the starting states would earn.
+        observations, outcome = self._play(agents, states, scene.live_targets(0))
         infos = dict(zip(agents, outcome.infos, strict=True))
         return dict(zip(agents, observations, strict=True)), infos
 
@@ -180,9 +178,7 @@ class MultiBalanceEnv(ParallelEnv):
         # Only the bots still in the episode.
         self._states = states = scene.advance_live()
         steps = scene.steps
-        targets = scene.live_targets(steps)
-        observations = self._observe(states, targets, steps)
-        self.outcome = outcome = self._scenario.outcome(agents, states, targets, self._episode_seed)
+        observations, outcome = self._play(agents, states, scene.live_targets(steps))
         ends = [True] * len(agents) if outcome.over else outcome.fell
         terminations = dict(zip(agents, ends, strict=True))
         truncated = steps >= self._time_limit
@@ -206,9 +202,13 @@ class MultiBalanceEnv(ParallelEnv):
         self.agents = [self.agents[k] for k in kept]
         self._states = [self._states[k] for k in kept] or self._states
 
-    def _observe(self, states: list[BotState], targets: list[float], step: int) -> np.ndarray:
+    def _play(self, agents: list[str], states: list[BotState], targets: list[float]):
+        """The step protocol (`Scenario.observe_and_score`); keeps the `outcome`."""
         commands = [bot.wheel_command for bot in self.scene.live_bots]
-        return self._scenario.observe(self.scene, states, commands, targets, step)
+        observations, self.outcome = self._scenario.observe_and_score(
+            self.scene, agents, states, commands, targets, self._episode_seed
+        )
+        return observations, self.outcome
 
     def render(self, mode: str | None = None) -> np.ndarray | None:
         """A frame of the whole group in the env's render mode. `mode` is for callers

@@ -18,8 +18,10 @@ stepping, reading); the scenario owns:
 | where `payload_mass` goes            | `set_payload(scene, kg)`: each torso by default    |
 | what a frame shows beyond the bodies | `draw(scene)` (a tether), before each frame        |
 
-Both envs, and every tool that plays them, read the scenario through `observe` and
-`outcome` alone: the live bots' rows, and an `Outcome` that says each bot's reward,
+Both envs, and every tool that plays them, read the scenario through one step protocol,
+`observe_and_score`: after every reset and every step, `observe`, then `outcome` (the
+order in one place, as VMAS's `env_*` methods keep it): the live bots' rows, and an
+`Outcome` that says each bot's reward,
 which bots fell, whether the episode is over for all of them, and why. The env maps
 the outcome to its API (Gymnasium's `terminated`, PettingZoo's dicts) and decides
 nothing itself. A single-bot task is the case of one bot.
@@ -35,7 +37,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from collections.abc import Sequence
-from typing import Any, ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple, final
 
 import numpy as np
 from gymnasium import spaces
@@ -106,6 +108,11 @@ def register_scenario(cls: type[Scenario]) -> type[Scenario]:
     it heads for what no steering guide follows."""
     if cls.name in SCENARIOS:
         raise ValueError(f"a scenario is already called {cls.name!r}")
+    if cls.observe_and_score is not Scenario.observe_and_score:
+        raise ValueError(
+            f"scenario {cls.name!r} overrides observe_and_score, the step protocol both envs "
+            "follow (observe, then outcome): write observe and outcome instead"
+        )
     if cls.heads_for is not None and cls.heads_for not in HEADINGS:
         raise ValueError(
             f"scenario {cls.name!r}: heads_for is {cls.heads_for!r}; it is one of "
@@ -296,6 +303,23 @@ class Scenario(abc.ABC):
     ) -> Outcome:
         """The `Outcome` of the live bots (`agents`, their `states` and `targets`) in the
         episode of `seed`, after a reset or a step."""
+
+    @final
+    def observe_and_score(
+        self,
+        scene: Any,
+        agents: list[str],
+        states: list[Any],
+        commands: list[float],
+        targets: list[float],
+        seed: int,
+    ) -> tuple[np.ndarray | list[np.ndarray], Outcome]:
+        """The step protocol, written once (as VMAS's `env_*` methods): after every reset
+        and every step, both envs call this, and it calls `observe`, then `outcome`, for
+        the live bots at the scene's step. A scenario writes those two and never this
+        (`register_scenario` refuses one that does)."""
+        observations = self.observe(scene, states, commands, targets, scene.steps)
+        return observations, self.outcome(agents, states, targets, seed)
 
     def slots(self) -> Slots | None:
         """How its observation lays out the neighbours (`Slots`); None for one bot."""

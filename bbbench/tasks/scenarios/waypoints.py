@@ -80,6 +80,14 @@ def bearing(state: Any, point: tuple[float, float]) -> tuple[float, float, float
     return distance, min(max(cos, -1.0), 1.0), min(max(sin, -1.0), 1.0)  # rounding aside
 
 
+# The rows published while `BalanceEnv` scored a step before it observed it: their
+# `outcome` reads the goal as it stood before this step's `observe` moved it on, and the
+# reach the step before counted (the reward at a reached point and `waypoints_per_minute`
+# one step late). They keep those episodes, bit for bit; a new version scores the step's
+# own goal (issue 66: one step protocol, `Scenario.observe_and_score`).
+SCORED_AS_PUBLISHED = frozenset({"bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0"})
+
+
 @register_scenario
 class Waypoints(Solo):
     """One steering bot, started as `Solo`'s (at the origin heading along +y), driving
@@ -102,6 +110,10 @@ class Waypoints(Solo):
         self.goal = 0  # the index of the first point not reached
         self._reached = False  # whether the last observed step reached a point
         self._per_minute = 60.0 / task.control_dt  # steps in a minute
+        # The goal and the reach `outcome` scores: this step's, or on the rows published
+        # before the step protocol (`SCORED_AS_PUBLISHED`), those before it.
+        self._late = task.id in SCORED_AS_PUBLISHED
+        self._scored = (0, False)
 
     @classmethod
     def refusal(cls, task) -> str | None:
@@ -142,6 +154,7 @@ class Waypoints(Solo):
         """Draw the episode's course from the start stream."""
         self.course = draw_course(rng)
         self.goal = 0
+        self._reached = False
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[Any], step: int
@@ -151,6 +164,8 @@ class Waypoints(Solo):
         step, before the step's outcome is scored."""
         state = states[0]
         course = self.course
+        if self._late:
+            self._scored = (self.goal, self._reached)
         distance, cos, sin = bearing(state, course[self.goal])
         self._reached = distance <= REACH and self.goal < len(course) - 1
         if self._reached:
@@ -173,7 +188,8 @@ class Waypoints(Solo):
         reached per minute driven)."""
         state: SteerState = states[0]
         x, y, _ = state.axle
-        gx, gy = self.course[self.goal]
+        goal, reached = self._scored if self._late else (self.goal, self._reached)
+        gx, gy = self.course[goal]
         dx, dy = gx - x, gy - y
         distance = math.sqrt(dx * dx + dy * dy)  # correctly rounded: the same on any CPU
         vx, vy = state.velocity
@@ -186,7 +202,7 @@ class Waypoints(Solo):
             "reward_velocity": tracking,
             "velocity_error": velocity_error,
             "goal_distance": distance,
-            "waypoints_per_minute": self._per_minute if self._reached else 0.0,
+            "waypoints_per_minute": self._per_minute if reached else 0.0,
         }
         return Outcome(
             (upright + tracking,), (fell,), fell, f"{agents[0]} fell" if fell else "", (info,)
