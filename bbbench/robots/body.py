@@ -187,7 +187,15 @@ class Body:
         """The `physicsClientId` of the body's world."""
         return self._client_id
 
-    # -- perturbations --------------------------------------------------------
+    # -- perturbations (the hooks `bbbench.tasks.perturbations` calls) ---------
+
+    def set_motor_strength(self, factor: float) -> None:
+        """Actuators `factor` times as strong as the URDF's torque limits (1: as built)."""
+        raise NotImplementedError
+
+    def set_action_delay(self, steps: int) -> None:
+        """Act on each command `steps` commands later (0: at once)."""
+        raise NotImplementedError
 
     def set_payload(self, kg: float) -> None:
         """Carry `kg` more at the torso's centre of mass (0: the robot as built)."""

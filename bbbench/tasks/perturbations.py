@@ -32,6 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from bbbench.parameters import is_real, parameters
+from bbbench.robots.body import Body
 from bbbench.tasks.sensors import NoisySensors, PerfectSensors
 
 # Seconds between two pushes: each waits U(2, 4) s after the last (the first, after the
@@ -86,13 +87,17 @@ class Perturbation:
 
 
 class RobotSetting(Perturbation):
-    """A perturbation that sets its value on every bot, through the bot's method `setter`."""
-
-    setter: ClassVar[str]  # the BalanceBot method that sets it
+    """A perturbation that sets its value on every bot, through one of the perturbation
+    hooks every body declares (`bbbench.robots.body.Body`): `set_on`."""
 
     def apply(self, scene: Any, rng: np.random.Generator) -> None:
         for bot in scene.bots:
-            getattr(bot, self.setter)(self.value)
+            self.set_on(bot, self.value)
+
+    @staticmethod
+    def set_on(bot: Body, value: Any) -> None:
+        """Call the body's hook for the perturbation with `value`."""
+        raise NotImplementedError
 
 
 @parameters
@@ -104,7 +109,6 @@ class PayloadMass(RobotSetting):
     keyword = "payload_mass"
     meaning = "kg added to the torso"
     low, high = 0.0, 10.0
-    setter = "set_payload"
     unit = "kg on the torso"
     grid = (0.0, 1.0, 2.0, 3.0, 4.0)
     reason = (
@@ -125,10 +129,13 @@ class ComOffset(RobotSetting):
     keyword = "com_offset"
     meaning = "m the torso's centre of mass moves forward"
     low, high = -0.2, 0.2
-    setter = "set_com_offset"
     unit = "m, centre of mass forward"
     grid = (-0.05, -0.025, 0.0, 0.025, 0.05)
     reason = "legged_gym's and Isaac Lab's ±5 cm; at 2.5 cm PD keeps a quarter of its score"
+
+    @staticmethod
+    def set_on(bot: Body, value: float) -> None:
+        bot.set_com_offset(value)
 
 
 @parameters
@@ -139,13 +146,16 @@ class MotorStrength(RobotSetting):
     keyword = "motor_strength"
     meaning = "times the servos' torque limit"
     low, high, low_open = 0.0, 10.0, True
-    setter = "set_motor_strength"
     unit = "times the servos' torque limit"
     grid = (0.1, 0.2, 0.5, 0.8, 1.2)
     reason = (
         "down to a tenth: over 0.5-1.2 no policy measured lost score; PPO falls at 0.2, "
         "PD and LQR at 0.1"
     )
+
+    @staticmethod
+    def set_on(bot: Body, value: float) -> None:
+        bot.set_motor_strength(value)
 
 
 @parameters
@@ -158,10 +168,13 @@ class ActionDelay(RobotSetting):
     keyword = "action_delay"
     meaning = "control steps between a command and the servos"
     low, high, whole = 0, 100, True
-    setter = "set_action_delay"
     unit = "control steps of 10 ms"
     grid = (0, 1, 2, 3, 5)
     reason = "the real-world RL suite's 3-9 steps; PPO falls from 2 on, PD from 15"
+
+    @staticmethod
+    def set_on(bot: Body, value: int) -> None:
+        bot.set_action_delay(value)
 
 
 @parameters
