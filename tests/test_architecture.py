@@ -149,3 +149,29 @@ def test_the_multi_bot_env_is_a_thin_layer():
     docstring = env.body[0]
     lines = env.end_lineno - env.lineno + 1
     assert lines - (docstring.end_lineno - docstring.lineno + 1) <= 150
+
+
+def the_map() -> str:
+    """docs/architecture.md's map: "The layers, one sentence per module"."""
+    return RECIPES.read_text().split("## The layers")[1].split("\n## ")[0]
+
+
+def test_the_map_names_every_module_and_package_and_nothing_else():
+    text = the_map()
+    package = ROOT / "bbbench"
+    modules = [p.relative_to(package) for p in sorted(package.rglob("*.py"))]
+    unnamed = [
+        str(module)
+        for module in modules
+        if module.name != "__init__.py"
+        and f"`{module.name}`" not in text
+        and module.as_posix() not in text
+    ]
+    assert unnamed == [], "name these in docs/architecture.md's map"
+    folders = sorted({module.parent for module in modules if module.parent != Path(".")})
+    assert [
+        f for f in folders if f"{f.as_posix()}/" not in text and f"`{f.name}/`" not in text
+    ] == []
+    named = set(re.findall(r"`([\w/]+\.py)`", text))
+    paths = [f"bbbench/{module.as_posix()}" for module in modules]
+    assert [n for n in named if not any(path.endswith(n) for path in paths)] == []
