@@ -153,14 +153,17 @@ def test_a_cleanrl_agent_is_scored_alike_from_both_exporters(cleanrl, tmp_path, 
 
 
 def rllib_reference(path: Path, observations: np.ndarray) -> np.ndarray:
-    """RLlib's fully connected network, in float64 from the file's own weights."""
+    """RLlib's fully connected network, in float64 from the file's own weights: its
+    graph's Gemm nodes in order (tanh between them), whatever RLlib names the tensors."""
     model = onnx.load_model_from_string(path.read_bytes())
     weights = {t.name: numpy_helper.to_array(t).astype(np.float64) for t in model.graph.initializer}
+    layers = [node.input[1:] for node in model.graph.node if node.op_type == "Gemm"]
+    assert len(layers) == 3  # two hidden layers and the logits
     x = observations.astype(np.float64)
-    for i in range(2):
-        prefix = f"_hidden_layers.{i}._model.0"
-        x = np.tanh(x @ weights[f"{prefix}.weight"].T + weights[f"{prefix}.bias"])
-    return x @ weights["_logits._model.0.weight"].T + weights["_logits._model.0.bias"]
+    for k, (weight, bias) in enumerate(layers):
+        x = x @ weights[weight].T + weights[bias]  # Gemm with transB=1, as torch's Linear
+        x = np.tanh(x) if k < len(layers) - 1 else x
+    return x
 
 
 def test_rllibs_own_export_is_refused_as_it_is_then_scored_through_bbbench_export(tmp_path, capsys):
