@@ -34,7 +34,7 @@ REWARD_TASKS = (
     "bbbench/MultiBalance-v1",
     "bbbench/MultiBumps-v1",
 )
-STEERING_TASKS = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
+STEERING_TASKS = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v1", "bbbench/WaypointsBumps-v1")
 
 
 def _short(task_id: str) -> str:

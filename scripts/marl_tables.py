@@ -31,7 +31,7 @@ import numpy as np
 from bbbench.evaluation import stats
 from bbbench.evaluation.results import normalized
 from bbbench.policies import classical_controller
-from bbbench.tasks.suite import spec
+from bbbench.tasks.suite import latest_version, spec
 
 SEEDS = (0, 1, 2)
 # (task, method as the table names it, the slug of its runs without the seed suffix)
@@ -83,8 +83,8 @@ CAMPAIGN_VERSUS = tuple(
 STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
 STEERING_ROWS = (
-    *(
-        (task_id, "PPO", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
+    *(  # trained on these IDs, scored on their latest versions, which the board plays
+        (latest_version(task_id), "PPO", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
         for task_id in STEERING_SINGLE
     ),
     *(
@@ -147,13 +147,19 @@ def scores(played: list[dict], task_id: str) -> np.ndarray:
     return np.array([normalized(episode["return"], spec(task_id)) for episode in played])
 
 
-def seed_runs(root: Path, task_id: str, stem: str) -> dict[int, tuple[list[dict], dict]]:
-    """Per trained seed: its episodes on the evaluation seeds and its train.json."""
+def seed_runs(
+    root: Path, task_id: str, stem: str, board: Path | None = None
+) -> dict[int, tuple[list[dict], dict]]:
+    """Per trained seed: its episodes on the evaluation seeds and its train.json. The
+    episodes are its training's own evaluation, or, on a task that training did not play
+    (a later version), the board's (`board`'s results)."""
     runs = {}
     for seed in SEEDS:
         folder = root / f"{stem}-s{seed}"
         if (folder / "results.json").exists():
             results = json.loads((folder / "results.json").read_text())
+            if board is not None and task_id not in {b["task"] for b in results["tasks"]}:
+                results = json.loads((board / "results" / f"{stem}-s{seed}.json").read_text())
             record = json.loads((folder / "train.json").read_text())
             runs[seed] = (episodes(results, task_id), record)
     return runs
@@ -187,7 +193,7 @@ def against(board: Path, controller: str, task_id: str, played: list[dict]) -> s
 def row(
     root: Path, board: Path, task_id: str, method: str, stem: str, crossing: bool = False
 ) -> str | None:
-    runs = seed_runs(root, task_id, stem)
+    runs = seed_runs(root, task_id, stem, board)
     if not runs:
         return None
     score = {seed: float(scores(played, task_id).mean()) for seed, (played, _) in runs.items()}

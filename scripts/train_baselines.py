@@ -38,7 +38,7 @@ from pathlib import Path
 
 from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
-from bbbench.tasks.suite import spec
+from bbbench.tasks.suite import latest_version, spec
 from bbbench.tasks.tracks import track_of
 from bbbench.training.beside import described
 
@@ -273,11 +273,13 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             )
             name = "generalist (by task: the six before PushRecovery, in order; seeds apart by ;)"
             pd = ""
-        else:
-            scores = " / ".join(f"{score(run['slug'], task_id):.3f}" for run in done)
-            classical = classical_controller(task_id)
-            name = task_id.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
-            pd = f"{score(classical, task_id):.3f}"
+        else:  # scored on the task's latest version, which the board plays
+            on = latest_version(task_id)
+            scores = " / ".join(f"{score(run['slug'], on):.3f}" for run in done)
+            classical = classical_controller(on)
+            name = on.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
+            name += "" if on == task_id else f" (trained on v{spec(task_id).version})"
+            pd = f"{score(classical, on):.3f}"
         steps = world_steps(records[0])  # world steps, the board's unit
         budget = f"{steps / 1e6:.3g}M" if steps >= 1e6 else f"{steps / 1e3:.3g}k"
         lines.append(f"| {name} | {budget} | {minutes} min | {scores} | {pd} |")

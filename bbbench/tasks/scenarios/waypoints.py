@@ -221,21 +221,8 @@ left). The target speed towards the goal (observation 4) is drawn from [1, 2] m/
 held 2-5 s at a time. The reward is the shared one (`StayUpReward`) with the velocity it
 tracks taken along the direction to the goal: |velocity . unit(goal - axle) - target|."""
 
-TASKS = (
-    TaskSpec(
-        id="bbbench/Waypoints-v0",
-        summary="steer through a seeded course of waypoints on flat ground",
-        description=f"{_COURSE}\n\nFlat ground; sensors are perfect.",
-        robot="two-wheel-steer",
-        scenario="waypoints",
-        command=_SPEEDS,
-        reward=StayUpReward(),
-        random_return=0.7361418690243088,
-    ),
-    TaskSpec(
-        id="bbbench/WaypointsBumps-v0",
-        summary="steer through a seeded course of waypoints over random hills",
-        description=f"""\
+_FLAT = f"{_COURSE}\n\nFlat ground; sensors are perfect."
+_HILLS = f"""\
 {_COURSE}
 
 The ground is a square patch of random hills, 16 x 16 m around the start (the course's
@@ -243,18 +230,63 @@ disc and room beyond it): white noise low-passed by a Gaussian of 0.2 m on 0.1 m
 a new one from each episode's seed, with a level pad of 0.5 m at the start and flat
 ground around the patch. `difficulty` (default 0.85, any number in [0, 1]) sets the
 hills' height, 0.01 m + 0.30 m x difficulty (0.265 m at the default, 2.6 wheel radii):
-there the steering law finishes 20-60% of the episodes (docs/tasks.md). Sensors are perfect.""",
+there the steering law finishes 20-60% of the episodes (docs/tasks.md). Sensors are perfect."""
+_HILL_PATCH = HeightfieldTerrain(
+    generator=Bumps(min_height=0.01, extra_height=0.30, feature_size=0.2),
+    difficulty=0.85,
+    size=(16.0, 16.0),
+    cell_size=0.1,
+    start_margin=8.0,
+)
+_V1 = (
+    "v1: the one step protocol (`Scenario.observe_and_score`): a reached waypoint is "
+    "scored, its reward and `waypoints_per_minute`, in the step that reaches it, not the "
+    "step after; robot, ground, courses, commands and seeds as v0."
+)
+
+TASKS = (
+    TaskSpec(
+        id="bbbench/Waypoints-v0",
+        summary="steer through a seeded course of waypoints on flat ground",
+        description=_FLAT,
         robot="two-wheel-steer",
         scenario="waypoints",
         command=_SPEEDS,
         reward=StayUpReward(),
-        terrain=HeightfieldTerrain(
-            generator=Bumps(min_height=0.01, extra_height=0.30, feature_size=0.2),
-            difficulty=0.85,
-            size=(16.0, 16.0),
-            cell_size=0.1,
-            start_margin=8.0,
-        ),
+        random_return=0.7361418690243088,
+    ),
+    TaskSpec(
+        id="bbbench/Waypoints-v1",
+        summary="steer through a seeded course of waypoints on flat ground",
+        description=_FLAT,
+        robot="two-wheel-steer",
+        scenario="waypoints",
+        command=_SPEEDS,
+        reward=StayUpReward(),
+        version_history=("v0: initial release.", _V1),
+        random_return=0.7361418690243088,
+    ),
+    TaskSpec(
+        id="bbbench/WaypointsBumps-v0",
+        summary="steer through a seeded course of waypoints over random hills",
+        description=_HILLS,
+        robot="two-wheel-steer",
+        scenario="waypoints",
+        command=_SPEEDS,
+        reward=StayUpReward(),
+        terrain=_HILL_PATCH,
+        random_return=0.7306982237671567,
+    ),
+    TaskSpec(
+        id="bbbench/WaypointsBumps-v1",
+        summary="steer through a seeded course of waypoints over random hills",
+        description=_HILLS,
+        robot="two-wheel-steer",
+        scenario="waypoints",
+        command=_SPEEDS,
+        reward=StayUpReward(),
+        terrain=_HILL_PATCH,
+        version_history=("v0: initial release.", _V1),
         random_return=0.7306982237671567,
     ),
 )
