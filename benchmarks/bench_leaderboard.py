@@ -30,6 +30,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bbbench.evaluation.results import read
+
 BBBENCH = [sys.executable, "-m", "bbbench"]
 
 
@@ -49,7 +51,7 @@ def episodes(results: Path) -> dict[str, int]:
     robustness profiles ("all")."""
     counts = {"eval": 0, "all": 0}
     for path in results.glob("*.json"):
-        document = json.loads(path.read_text())
+        document = read(path)
         if path.name.endswith(".profile.json"):
             counts["all"] += sum(len(p["episodes"]) for a in document["axes"] for p in a["points"])
         else:

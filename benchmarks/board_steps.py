@@ -9,9 +9,10 @@ so this shows where the time goes and compares two boards without timing either.
 from __future__ import annotations
 
 import argparse
-import json
 from collections import Counter
 from pathlib import Path
+
+from bbbench.evaluation.results import read
 
 
 def steps(root: Path) -> tuple[Counter, Counter, int]:
@@ -20,7 +21,9 @@ def steps(root: Path) -> tuple[Counter, Counter, int]:
     by_entry: Counter = Counter()
     episodes = 0
     for path in sorted((root / "results").glob("*.json")):
-        for block in json.loads(path.read_text())["tasks"]:
+        if path.name.endswith(".profile.json"):
+            continue
+        for block in read(path)["tasks"]:
             played = sum(episode["length"] for episode in block["episodes"]) * block["bots"]
             by_task[block["task"]] += played
             by_entry[path.stem] += played

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from bbbench.evaluation.results import read
+
 ROOT = Path(__file__).resolve().parents[1]
 BOARD = ROOT / "leaderboards" / "bbbench-v0.json"
 RESULTS = ROOT / "leaderboards" / "results"
@@ -48,7 +50,7 @@ def board_methods() -> list[dict[str, Any]]:
 
 def controller(slug: str, task_id: str) -> dict[str, Any]:
     """A built-in controller's block for a task in its results document (its one run)."""
-    document = json.loads((RESULTS / f"{slug}.json").read_text())
+    document = read(RESULTS / f"{slug}.json")
     (block,) = [block for block in document["tasks"] if block["task"] == task_id]
     return block
 

@@ -35,6 +35,7 @@ from bbbench.files import write_atomic
 from bbbench.policies import classical_controller, load_policy
 from bbbench.tasks.suite import spec
 from bbbench.training import evaluation_seeds
+from bbbench.training.logs import run_episodes
 
 TASKS = (
     "bbbench/MultiBalance-v1",
@@ -45,6 +46,7 @@ TASKS = (
 )
 METHODS = ("ippo", "mappo")
 SEEDS = (0, 1, 2)
+BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 BUDGET = "3m"
 MILESTONE = 1_000_000  # world steps: the curve's points the end-of-curve table quotes
 
@@ -137,13 +139,13 @@ def figure(task_id: str, curves: dict[str, list[dict]], line: float) -> bytes:
     return out.getvalue()
 
 
-def final_returns(root: Path, stem: str, seed: int) -> list[float] | None:
-    """The kept policy's returns on the task's evaluation seeds (its results.json)."""
-    path = root / f"{stem}-s{seed}" / "results.json"
-    if not path.is_file():
-        return None
-    (block,) = json.loads(path.read_text())["tasks"]
-    return [episode["return"] for episode in block["episodes"]]
+def final_returns(
+    root: Path, stem: str, seed: int, task_id: str, board: Path = BOARD
+) -> list[float] | None:
+    """The kept policy's returns on the task's evaluation seeds (its results.json, or
+    the board's once the board holds them)."""
+    played = run_episodes(root / f"{stem}-s{seed}", task_id, board)
+    return None if played is None else [episode["return"] for episode in played]
 
 
 def marl_eval_curves(runs: dict[int, list[dict]], finals: dict[int, list[float] | None]) -> dict:
@@ -210,7 +212,7 @@ def main() -> None:
             if runs:
                 curves[method] = curve(task_id, runs)
                 name = task_id.removeprefix("bbbench/")
-                finals = {seed: final_returns(args.root, stem, seed) for seed in runs}
+                finals = {seed: final_returns(args.root, stem, seed, task) for seed in runs}
                 data.setdefault(name, {})[method.upper()] = marl_eval_curves(runs, finals)
         if not curves:
             continue

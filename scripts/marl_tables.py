@@ -29,11 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from bbbench.evaluation import stats
-from bbbench.evaluation.results import normalized
+from bbbench.evaluation.results import normalized, read
 from bbbench.policies import classical_controller
 from bbbench.tasks.suite import latest_version, spec
+from bbbench.training.logs import run_episodes
 
 SEEDS = (0, 1, 2)
+BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 # (task, method as the table names it, the slug of its runs without the seed suffix)
 ROWS = (
     ("bbbench/MultiBalance-v1", "IPPO, encoder", "ippo-multibalance-v1"),
@@ -148,20 +150,17 @@ def scores(played: list[dict], task_id: str) -> np.ndarray:
 
 
 def seed_runs(
-    root: Path, task_id: str, stem: str, board: Path | None = None
+    root: Path, task_id: str, stem: str, board: Path = BOARD
 ) -> dict[int, tuple[list[dict], dict]]:
     """Per trained seed: its episodes on the evaluation seeds and its train.json. The
-    episodes are its training's own evaluation, or, on a task that training did not play
-    (a later version), the board's (`board`'s results)."""
+    episodes are its training's own evaluation, or the board's (`board`'s results) once
+    the board holds them, or on a task that training did not play (a later version)."""
     runs = {}
     for seed in SEEDS:
         folder = root / f"{stem}-s{seed}"
-        if (folder / "results.json").exists():
-            results = json.loads((folder / "results.json").read_text())
-            if board is not None and task_id not in {b["task"] for b in results["tasks"]}:
-                results = json.loads((board / "results" / f"{stem}-s{seed}.json").read_text())
-            record = json.loads((folder / "train.json").read_text())
-            runs[seed] = (episodes(results, task_id), record)
+        played = run_episodes(folder, task_id, board) if folder.is_dir() else None
+        if played is not None:
+            runs[seed] = (played, json.loads((folder / "train.json").read_text()))
     return runs
 
 
@@ -184,7 +183,7 @@ def versus(root: Path, task_id: str, compared: str, first: str, second: str) -> 
 def against(board: Path, controller: str, task_id: str, played: list[dict]) -> str:
     """ "P [low, high] | the controller's mean normalized score" for `played` (the median
     seed's episodes) against the controller's episodes on the board."""
-    document = json.loads((board / "results" / f"{controller}.json").read_text())
+    document = read(board / "results" / f"{controller}.json")
     reference = scores(episodes(document, task_id), task_id)
     point, (low, high) = stats.probability_of_improvement([scores(played, task_id)], [reference])
     return f"{point:.2f} [{low:.2f}, {high:.2f}] | {reference.mean():.3f}"
@@ -222,7 +221,7 @@ def row(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=Path("baselines"))
-    parser.add_argument("--board", type=Path, default=Path("leaderboards"))
+    parser.add_argument("--board", type=Path, default=BOARD)
     which = parser.add_mutually_exclusive_group()
     which.add_argument(
         "--campaign", action="store_true", help="the tables of the 3M campaign (issue 50)"

@@ -15,13 +15,12 @@ Entries whose records already hold causes are left alone.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from bbbench.evaluation.harness import play_draws
 from bbbench.evaluation.play import TIME_LIMIT
-from bbbench.evaluation.results import dumps
+from bbbench.evaluation.results import dumps, read
 from bbbench.leaderboard.generation import DEFAULT_BOARD, RESULTS, SUBMISSIONS
 from bbbench.leaderboard.submissions import read_methods
 from bbbench.tasks.suite import spec
@@ -41,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
         for path in sorted((args.root / RESULTS).glob(f"{submission.slug}.*json")):
             if path.name != f"{submission.slug}.json" and not path.name.endswith(PROFILE):
                 continue
-            document = json.loads(path.read_text())
+            document = read(path)
             policy = policy or submission.load_policy()
             found = list(_team_records(document, policy))
             pending = [(task, r) for task, r in found if "cause" not in r and r["failure"] is None]

@@ -6,7 +6,8 @@ leaderboard with `bbbench leaderboard add` as it finishes.
     python scripts/train_baselines.py --campaign [--only ippo-multibalance-v1-3m ...]
 
 Each run writes `baselines/<slug>/` (curve.json, curve.png, train.json, results.json,
-the command's output); its policy goes into its method's folder on the board,
+the command's output; git keeps neither curve.png, drawn from curve.json, nor, once the
+board holds the same episodes, results.json); its policy goes into its method's folder on the board,
 `leaderboards/submissions/<method>/runs/s<seed>/` (the slug is `<method>-s<seed>`), with a
 run.json that records the exact command, the recipe and budget in world steps, the wall
 time and the machine. Runs already on the board are skipped. Training takes most of a 2-core
@@ -36,6 +37,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from bbbench.evaluation.results import read
 from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
 from bbbench.tasks.suite import latest_version, spec
@@ -194,11 +196,32 @@ def _add(
     if statistics is not None:
         add += ["--vecnormalize", str(statistics)]
     subprocess.run(add, check=True, stdout=subprocess.DEVNULL)
+    drop_repeated_results(folder, board)
     policy.unlink()  # the board keeps it, in submissions/<method>/runs/s<seed>/
     if statistics is not None:
         statistics.unlink()
         statistics.parent.rmdir()
     return f"{run['slug']}: {minutes:.1f} min, on the board"
+
+
+def drop_repeated_results(folder: Path, board: Path) -> bool:
+    """Remove the run's results.json when the board's results of the run hold the same
+    episodes of every task it played (the board keeps them; `run_episodes` reads them
+    there). A record made before teams recorded what ended them lacks `cause` and is the
+    same without it. True if removed."""
+    own, theirs = folder / "results.json", board / "results" / f"{folder.name}.json"
+    if not (own.is_file() and theirs.is_file()):
+        return False
+    boards = {block["task"]: block for block in read(theirs)["tasks"]}
+    for block in read(own)["tasks"]:
+        other = boards.get(block["task"])
+        if other is None or len(other["episodes"]) != len(block["episodes"]):
+            return False
+        for mine, kept in zip(block["episodes"], other["episodes"], strict=True):
+            if mine != kept and ("cause" in mine or {**mine, "cause": kept.get("cause")} != kept):
+                return False
+    own.unlink()
+    return True
 
 
 def method_slug(run: dict) -> str:
@@ -231,7 +254,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
     time and its normalized score on its task's evaluation seeds, and PD's (`which`:
     "all", or "legged" for the wheel-legged robot's rows alone)."""
     stored = [p for p in sorted((board / "results").glob("*.json")) if ".profile" not in p.name]
-    results = {path.stem: json.loads(path.read_text()) for path in stored}
+    results = {path.stem: read(path) for path in stored}
 
     def score(slug: str, task_id: str) -> float | None:
         for block in results.get(slug, {}).get("tasks", []):

@@ -18,6 +18,7 @@ from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.backends import _next_job
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.evaluation.harness import play_draws, play_tasks
+from bbbench.evaluation.results import read
 from bbbench.policies import BUILTIN_POLICIES, load_policy, register_policy
 from bbbench.policies.controllers.builtin import PDPolicy
 from bbbench.policies.policy import PDActor
@@ -298,7 +299,7 @@ def test_episodes_whose_worker_dies_twice_are_reported_and_the_rest_is_written(t
     seeds = list(bbbench.spec(VELOCITY).eval_seeds[:12])
     assert "4 episode(s) missing" in err
     assert f"seed {seeds[9]}" in err
-    task = json.loads(out.read_text())["tasks"][0]
+    task = read(out)["tasks"][0]
     assert task["missing"] == seeds[8:]
     assert [e["seed"] for e in task["episodes"]] == seeds[:8]
     assert task["aggregate"]["episodes"] == 8
@@ -399,7 +400,7 @@ def test_validation_seeds_are_played_on_request_and_said_in_the_document(tmp_pat
         "--seeds", "validation", "--json", str(out),
     )  # fmt: skip
     assert code == 0
-    document = json.loads(out.read_text())
+    document = read(out)
     spec = bbbench.spec("bbbench/FlatBalance-v1")
     assert document["split"] == "validation"
     (block,) = document["tasks"]

@@ -10,6 +10,7 @@ import os
 import pytest
 
 from bbbench.cli import main
+from bbbench.evaluation.results import read
 
 TASKS = ["bbbench/MultiBalance-v1", "bbbench/BeamCarry-v0"]
 
@@ -30,7 +31,7 @@ def written(tmp_path_factory):
     out, results = folder / "pd.json", folder / "results.json"
     argv = ["eval", "pd", "--task", *TASKS, "--episodes", "3", "--workers", "1"]
     assert main([*argv, "--marl-eval", str(out), "--json", str(results)]) == 0
-    return json.loads(out.read_text()), json.loads(results.read_text())
+    return json.loads(out.read_text()), read(results)
 
 
 def test_the_file_holds_every_episode_of_every_task(written):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from bbbench.evaluation.results import dumps, read
 from conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,7 +23,7 @@ def fake_run(folder: Path, results: dict, minutes: float) -> None:
 def test_a_run_playing_the_controllers_episodes_ties_it(tmp_path):
     tables = load_script("marl_tables")
     board = ROOT / "leaderboards"
-    pd = json.loads((board / "results" / "pd.json").read_text())
+    pd = read(board / "results" / "pd.json")
     worse = json.loads(json.dumps(pd))
     for block in worse["tasks"]:
         for episode in block["episodes"]:
@@ -54,14 +55,14 @@ def test_a_run_playing_the_controllers_episodes_ties_it(tmp_path):
 def test_the_same_episodes_give_one_half(tmp_path):
     tables = load_script("marl_tables")
     board = ROOT / "leaderboards"
-    fake_run(tmp_path / "x-s0", json.loads((board / "results" / "pd.json").read_text()), 20.0)
+    fake_run(tmp_path / "x-s0", read(board / "results" / "pd.json"), 20.0)
     line = tables.row(tmp_path, board, "bbbench/MultiBalance-v1", "X", "x")
     assert "| 0.50 [" in line
 
 
 def test_versus_pools_the_seeds_and_sets_one_method_against_the_other(tmp_path):
     tables = load_script("marl_tables")
-    pd = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
+    pd = read(ROOT / "leaderboards" / "results" / "pd.json")
     better = json.loads(json.dumps(pd))
     for block in better["tasks"]:
         for episode in block["episodes"]:
@@ -76,3 +77,25 @@ def test_versus_pools_the_seeds_and_sets_one_method_against_the_other(tmp_path):
     same = tables.versus(tmp_path, task, "B against B", "b", "b")
     assert "| 0.50 [" in same  # resampled independently, its interval spans 0.5
     assert tables.versus(tmp_path, task, "A against none", "a", "c") is None
+
+
+def test_a_run_whose_episodes_the_board_holds_drops_its_copy_and_reads_the_boards(tmp_path):
+    """scripts/train_baselines.py removes a run's results.json once the board's results
+    hold the same episodes; the tables then read the board's, and give the same row."""
+    tables, runs = load_script("marl_tables"), load_script("train_baselines")
+    board, task = tmp_path / "board", "bbbench/MultiBalance-v1"
+    (board / "results").mkdir(parents=True)
+    pd = read(ROOT / "leaderboards" / "results" / "pd.json")
+    for name in ("x-s0", "pd"):  # the run's, and the controller's the row compares with
+        (board / "results" / f"{name}.json").write_text(dumps(pd))
+    fake_run(tmp_path / "x-s0", pd, 20.0)
+    before = tables.row(tmp_path, board, task, "X", "x")
+    assert runs.drop_repeated_results(tmp_path / "x-s0", board)
+    assert not (tmp_path / "x-s0" / "results.json").exists()
+    assert tables.row(tmp_path, board, task, "X", "x") == before
+    other = json.loads(json.dumps(pd))
+    other["tasks"][0]["episodes"][3]["return"] += 1e-9  # not the board's episodes
+    fake_run(tmp_path / "y-s0", other, 20.0)
+    (board / "results" / "y-s0.json").write_text(dumps(pd))
+    assert not runs.drop_repeated_results(tmp_path / "y-s0", board)
+    assert (tmp_path / "y-s0" / "results.json").exists()

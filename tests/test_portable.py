@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from bbbench import portable
+from bbbench.evaluation.results import read
 from bbbench.policies.mlp import MlpActor
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -270,9 +271,7 @@ def test_a_convoy_episode_is_the_recorded_one_whatever_blas_kernel_runs(coretype
     controller's recorded episode replays bit for bit under OpenBLAS's Haswell kernel
     (which rounds each product) and under the default one."""
     board = Path(__file__).resolve().parents[1] / "leaderboards" / "results" / "team.json"
-    (block,) = [
-        b for b in json.loads(board.read_text())["tasks"] if b["task"].endswith("Convoy-v0")
-    ]
+    (block,) = [b for b in read(board)["tasks"] if b["task"].endswith("Convoy-v0")]
     # An episode whose tethers part under the Haswell kernel's rounding (measured).
     (recorded,) = [e for e in block["episodes"] if e["seed"] == 2147483658]
     code = f"""

@@ -3,7 +3,6 @@ start, through the others; `steer-avoid` gets them past each other."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ from pettingzoo.test import parallel_seed_test
 
 import bbbench
 from bbbench.evaluation.harness import play_draws
+from bbbench.evaluation.results import read
 from bbbench.evaluation.sweep import variant
 from bbbench.policies import load_policy
 from bbbench.policies.controllers.steer import Avoiding, SteerController, toward_goal
@@ -106,7 +106,7 @@ def test_every_group_size_observes_its_goal_and_neighbours(n_bots):
     [("steer", "push", 1.0, 2147483658), ("random", "motor_strength", 0.1, 2147483666)],
 )
 def test_the_boards_profile_episodes_replay_to_the_last_bit(slug, axis, value, seed):
-    document = json.loads((RESULTS / f"{slug}.steering-multi.profile.json").read_text())
+    document = read(RESULTS / f"{slug}.steering-multi.profile.json")
     (block,) = [block for block in document["axes"] if block["axis"] == axis]
     (point,) = [point for point in block["points"] if point["value"] == value]
     (record,) = [episode for episode in point["episodes"] if episode["seed"] == seed]

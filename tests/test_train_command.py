@@ -25,6 +25,7 @@ from bbbench.training.sb3.recipes import (
     recipe,
     recipes,
 )
+from conftest import load_script
 
 FLAT = "bbbench/FlatBalance-v1"  # the tasks the recipes train: the latest versions
 MULTI = "bbbench/MultiBalance-v1"
@@ -60,6 +61,10 @@ def test_the_same_command_twice_writes_the_same_zip_and_every_output(tmp_path, c
     assert seeds == training.evaluation_seeds(FLAT)
     assert not set(seeds) & set(bbbench.spec(FLAT).eval_seeds)
     assert all(seed < 2**31 for seed in seeds)  # training seeds
+    drawn = (first / "curve.png").read_bytes()  # not in git: drawn again from the records
+    (first / "curve.png").unlink()
+    load_script("draw_curves").draw(first)
+    assert (first / "curve.png").read_bytes() == drawn
     model = PPO.load(first / "policy.zip", device="cpu")  # stable-baselines3's own load
     assert model.policy.action_space.n == 9
     assert load_policy(first / "policy.zip").mismatch(FLAT) is None  # bbbench's reader

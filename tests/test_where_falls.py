@@ -3,12 +3,12 @@ tracking: it plays the episodes `bbbench eval` plays (the board's falls, seed by
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from bbbench.evaluation.results import read
 from bbbench.tasks.suite import spec
 from conftest import load_script
 
@@ -20,7 +20,7 @@ def test_the_falls_are_the_boards_and_each_is_placed():
     script = load_script("where_falls")
     seeds = list(spec(TASK).eval_seeds[:10])
     counted = script.tally("pd", TASK, seeds)
-    board = json.loads((ROOT / "leaderboards" / "results" / "pd.json").read_text())
+    board = read(ROOT / "leaderboards" / "results" / "pd.json")
     (block,) = [block for block in board["tasks"] if block["task"] == TASK]
     assert counted.falls == sum(episode["falls"] for episode in block["episodes"][:10]) > 0
     assert all(0 < step < 1500 for step in counted.fall_steps)

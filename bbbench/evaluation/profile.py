@@ -13,7 +13,7 @@ on one pool of workers. Per axis the robustness score is the mean normalized sco
 its grid and the worst case the least; the profile's own are the mean of the axes'
 scores (each axis weighs the same) and the least point of all.
 
-The profile document (`bbbench-profile/1`) keeps every episode's record, so that its
+The profile document (`bbbench-profile/2`) keeps every episode's record, so that its
 aggregates can be computed again from it (`profile_document`), as the leaderboard's
 check does.
 """
@@ -36,7 +36,10 @@ from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import spec
 from bbbench.tasks.tracks import TRACKS
 
-SCHEMA = "bbbench-profile/1"
+# 2: the text holds each point's episodes as a table (`results.dumps`), where 1 wrote one
+# object per episode; a profile of either is read for its episodes.
+SCHEMA = "bbbench-profile/2"
+EPISODES_OF = ("bbbench-profile/1", SCHEMA)
 PROFILE_EPISODES = 20
 # Bumped when the protocol plays anything else: a stored profile is reused only when its
 # protocol matches.

@@ -4,6 +4,10 @@
 timestamps, host names or timings: the same policy file on the same seeds with
 the same code gives the same bytes (`dumps`), on every machine but for its
 `platform` block, which names the Python, numpy and pybullet build it ran on.
+
+In memory a task's `episodes` are a list of records (`PlayedEpisode.record`); as text
+they are a table, one row per episode under one list of columns (`dumps`, `loads`):
+about a third of the bytes, and a changed episode is one changed line in a diff.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import itertools
 import json
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,10 +27,11 @@ from bbbench.portable import total
 from bbbench.tasks.spec import TaskSpec
 
 # 2: the overall is the mean normalized score (every episode counts), where 1 took the
-# IQM of the episodes' scores (a run's worst quarter, its falls, never counted). The
-# episode records are the same: a document of either is read for its episodes.
-SCHEMA = "bbbench-results/2"
-EPISODES_OF = ("bbbench-results/1", SCHEMA)
+# IQM of the episodes' scores (a run's worst quarter, its falls, never counted). 3: the
+# text holds each task's episodes as a table (`dumps`), where 2 wrote one object per
+# episode. The episode records are the same: a document of any is read for its episodes.
+SCHEMA = "bbbench-results/3"
+EPISODES_OF = ("bbbench-results/1", "bbbench-results/2", SCHEMA)
 # The version of the code that plays episodes (seeding, lockstep groups, actors): bump it
 # when the same policy on the same task spec and seeds would play differently. The
 # leaderboard reuses a stored task result only when it matches (with the policy's hash,
@@ -145,6 +151,78 @@ def document(
     }
 
 
-def dumps(results: dict[str, Any]) -> str:
-    """The document as text: the same document, the same bytes."""
-    return json.dumps(results, indent=2, allow_nan=False) + "\n"
+def dumps(document: dict[str, Any]) -> str:
+    """A document as text (a results document, a profile, the board's): two-space
+    indents, a list of plain values (seeds, an interval) on one line, and each list of
+    episode records (a task's, a profile point's) as a table, `{"columns": [...], "rows":
+    [...]}`, one row per line. The same document, the same bytes."""
+    return _text(_tabled(document), "") + "\n"
+
+
+def loads(text: str | bytes) -> dict[str, Any]:
+    """A document `dumps` wrote, its episode tables read back as records; a document
+    written before the tables (results 1 and 2, profile 1), as it is. `ValueError` for
+    text that is not JSON, or a table whose rows do not fit its columns."""
+    return _untabled(json.loads(text), "")
+
+
+def read(path: Path) -> dict[str, Any]:
+    """The document in the file at `path` (`loads`)."""
+    return loads(path.read_bytes())
+
+
+def _text(value: Any, indent: str) -> str:
+    inner = indent + "  "
+    if isinstance(value, dict) and value:
+        items = (f"{inner}{json.dumps(key)}: {_text(item, inner)}" for key, item in value.items())
+        return "{\n" + ",\n".join(items) + f"\n{indent}}}"
+    if isinstance(value, list) and any(isinstance(item, dict | list) for item in value):
+        return "[\n" + ",\n".join(inner + _text(item, inner) for item in value) + f"\n{indent}]"
+    return json.dumps(value, allow_nan=False, separators=(",", ":"))
+
+
+def _tabled(value: Any) -> Any:
+    """`value` with each non-empty list of episode records under an "episodes" key laid
+    out as a table: the columns in the order the records give them (a key only some
+    records have, `cause`, is null in the others' rows)."""
+    if isinstance(value, list):
+        return [_tabled(item) for item in value]
+    if not isinstance(value, dict):
+        return value
+    tabled = {key: _tabled(item) for key, item in value.items()}
+    episodes = value.get("episodes")
+    if isinstance(episodes, list) and episodes and all(isinstance(e, dict) for e in episodes):
+        columns = list(dict.fromkeys(key for record in episodes for key in record))
+        rows = [[record.get(column) for column in columns] for record in episodes]
+        tabled["episodes"] = {"columns": columns, "rows": rows}
+    return tabled
+
+
+def _untabled(value: Any, where: str) -> Any:
+    """`_tabled`'s inverse: a table's rows as records again, but for a null `cause`,
+    which a record leaves out (`PlayedEpisode.record`)."""
+    if isinstance(value, list):
+        return [_untabled(item, f"{where}[{i}]") for i, item in enumerate(value)]
+    if not isinstance(value, dict):
+        return value
+    plain = {key: _untabled(item, f"{where}.{key}") for key, item in value.items()}
+    table = value.get("episodes")
+    if isinstance(table, dict):
+        columns, rows = table.get("columns"), table.get("rows")
+        if set(table) != {"columns", "rows"} or not isinstance(columns, list):
+            raise ValueError(f"{where}.episodes: expected a table of columns and rows")
+        if not isinstance(rows, list) or any(
+            not isinstance(row, list) or len(row) != len(columns) for row in rows
+        ):
+            raise ValueError(
+                f"{where}.episodes: expected rows of {len(columns)} values, one per column"
+            )
+        plain["episodes"] = [
+            {
+                column: item
+                for column, item in zip(columns, row, strict=True)
+                if not (column == "cause" and item is None)
+            }
+            for row in rows
+        ]
+    return plain

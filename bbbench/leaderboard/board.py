@@ -19,6 +19,7 @@ from typing import Any
 
 import bbbench
 from bbbench.evaluation import PlayedEpisode, evaluate, results_document
+from bbbench.evaluation.profile import EPISODES_OF as PROFILES_OF
 from bbbench.evaluation.profile import (
     PROTOCOL,
     Protocol,
@@ -26,8 +27,7 @@ from bbbench.evaluation.profile import (
     profile_document,
     stored_records,
 )
-from bbbench.evaluation.profile import SCHEMA as PROFILE_SCHEMA
-from bbbench.evaluation.results import EPISODES_OF, HARNESS_VERSION
+from bbbench.evaluation.results import EPISODES_OF, HARNESS_VERSION, read
 from bbbench.leaderboard.submissions import Run, SubmissionError
 from bbbench.policies import Policy
 from bbbench.portable import total
@@ -210,10 +210,10 @@ def _stored_profile(
         path = folder / profile_file(slug, track.name)
         if not path.is_file():  # a board built before profiles were per track
             path = folder / f"{slug}{PROFILE_SUFFIX}"
-        old = json.loads(path.read_text())
+        old = read(path)
         task_id = track.profiled_on
         if (
-            old["schema"] != PROFILE_SCHEMA
+            old["schema"] not in PROFILES_OF
             or old["harness_version"] != HARNESS_VERSION
             or old["bbbench_version"] != bbbench.__version__
             or not same_policy(old["policy"], policy.record())
@@ -248,7 +248,7 @@ def _stored_episodes(
 ) -> dict[str, list[PlayedEpisode]]:
     """The tasks of `folder/<slug>.json` whose key matches today's: their episodes."""
     try:
-        old = json.loads((folder / f"{slug}.json").read_text())
+        old = read(folder / f"{slug}.json")
         if (
             old["schema"] not in EPISODES_OF
             or old["harness_version"] != HARNESS_VERSION

@@ -7,7 +7,7 @@ from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
-from bbbench.evaluation.results import dumps
+from bbbench.evaluation.results import dumps, loads
 from bbbench.leaderboard.generation import RESULTS, stale
 from bbbench.leaderboard.page import is_figure
 
@@ -38,11 +38,11 @@ def differences(
             continue
         if name.endswith(".json"):
             try:
-                old, new = (_unplaced(json.loads(text)) for text in (recorded, rebuilt))
+                old, new = (_unplaced(loads(text)) for text in (recorded, rebuilt))
             except ValueError:
                 problems.append(f"{name}: not valid JSON")
                 continue
-            if old == new and dumps(json.loads(recorded)).encode() != recorded:
+            if old == new and dumps(loads(recorded)).encode() != recorded:
                 problems.append(f"{path}: same data, other bytes (formatting)")
             found = _json_differences(old, new, name)
             numbers.update({where: pair for where, pair in found if pair is not None})

@@ -1,6 +1,8 @@
 """What a training leaves beside its policy, whichever trainer ran it (stable-baselines3
 in `bbbench.training.sb3`, BenchMARL in `bbbench.training.benchmarl`): the `Trained`
-record, and curve.json, curve.png, train.json and results.json written at once."""
+record, and curve.json, curve.png, train.json and results.json written at once; and a
+run's episodes on a task, from its own results.json or, once it is on a leaderboard
+(which keeps the same episodes, and the run's copy is dropped), the board's."""
 
 from __future__ import annotations
 
@@ -15,6 +17,8 @@ import numpy as np
 
 from bbbench.evaluation import stats
 from bbbench.evaluation.play import PlayedEpisode
+from bbbench.evaluation.results import dumps as results_text
+from bbbench.evaluation.results import read as read_results
 from bbbench.files import write_all_atomic
 
 
@@ -59,9 +63,22 @@ def write_logs(log_dir: Path, curve, tasks, algorithm, record, results) -> None:
             log_dir / "curve.json": dumps({"points": curve}),
             log_dir / "curve.png": curve_png(curve, tasks, algorithm),
             log_dir / "train.json": dumps(record),
-            log_dir / "results.json": dumps(results),
+            log_dir / "results.json": results_text(results).encode(),
         }
     )
+
+
+def run_episodes(log_dir: Path, task_id: str, board: Path) -> list[dict[str, Any]] | None:
+    """The episodes of the run trained in `log_dir` on `task_id`'s evaluation seeds: its
+    own results.json's, or the board's `results/<run>.json` (the run's folder name) when
+    the run's results do not hold the task (dropped once the board held them, or a later
+    version of the task); None when neither does."""
+    for path in (log_dir / "results.json", board / "results" / f"{log_dir.name}.json"):
+        if path.is_file():
+            for block in read_results(path)["tasks"]:
+                if block["task"] == task_id:
+                    return block["episodes"]
+    return None
 
 
 def dumps(document: dict[str, Any]) -> bytes:
