@@ -12,7 +12,8 @@ from bbbench.robots.balancebot import (
 )
 from bbbench.robots.body import Body
 from bbbench.robots.robot import Robot, registered
-from bbbench.robots.steering import TWO_WHEEL_STEER, SteeringBot, SteerState
+from bbbench.robots.steering import TWO_WHEEL_STEER
+from bbbench.robots.steering_body import SteeringBot, SteerState
 from bbbench.robots.twowheel import TWO_WHEEL
 from bbbench.robots.wheel_legged import WHEEL_LEGGED
 

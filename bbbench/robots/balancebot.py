@@ -256,7 +256,7 @@ class BalanceBot(Body):
         qx, qy = orientation[0], orientation[1]
         up = 1.0 - 2.0 * (qx * qx + qy * qy)
         up = up if up < 1.0 else 1.0
-        return _new_state(
+        return self._reading(
             (
                 position,
                 orientation,
@@ -269,8 +269,26 @@ class BalanceBot(Body):
                 (vx, vy),
                 heading,
                 (px - d * r02, py - d * r12, pz - d * r22),  # axle
-            )
+            ),
+            (wx, wy, wz),
+            (r02, r12, r22),
+            left[1],
+            right[1],
         )
+
+    def _reading(
+        self,
+        shared: tuple,
+        rates: tuple[float, float, float],
+        up: tuple[float, float, float],
+        left: float,
+        right: float,
+    ) -> BotState:
+        """The state `read` returns, from `BotState`'s values and what it read of the
+        world: the torso's angular velocity (world frame), its up axis and each wheel
+        joint's speed. A body that senses more from the same query (the steering bot's
+        gyro about the up axis, its encoders apart) extends the state here."""
+        return _new_state(shared)
 
     # Named readings for interactive use; each queries the world. In a loop, call
     # `read()` once and use its fields.

@@ -128,26 +128,15 @@ def observe(
     """
     # fromiter with a known count skips numpy's type and shape discovery (benchmarks/).
     return np.fromiter(
-        (
-            _PI if pitch > _PI else max(pitch, -_PI),
-            GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
-            ENCODER_SPEED_RANGE
-            if wheel_speed > ENCODER_SPEED_RANGE
-            else max(wheel_speed, -ENCODER_SPEED_RANGE),
-            wheel_command,
-            target,
-        ),
+        (*sensed(pitch, pitch_rate, wheel_speed), wheel_command, target),
         OBSERVATION_DTYPE,
         _OBSERVATION_SIZE,
     )
 
 
 def sensed(pitch: float, pitch_rate: float, wheel_speed: float) -> tuple[float, float, float]:
-    """The three sensed readings clipped as `observe` clips them, as Python floats.
-
-    For callers that build many observations at once (the multi-bot env);
-    tests/test_multi.py checks that the two agree.
-    """
+    """The three sensed readings clipped to their sensors' ranges, as Python floats: the
+    one place the shared readings are clipped (every robot's observation calls it)."""
     return (
         _PI if pitch > _PI else max(pitch, -_PI),
         GYRO_RANGE if pitch_rate > GYRO_RANGE else max(pitch_rate, -GYRO_RANGE),
