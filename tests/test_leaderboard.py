@@ -18,6 +18,7 @@ from bbbench import leaderboard
 from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.profile import Protocol
+from bbbench.evaluation.results import read
 from bbbench.leaderboard import Board, SubmissionError
 from bbbench.leaderboard.fields import METHOD_FIELDS, schema_files
 from bbbench.leaderboard.ranking import leaderboard_document
@@ -318,7 +319,7 @@ def forge(board: Path, slug: str, task_id: str, seed: int) -> None:
     """Change one recorded episode of `slug` and rebuild every number from the records, as
     a forger who knows the board's arithmetic would: only a replay can tell."""
     path = board / "results" / f"{slug}.json"
-    document = json.loads(path.read_text())
+    document = read(path)
     block = next(block for block in document["tasks"] if block["task"] == task_id)
     record = next(record for record in block["episodes"] if record["seed"] == seed)
     record["return"] += 1.0

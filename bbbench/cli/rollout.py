@@ -130,7 +130,7 @@ def _play_alone(spec, policy, actor, seeds) -> tuple[list[float], list[int]]:
     returns, lengths = [], []
     for seed in seeds:
         rngs = [action_generator(seed)] if policy.random_actions else None
-        (result,) = Lockstep([env], actor, [seed], spec.max_episode_steps, rngs).play()
+        (result,) = Lockstep([env], actor, [seed], rngs=rngs).play()
         ended = result.failure or ("fall" if result.falls else "time limit")
         returns.append(result.episode_return)
         lengths.append(result.length)

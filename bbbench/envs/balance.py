@@ -64,12 +64,15 @@ class BalanceEnv(Env):
     ## Episode End
 
     - Termination: a fall, the torso tilted more than 1 rad from vertical.
-    - Truncation: the task's `max_episode_steps` (1500, 15 s), by Gymnasium's `TimeLimit`.
+    - Truncation: the task's `max_episode_steps` (1500, 15 s), decided by the env's scene
+      (`Scene.truncated`), also without Gymnasium's `TimeLimit`, which `gymnasium.make`
+      adds at the same step. `gymnasium.make(id, max_episode_steps=N)` can end episodes
+      sooner (its wrapper), not later: `bbbench.make(id, max_episode_steps=N)` sets both.
 
     ## Arguments
 
     `action_mode`, `render_mode` (`None`, `"rgb_array"` or `"human"`), `difficulty`
-    (terrain tasks), `height_scan`, and one keyword per perturbation
+    (terrain tasks), `height_scan`, `max_episode_steps`, and one keyword per perturbation
     (`bbbench.tasks.perturbations`, docs/guides/robustness.md). The world is built at
     the first `reset()`; a pickled copy builds its own.
     """
@@ -83,6 +86,7 @@ class BalanceEnv(Env):
         render_mode: str | None = None,
         difficulty: float | None = None,
         height_scan: bool | None = None,
+        max_episode_steps: int | None = None,
         **unknown: Any,
     ) -> None:
         task = task if isinstance(task, TaskSpec) else spec(task)
@@ -90,7 +94,11 @@ class BalanceEnv(Env):
         task = requested_task(
             task,
             unknown,
-            {"height_scan": height_scan, "difficulty": difficulty},
+            {
+                "height_scan": height_scan,
+                "difficulty": difficulty,
+                "max_episode_steps": max_episode_steps,
+            },
             action_mode,
             render_mode,
             self.metadata["render_modes"],
@@ -143,7 +151,7 @@ class BalanceEnv(Env):
         )
         if self._human:
             self._render_human()
-        return observations[0], outcome.rewards[0], outcome.over, False, outcome.infos[0]
+        return observations[0], outcome.rewards[0], outcome.over, scene.truncated, outcome.infos[0]
 
     def render(self) -> np.ndarray | None:
         if not render_ready(self):

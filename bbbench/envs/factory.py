@@ -4,6 +4,7 @@ clear error for the other kind of task or an unknown ID."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium
@@ -13,11 +14,23 @@ from bbbench.envs.multi import MultiBalanceEnv
 from bbbench.tasks.suite import list_tasks, multi_bot_hint, spec
 
 
-def make(task_id: str, **kwargs: Any) -> gymnasium.Env:
-    """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID."""
+def make(task_id: str, max_episode_steps: int | None = None, **kwargs: Any) -> gymnasium.Env:
+    """`gymnasium.make` for a single-bot task, with a clear error for an unknown ID.
+
+    `max_episode_steps` sets the env's own time limit (the scene decides truncation) and
+    Gymnasium's `TimeLimit` at the same step; `gymnasium.make`'s keyword of that name
+    reaches its wrapper only, and so can shorten episodes but not lengthen them."""
     if spec(task_id).multi_agent:
         raise ValueError(multi_bot_hint(task_id))
-    return gymnasium.make(task_id, **kwargs)
+    if max_episode_steps is None:
+        return gymnasium.make(task_id, **kwargs)
+    registered = gymnasium.spec(task_id)
+    limited = dataclasses.replace(
+        registered,
+        max_episode_steps=max_episode_steps,
+        kwargs={**registered.kwargs, "max_episode_steps": max_episode_steps},
+    )
+    return gymnasium.make(limited, **kwargs)
 
 
 def make_parallel(task_id: str, **kwargs: Any) -> MultiBalanceEnv:

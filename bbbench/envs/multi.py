@@ -119,7 +119,6 @@ class MultiBalanceEnv(ParallelEnv):
         self._scenario = scenario = scene.scenario
         self._observation_space = scenario.observation_space()
         self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per bot-step
-        self._time_limit = task.max_episode_steps
         self._np_random: np.random.Generator | None = None
         self._episode_seed = -1
         self.ended_at: dict[str, int] = {}  # agent -> step its episode ended
@@ -181,7 +180,7 @@ class MultiBalanceEnv(ParallelEnv):
         observations, outcome = self._play(agents, states, scene.live_targets(steps))
         ends = [True] * len(agents) if outcome.over else outcome.fell
         terminations = dict(zip(agents, ends, strict=True))
-        truncated = steps >= self._time_limit
+        truncated = scene.truncated
         truncations = dict.fromkeys(agents, truncated)
         returned = dict(zip(agents, observations, strict=True))
         ended = agents if truncated else [agent for agent in agents if terminations[agent]]

@@ -103,6 +103,7 @@ class Scene:
         self.decode_action = self.robot.action_decoder(action_mode)  # checks the mode
         self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
         self.steps = 0  # world steps since the last reset
+        self.limit = task.max_episode_steps  # the time limit: `truncated` at this many steps
         self.live: list[int] = []  # indices of the bots still in the episode, in order
         self.live_bots: list[Body] = []  # and those bots
         self._clear()
@@ -121,6 +122,13 @@ class Scene:
         # Called before every multi-bot world step only by scenarios that couple bots.
         overridden = type(scenario).before_step is not Scenario.before_step
         self._before_step = scenario.before_step if overridden else None
+
+    @property
+    def truncated(self) -> bool:
+        """Whether the episode has reached its time limit (`max_episode_steps` steps): the
+        one place truncation is decided. Both envs return it as `truncated`, and the play
+        loops end an episode on it."""
+        return self.steps >= self.limit
 
     def _clear(self) -> None:
         """Forget the world's bodies (closed, or never built: a new or unpickled scene)."""

@@ -97,7 +97,7 @@ class LockstepPlayer:
                 MultiEpisode(envs[0], actor, seed, None if rngs is None else rngs[i]).play()
                 for i, seed in enumerate(seeds)
             ]
-        return Lockstep(envs, actor, seeds, first.max_episode_steps, rngs).play()
+        return Lockstep(envs, actor, seeds, rngs=rngs).play()
 
     def worlds(self) -> dict[str, int]:
         """How many envs the runner keeps open, by task (those of one task at a time)."""
@@ -110,7 +110,7 @@ class LockstepPlayer:
     def _make(self, task: TaskSpec) -> Any:
         if task.multi_agent:
             return MultiBalanceEnv(task, action_mode=self.action_mode)
-        # The env itself, without gymnasium's wrappers: the loop keeps the time limit.
+        # The env itself, without gymnasium's wrappers: it keeps its own time limit.
         return BalanceEnv(task, action_mode=self.action_mode)
 
     def close(self) -> None:

@@ -2,21 +2,23 @@
 one per env API, whoever plays it (`bbbench eval` and the leaderboard, `--video`,
 `bbbench rollout`, the golden rollouts of `bbbench.dev.golden`).
 
-    lockstep = Lockstep(envs, act, seeds, limit)   # single-bot envs, one lane each
+    lockstep = Lockstep(envs, act, seeds)          # single-bot envs, one lane each
     for step in lockstep:                          # after reset, then after each step
         ...                                        # step.observations, step.rewards
     lockstep.results                               # an PlayedEpisode per seed
 
 `act(batch, rngs)` is a policy's actor (`Policy.actor`): a batch of observations in,
 one action per row out (None for a NaN output); `rngs`, one generator per row, for a
-policy that acts at random. An episode ends at a fall, at `limit` steps, at a NaN
-action or at an action the env refuses (`PlayedEpisode.failure` says which).
+policy that acts at random. An episode ends at a fall, at its env's time limit (the
+env's `truncated`, which its scene decides), at a NaN action or at an action the env
+refuses (`PlayedEpisode.failure` says which).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NamedTuple
 
@@ -107,8 +109,9 @@ class Lockstep:
     batched policy call per step for every lane still playing. Iterate it to play
     (it yields a `Step` after reset and after each step); `results` after.
 
-    `envs` are single-bot envs without `TimeLimit` (`env.unwrapped`) or with one of
-    `limit` steps: the loop keeps the time limit itself.
+    `envs` are single-bot envs, with Gymnasium's wrappers or without (`env.unwrapped`):
+    a lane ends when its env says `terminated` or `truncated`. `limit`, if given, ends
+    every lane after that many steps (a short rollout; the golden ones).
     """
 
     def __init__(
@@ -116,7 +119,7 @@ class Lockstep:
         envs: Sequence[Any],
         act: Act,
         seeds: Sequence[int],
-        limit: int,
+        limit: int | None = None,
         rngs: list[np.random.Generator] | None = None,
     ) -> None:
         self.envs, self.act, self.seeds, self.limit, self.rngs = envs, act, seeds, limit, rngs
@@ -131,11 +134,11 @@ class Lockstep:
         yield Step(0, lanes, batch, None, _NO_LANES)
         steps = [env.step for env in envs]
         names = metric_names(envs[0])
-        totals, lengths = [0.0] * n, [limit] * n
+        totals, lengths = [0.0] * n, [0] * n
         sums = [[0.0] * len(names) for _ in range(n)]  # lane i: each metric's sum
         fell, failures = [False] * n, [None] * n
         lane_rngs = rngs
-        for step in range(limit):
+        for step in range(limit) if limit is not None else itertools.count():
             actions = act(batch, lane_rngs)
             rewards = [0.0] * len(lanes)
             ended = []
@@ -145,7 +148,7 @@ class Lockstep:
                     ended.append(j)
                     continue
                 try:
-                    observation, reward, terminated, _, info = steps[i](action)
+                    observation, reward, terminated, truncated, info = steps[i](action)
                 except ValueError as problem:  # an action outside the space
                     failures[i], lengths[i] = f"step {step}: {problem}", step
                     ended.append(j)
@@ -159,7 +162,13 @@ class Lockstep:
                 if terminated:
                     fell[i], lengths[i] = True, step + 1
                     ended.append(j)
-            if step + 1 == limit:
+                elif truncated:
+                    lengths[i] = step + 1
+                    ended.append(j)
+            if step + 1 == limit:  # the caller's cap: every lane still playing ends
+                for j in range(len(lanes)):
+                    if j not in ended:
+                        lengths[lanes[j]] = step + 1
                 ended = list(range(len(lanes)))
             # tuple.__new__ skips the namedtuple's Python-level __new__: this runs every step.
             gone = [lanes[j] for j in ended] if ended else _NO_LANES

@@ -70,7 +70,7 @@ def _play(task, policy: Policy, act, rng, seed: int, frames: list[np.ndarray]) -
     else:
         env = make(task.id, action_mode=mode, render_mode="rgb_array", **policy.env_options())
         rngs = None if rng is None else [rng]
-        played = Lockstep([env], act, [seed], task.max_episode_steps, rngs)
+        played = Lockstep([env], act, [seed], rngs=rngs)
         steps = (step.step for step in played if not step.ended)
     last = task.max_episode_steps - 1  # a time limit's last step, bots still in the world
     try:
