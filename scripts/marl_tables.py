@@ -31,7 +31,7 @@ import numpy as np
 from bbbench.evaluation import stats
 from bbbench.evaluation.results import normalized, read
 from bbbench.policies import classical_controller
-from bbbench.tasks.suite import latest_version, spec
+from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
 
 SEEDS = (0, 1, 2)
@@ -86,8 +86,9 @@ STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
 STEERING_ROWS = (
     *(  # trained on these IDs, scored on their latest versions, which the board plays
-        (latest_version(task_id), "PPO", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
+        (on, f"PPO{trained_on}", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
         for task_id in STEERING_SINGLE
+        for on, trained_on in [scored_version(task_id)]
     ),
     *(
         (task_id, f"{algo.upper()}, 3M", f"{algo}-{task_id.removeprefix('bbbench/').lower()}-3m")

@@ -40,7 +40,7 @@ from pathlib import Path
 from bbbench.evaluation.results import read
 from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
-from bbbench.tasks.suite import latest_version, spec
+from bbbench.tasks.suite import scored_version, spec
 from bbbench.tasks.tracks import track_of
 from bbbench.training.beside import described
 
@@ -297,11 +297,11 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             name = "generalist (by task: the six before PushRecovery, in order; seeds apart by ;)"
             pd = ""
         else:  # scored on the task's latest version, which the board plays
-            on = latest_version(task_id)
+            on, trained_on = scored_version(task_id)
             scores = " / ".join(f"{score(run['slug'], on):.3f}" for run in done)
             classical = classical_controller(on)
             name = on.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
-            name += "" if on == task_id else f" (trained on v{spec(task_id).version})"
+            name += trained_on
             pd = f"{score(classical, on):.3f}"
         steps = world_steps(records[0])  # world steps, the board's unit
         budget = f"{steps / 1e6:.3g}M" if steps >= 1e6 else f"{steps / 1e3:.3g}k"

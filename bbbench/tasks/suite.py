@@ -87,6 +87,14 @@ def latest_version(task_id: str) -> str:
     return max((task for task in SUITE.values() if task.name == name), key=_version).id
 
 
+def scored_version(trained: str) -> tuple[str, str]:
+    """The version of a task a run trained on that the board scores (its latest), and
+    what a table says of it: "" when it is the version trained on, else
+    " (trained on vN)"."""
+    on = latest_version(trained)
+    return on, "" if on == trained else f" (trained on v{spec(trained).version})"
+
+
 def _version(task: TaskSpec) -> int:
     return task.version
 
