@@ -15,7 +15,9 @@ reported (median, min, max over the rounds; above 1 means this checkout is slowe
 - `multi`: MultiBalance-v1 with 8 bots, PD's actions on every live bot, resets
   excluded: seconds per bot-step;
 - `eval`: `evaluate(pd, ["bbbench/VelocityTracking-v1"], episodes=20, workers=1)`,
-  seconds per env step (the harness's lockstep loop, results document included).
+  seconds per env step (the harness's lockstep loop, results document included);
+- with `--workloads ... steer swap`: SteerTracking-v0's step with `steer`'s actions, and
+  Swap-v0's with 4 bots and `steer-avoid`'s (the steering robot).
 """
 
 from __future__ import annotations
@@ -31,16 +33,17 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent.parent
 WORKLOADS = ("flat", "multi", "eval")
+EXTRA = ("steer", "swap")  # the steering robot's single-bot and multi-bot steps
 
 
-def flat(steps: int) -> float:
+def flat(steps: int, task_id: str = "bbbench/FlatBalance-v1", controller: str = "pd") -> float:
     import bbbench
     from bbbench.envs.balance import BalanceEnv
     from bbbench.policies import load_policy
 
-    env = BalanceEnv(bbbench.spec("bbbench/FlatBalance-v1"))
-    act = load_policy("pd").actor("bbbench/FlatBalance-v1")
-    seeds = iter(bbbench.spec("bbbench/FlatBalance-v1").eval_seeds * 1000)
+    env = BalanceEnv(bbbench.spec(task_id))
+    act = load_policy(controller).actor(task_id)
+    seeds = iter(bbbench.spec(task_id).eval_seeds * 1000)
     observation, _ = env.reset(seed=next(seeds))
     spent, done = 0.0, 0
     while done < steps:
@@ -54,15 +57,22 @@ def flat(steps: int) -> float:
     return spent / steps
 
 
-def multi(bot_steps: int) -> float:
+def steer(steps: int) -> float:
+    """SteerTracking-v0's `BalanceEnv.step`, the steering controller's actions."""
+    return flat(steps, "bbbench/SteerTracking-v0", "steer")
+
+
+def multi(
+    bot_steps: int, task_id: str = "bbbench/MultiBalance-v1", controller: str = "pd", bots: int = 8
+) -> float:
     import numpy as np
 
     import bbbench
     from bbbench.policies import load_policy
 
-    env = bbbench.make_parallel("bbbench/MultiBalance-v1", n_bots=8)
-    act = load_policy("pd").actor("bbbench/MultiBalance-v1")
-    seeds = iter(bbbench.spec("bbbench/MultiBalance-v1").eval_seeds * 1000)
+    env = bbbench.make_parallel(task_id, n_bots=bots)
+    act = load_policy(controller).actor(task_id)
+    seeds = iter(bbbench.spec(task_id).eval_seeds * 1000)
     observations, _ = env.reset(seed=next(seeds))
     spent, done = 0.0, 0
     while done < bot_steps:
@@ -78,6 +88,11 @@ def multi(bot_steps: int) -> float:
     return spent / done
 
 
+def swap(bot_steps: int) -> float:
+    """Swap-v0 with 4 bots (the steering robot's multi-bot step), steer-avoid's actions."""
+    return multi(bot_steps, "bbbench/Swap-v0", "steer-avoid", 4)
+
+
 def evaluation(episodes: int) -> float:
     from bbbench.evaluation import evaluate
     from bbbench.policies import load_policy
@@ -91,7 +106,8 @@ def evaluation(episodes: int) -> float:
 def worker(workload: str, size: int) -> None:
     import bbbench
 
-    seconds = {"flat": flat, "multi": multi, "eval": evaluation}[workload](size)
+    workloads = {"flat": flat, "multi": multi, "eval": evaluation, "steer": steer, "swap": swap}
+    seconds = workloads[workload](size)
     print(json.dumps({"seconds": seconds, "bbbench": str(Path(bbbench.__file__).parent)}))
 
 
@@ -112,6 +128,9 @@ def main() -> None:
     parser.add_argument("--flat-steps", type=int, default=30_000)
     parser.add_argument("--multi-bot-steps", type=int, default=60_000)
     parser.add_argument("--eval-episodes", type=int, default=20)
+    parser.add_argument(
+        "--workloads", nargs="*", choices=WORKLOADS + EXTRA, default=list(WORKLOADS)
+    )
     parser.add_argument("--worker", nargs=2, metavar=("WORKLOAD", "SIZE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -120,10 +139,22 @@ def main() -> None:
     if args.base is None:
         parser.error("--base: a checkout of the revision to compare with")
     base = args.base.resolve()
-    sizes = {"flat": args.flat_steps, "multi": args.multi_bot_steps, "eval": args.eval_episodes}
-    units = {"flat": "us/step", "multi": "us/bot-step", "eval": "us/env step"}
+    sizes = {
+        "flat": args.flat_steps,
+        "multi": args.multi_bot_steps,
+        "eval": args.eval_episodes,
+        "steer": args.flat_steps,
+        "swap": args.multi_bot_steps,
+    }
+    units = {
+        "flat": "us/step",
+        "multi": "us/bot-step",
+        "eval": "us/env step",
+        "steer": "us/step",
+        "swap": "us/bot-step",
+    }
     print(f"A = this checkout ({HERE}), B = {base}; {args.rounds} rounds, A and B in turn")
-    for workload in WORKLOADS:
+    for workload in args.workloads:
         ratios, a_times, b_times = [], [], []
         for _ in range(args.rounds):
             a = measure(HERE, workload, sizes[workload])
