@@ -33,7 +33,6 @@ phases; each ratio is computed within a round.
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing
 import os
 import statistics
@@ -47,6 +46,7 @@ import numpy as np
 
 import bbbench
 from bbbench.evaluation import evaluate
+from bbbench.evaluation.results import read
 from bbbench.policies import load_policy
 from bbbench.policies.policy import act_once
 from bbbench.policies.registry import REFERENCE_POLICY
@@ -165,7 +165,7 @@ def command_rate(episodes: int, workers: int, out: Path) -> tuple[float, int]:
     elapsed = command_seconds(
         "--episodes", str(episodes), "--workers", str(workers), "--json", str(out)
     )
-    document = json.loads(out.read_text())
+    document = read(out)
     steps = sum(e["length"] for task in document["tasks"] for e in task["episodes"])
     return steps / elapsed, steps
 
@@ -206,7 +206,7 @@ def main() -> None:
                 "--json", str(fixed_json),
             )  # fmt: skip
             # less its one episode's steps, at the one-worker command's own rate
-            fixed -= json.loads(fixed_json.read_text())["tasks"][0]["episodes"][0]["length"] / one
+            fixed -= read(fixed_json)["tasks"][0]["episodes"][0]["length"] / one
             one_seconds, ceiling = steps / one, bare_two / bare_one
             estimates.append(one_seconds / (fixed + (one_seconds - fixed) / ceiling))
             one_vs_bare.append(one / bare)

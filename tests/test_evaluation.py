@@ -191,7 +191,7 @@ def test_results_document_records_the_policy_and_the_tasks(tmp_path, capsys):
         spec = bbbench.spec(task["task"])
         assert task["fingerprint"] == spec.fingerprint
         assert task["random_return"] == spec.random_return
-        assert len(task["episodes"]) == 2
+        assert len(task["episodes"]["rows"]) == 2  # the text's table: a row per episode
     assert document["overall"]["tasks"] == len(latest)
     assert f"Mean normalized score over {len(latest)} tasks" in stdout
     assert "FlatBalance-v1" in stdout

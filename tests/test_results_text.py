@@ -61,4 +61,4 @@ def test_a_table_that_does_not_fit_its_columns_is_refused(document, change, mess
     change(raw["tasks"][0]["episodes"])
     with pytest.raises(ValueError, match=message) as error:
         loads(json.dumps(raw))
-    assert "tasks[0].episodes" in str(error.value)
+    assert str(error.value).startswith("tasks[0].episodes: ")

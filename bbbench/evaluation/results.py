@@ -205,7 +205,9 @@ def _untabled(value: Any, where: str) -> Any:
         return [_untabled(item, f"{where}[{i}]") for i, item in enumerate(value)]
     if not isinstance(value, dict):
         return value
-    plain = {key: _untabled(item, f"{where}.{key}") for key, item in value.items()}
+    plain = {
+        key: _untabled(item, f"{where}.{key}" if where else key) for key, item in value.items()
+    }
     table = value.get("episodes")
     if isinstance(table, dict):
         columns, rows = table.get("columns"), table.get("rows")
