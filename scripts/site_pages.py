@@ -72,7 +72,7 @@ def maker(task: TaskSpec) -> str:
 def action_spaces(task: TaskSpec) -> str:
     robot = task.robot_model
     return ", ".join(
-        f"`{robot.action_space(mode)}` (`{mode}`{', the default' if i == 0 else ''})"
+        f"`{task.action_space(mode)}` (`{mode}`{', the default' if i == 0 else ''})"
         for i, mode in enumerate(robot.action_modes)
     )
 

@@ -67,7 +67,7 @@ TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0
 # The steering robot's tasks (issue 52): PPO on the single-bot ones, three seeds each;
 # IPPO and MAPPO on the multi-bot and team ones, at the field's budget (the campaign).
 STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
-STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
+STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0", "bbbench/Rendezvous-v0")
 SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.

@@ -104,7 +104,7 @@ def test_every_task_before_the_teams_plays_solo_or_crossing():
     their group implies; the team tasks and the steering robot's tasks name theirs."""
     for task in SUITE.values():
         if task.robot == "two-wheel-steer":
-            assert task.scenario in ("steer", "waypoints", "swap", "convoy-turns")
+            assert task.scenario in ("steer", "waypoints", "swap", "convoy-turns", "rendezvous")
         elif task.coupling is None:
             assert task.scenario_class is (Crossing if task.multi_agent else Solo)
         else:

@@ -107,7 +107,7 @@ class BalanceEnv(Env):
         self.action_mode = action_mode
         self.render_mode = render_mode
         self._human = render_mode == "human"
-        self.action_space = task.robot_model.action_space(action_mode)
+        self.action_space = task.action_space(action_mode)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / task.control_dt)}
         self._scene = scene = Scene(task, action_mode, gui=self._human)
         scenario = scene.scenario

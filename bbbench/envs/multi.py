@@ -36,7 +36,8 @@ class MultiBalanceEnv(ParallelEnv):
     ## Action Space
 
     Per agent, the robot's single-bot space (`Discrete(9)` on the two-wheel bot,
-    `Discrete(27)` on the steering robot; `action_mode="continuous"`: a `Box`).
+    `Discrete(27)` on the steering robot; `action_mode="continuous"`: a `Box`), grown by
+    the message values on a task with a channel (`bbbench.tasks.channel`).
     `step()` takes one action for every agent in `env.agents`; actions for agents whose
     episode has ended are ignored (TorchRL sends one per possible agent), and an unknown
     agent, an action outside the space or NaN is refused with `ValueError`.
@@ -73,8 +74,10 @@ class MultiBalanceEnv(ParallelEnv):
     ## Arguments
 
     `n_bots` (the task's range), `action_mode`, `render_mode` (`None` or `"rgb_array"`),
-    `difficulty` (on ground that takes one), `max_episode_steps`, and one keyword per
-    perturbation (`bbbench.tasks.perturbations`).
+    `difficulty` (on ground that takes one), `max_episode_steps`, on a task with a
+    message channel `message_width`, `comm_range` and `mute_messages`
+    (`bbbench.tasks.channel`), and one keyword per perturbation
+    (`bbbench.tasks.perturbations`).
 
     ## Version History
 
@@ -113,7 +116,7 @@ class MultiBalanceEnv(ParallelEnv):
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        self._action_space = task.robot_model.action_space(action_mode)
+        self._action_space = task.action_space(action_mode)
         # The episode's world, ground and bots, and what its seed drew (`scene.episode`).
         self.scene = scene = Scene(task, action_mode)
         self._scenario = scenario = scene.scenario

@@ -101,6 +101,13 @@ class Scene:
         self.n_bots = scenario.n_bots
         self.action_mode = action_mode = action_mode or self.robot.default_action_mode
         self.decode_action = self.robot.action_decoder(action_mode)  # checks the mode
+        # The channel's messages (`bbbench.tasks.channel`): what each bot sent with its
+        # last action (zeros after reset), and the function that parts an action.
+        self.channel = channel = task.channel
+        self.sent: list[tuple[float, ...]] = []
+        self._split = (
+            None if channel is None else channel.splitter(self.robot.action_space(action_mode))
+        )
         self.world = World(time_step=task.control_dt, substeps=task.physics_substeps, gui=gui)
         self.steps = 0  # world steps since the last reset
         self.limit = task.max_episode_steps  # the time limit: `truncated` at this many steps
@@ -220,6 +227,8 @@ class Scene:
         self.steps = 0
         self.live = list(range(n))
         self.live_bots = list(self._bots)
+        if self.channel is not None:
+            self.sent = self.channel.silence(n)
         states = [bot.read() for bot in self._bots]
         first = states[0]  # what a delayed sensor reports at the first step
         self._last_reading = (first.pitch, first.pitch_rate, first.wheel_speed)
@@ -227,7 +236,17 @@ class Scene:
 
     def act_live(self, actions) -> None:
         """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
-        decode = self.decode_action
+        decode, split = self.decode_action, self._split
+        if split is not None:  # each bot's action parted: the robot's, and its message
+            parted = []
+            for k, action in enumerate(actions):
+                try:
+                    parted.append(split(action))
+                except ValueError as error:
+                    raise ActionError(k, error) from None
+            actions = [action for action, _ in parted]
+            for i, (_, message) in zip(self.live, parted, strict=True):
+                self.sent[i] = message
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
             try:
                 bot.act(decode(action))
@@ -375,6 +394,7 @@ _DERIVE = {
     "max_episode_steps": "with_time_limit",
     "height_scan": "with_height_scan",
 }
+CHANNEL_OPTIONS = ("message_width", "comm_range", "mute_messages")
 
 
 def requested_task(
@@ -390,7 +410,9 @@ def requested_task(
 
     `options` maps each keyword the env takes beyond action_mode and render_mode to the
     value given (None: not given): `difficulty`, `height_scan`, `n_bots`,
-    `max_episode_steps`; each given one derives the spec (`TaskSpec.with_...`).
+    `max_episode_steps`; each given one derives the spec (`TaskSpec.with_...`). On a
+    task with a channel, `unknown` may hold `message_width`, `comm_range` and
+    `mute_messages` (`TaskSpec.with_channel`).
     `unknown` holds the keywords the env does not take. `several_bots`: the env is the
     multi-bot one, which plays `Group` tasks through perfect sensors only.
     """
@@ -407,8 +429,11 @@ def requested_task(
         for name in options
         if (name != "difficulty" or terrain) and (name != "height_scan" or scans)
     ]
+    if task.channel is not None:
+        accepted += CHANNEL_OPTIONS
     accepted += [keyword for keyword in PERTURBATIONS if refusal(keyword, task) is None]
     perturbations = {k: unknown.pop(k) for k in list(unknown) if k in PERTURBATIONS}
+    talk = {k: unknown.pop(k) for k in CHANNEL_OPTIONS if k in unknown and task.channel}
     wrong = sorted(unknown)
     if options.get("difficulty") is not None and not terrain:
         wrong.append("difficulty")
@@ -424,6 +449,8 @@ def requested_task(
     for name, value in options.items():
         if value is not None:
             task = getattr(task, _DERIVE[name])(value)
+    if talk:
+        task = task.with_channel(**talk)
     for keyword, value in perturbations.items():
         task = task.with_perturbation(PERTURBATIONS[keyword](value))
     robot.check_action_mode(action_mode)

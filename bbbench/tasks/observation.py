@@ -43,18 +43,21 @@ def group_observations(
     group: Group,
     size: int,
     extras: list[tuple[float, ...]] | None = None,
+    after: list[list[float]] | None = None,
 ) -> np.ndarray:
     """The observations of a group's live bots, one row of `size` values each: the robot's
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
     then the bot's `extras` if given (a scenario's own fields, a tuple per bot), then its
     `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
-    (`bbbench.tasks.observation.neighbour_layout` names the slots; the task pages show them).
+    (`bbbench.tasks.observation.neighbour_layout` names the slots; the task pages show them),
+    then the bot's values `after` them if given (a channel's message block, a list per bot).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
     """
     k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
     fill = [0.0] * size
+    end = size - (len(after[0]) if after else 0)  # where the neighbour block ends
     positions = [complex(state.position[0], state.position[1]) for state in states]
     velocities = [complex(*state.velocity) for state in states]
     nearest = nearest_others(positions, k)
@@ -76,6 +79,8 @@ def group_observations(
             right = top if right > top else -top if right < -top else right
             ahead = top if ahead > top else -top if ahead < -top else ahead
             row += (offset.real, offset.imag, right, ahead)
-        row += fill[len(row) :]
+        row += fill[len(row) : end]
+        if after:
+            row += after[i]
         rows.append(row)
     return np.array(rows, dtype=OBSERVATION_DTYPE).reshape(len(states), -1)

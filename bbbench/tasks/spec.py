@@ -13,9 +13,11 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
+from gymnasium import spaces
 
 from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
+from bbbench.tasks.channel import Channel
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
 from bbbench.tasks.group import MIN_BOTS, Group
 from bbbench.tasks.perturbations import PERTURBATIONS
@@ -65,6 +67,7 @@ _OPTIONS_ADDED_LATER = {
     "robot": "two-wheel",
     "coupling": None,
     "validation_seeds": VALIDATION_SEEDS,
+    "channel": None,
 }
 
 
@@ -155,6 +158,9 @@ class TaskSpec:
     # What couples a team's bots, a component of its scenario's module (`Beam`, `Tether`),
     # checked by the scenario (`Column.refusal`); None for none.
     coupling: Any = None
+    # What the bots can say to each other (`bbbench.tasks.channel`): message values in
+    # each action, the messages of the nearest senders in each observation; None: nothing.
+    channel: Channel | None = None
     version_history: tuple[str, ...] = ("v0: initial release.",)
     # The random policy's mean return (per bot) over eval_seeds, in the robot's default
     # action mode (discrete for the two-wheel bot): the 0 of the normalized score.
@@ -211,6 +217,8 @@ class TaskSpec:
             raise ValueError(f"height_scan must be True or False, got {self.height_scan!r}")
         if self.height_scan and self.group is not None:
             raise ValueError(f"{self.id}: the height scan is a single-bot option")
+        if self.channel is not None and self.group is None:
+            raise ValueError(f"{self.id}: a message channel needs several bots (a Group)")
 
     @property
     def robot_model(self) -> Robot:
@@ -221,6 +229,12 @@ class TaskSpec:
     def scenario_class(self) -> type[Scenario]:
         """The task's rules: `Scene` makes one of these per world."""
         return SCENARIOS[self.scenario]
+
+    def action_space(self, action_mode: str) -> spaces.Space:
+        """One bot's action space: its robot's in `action_mode`, grown by the message
+        values where the task has a channel (`bbbench.tasks.channel`)."""
+        space = self.robot_model.action_space(action_mode)
+        return space if self.channel is None else self.channel.action_space(space)
 
     @property
     def difficulty(self) -> float | None:
@@ -255,6 +269,21 @@ class TaskSpec:
                 f"{self.scenario_class.name!r} scenario, got {n_bots!r}"
             )
         return dataclasses.replace(self, group=dataclasses.replace(self.group, n_bots=n_bots))
+
+    def with_channel(
+        self,
+        message_width: int | None = None,
+        comm_range: float | None = None,
+        mute_messages: bool | None = None,
+    ) -> TaskSpec:
+        """The same task with its channel's width, range or muting changed (a different
+        fingerprint); `TypeError` for a task without a channel, `ValueError` (one line) for
+        a value out of bounds."""
+        if self.channel is None:
+            raise TypeError(f"{self.id} has no message channel: it takes no message options")
+        changes = {"width": message_width, "range": comm_range, "muted": mute_messages}
+        given = {key: value for key, value in changes.items() if value is not None}
+        return dataclasses.replace(self, channel=dataclasses.replace(self.channel, **given))
 
     def with_height_scan(self, height_scan: bool = True) -> TaskSpec:
         """The same task observed with (or without) the ground heights ahead of the bot:

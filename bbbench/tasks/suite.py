@@ -124,7 +124,7 @@ def agent_spaces(
     asked where the scenario scans the ground (`height_scan` is ignored elsewhere)."""
     task = spec(task_id)
     scenario = _scenario(task, height_scan)
-    return scenario.observation_space(), task.robot_model.action_space(action_mode)
+    return scenario.observation_space(), task.action_space(action_mode)
 
 
 def agent_layout(task_id: str, height_scan: bool = False) -> tuple[str, ...]:

@@ -14,7 +14,8 @@ from bbbench.tasks.suite import SUITE, latest_version
 @dataclasses.dataclass(frozen=True)
 class Track:
     """One ranking: the tasks of one robot, played by one bot, by several, or by a team
-    (coupled bots that share one reward: a scenario whose `team` is set)."""
+    (coupled bots that share one reward: a scenario whose `team` is set), without a
+    message channel or with one."""
 
     name: str  # what the board document and `--track` say
     label: str  # how messages name it: 'the single-bot track'
@@ -23,6 +24,7 @@ class Track:
     multi_agent: bool  # several bots in one world (one policy shared by every bot)
     profile_task: str  # a task of the track: its latest version is what profiles play
     team: bool = False  # a team's tasks (cooperative), not bots each on their own
+    talks: bool = False  # tasks whose bots talk over a message channel (`TaskSpec.channel`)
 
     def __post_init__(self) -> None:
         if not self.holds(SUITE[self.profile_task]):
@@ -36,6 +38,7 @@ class Track:
             task.robot == self.robot
             and task.multi_agent == self.multi_agent
             and task.scenario_class.team == self.team
+            and (task.channel is not None) == self.talks
         )
 
     @property
@@ -105,6 +108,16 @@ TRACKS: dict[str, Track] = {
             True,
             "bbbench/ConvoyTurns-v0",
             team=True,
+        ),
+        Track(
+            "steering-talk",
+            "steering with messages",
+            "the steering robot's tasks with a message channel (one team reward, one policy "
+            "shared by every bot)",
+            "two-wheel-steer",
+            True,
+            "bbbench/Rendezvous-v0",
+            talks=True,
         ),
     )
 }

@@ -11,6 +11,7 @@ from bbbench.policies.controllers.crossing import CrossingController
 from bbbench.policies.controllers.legged import LeggedController
 from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
+from bbbench.policies.controllers.rendezvous import RendezvousController
 from bbbench.policies.controllers.steer import GUIDES, Avoiding, SteerController
 from bbbench.policies.controllers.team import SteeringTeam, TeamController
 from bbbench.policies.policy import (
@@ -23,8 +24,8 @@ from bbbench.policies.policy import (
 )
 from bbbench.robots import ROBOTS
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
-from bbbench.tasks.scenarios import Column, Crossing
-from bbbench.tasks.suite import agent_spaces, list_tasks, spec
+from bbbench.tasks.scenarios import Column, Crossing, Rendezvous
+from bbbench.tasks.suite import agent_layout, agent_spaces, list_tasks, spec
 
 
 class TwoWheelPolicy(Policy):
@@ -220,6 +221,44 @@ class SteerAvoidPolicy(SteerPolicy):
 def _among_others_to_goals(task_id: str) -> bool:
     scenario = spec(task_id).scenario_class
     return scenario.multi_agent and scenario.heads_for == "the goal"
+
+
+class RendezvousPolicy(SteerPolicy):
+    """The rendezvous tasks' classical team controller
+    (`bbbench.policies.controllers.rendezvous`): the scout says the goal's landmark over
+    the channel, every bot that heard it says it again, and each bot that knows steers
+    there past its neighbours (one that knows nothing stands). It plays the tasks of the
+    rendezvous scenario only; on them, the same controller with the messages muted
+    (`mute_messages=True`) is what the channel is measured against."""
+
+    name = algorithm = "rendezvous"
+
+    def mismatch(self, task_id: str) -> str | None:
+        refused = robot_mismatch(self, task_id)
+        if refused is None and not issubclass(spec(task_id).scenario_class, Rendezvous):
+            plays = [t for t in list_tasks(latest=True) if _is_rendezvous(t)]
+            return f"{task_id} is not a rendezvous task; rendezvous plays {', '.join(plays)}"
+        return refused
+
+    def spaces_text(self) -> str:
+        spaces = ", ".join(
+            f"{t} -> {describe_space(agent_spaces(t, self.action_mode)[1])}"
+            for t in list_tasks(latest=True)
+            if _is_rendezvous(t)
+        )
+        return f"the rendezvous tasks: {spaces}"
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        task = spec(task_id)
+        layout = agent_layout(task_id)
+        controller = RendezvousController(
+            layout, task.channel, task.group.neighbours, self.action_mode
+        )
+        return PDActor(controller)
+
+
+def _is_rendezvous(task_id: str) -> bool:
+    return issubclass(spec(task_id).scenario_class, Rendezvous)
 
 
 class RandomPolicy(Policy):

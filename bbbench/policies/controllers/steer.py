@@ -110,7 +110,13 @@ class Avoiding:
     def __call__(self, observation: np.ndarray) -> tuple[float, float]:
         speed = float(observation[TARGET_VELOCITY])
         cos, sin = float(observation[GOAL_COS]), float(observation[GOAL_SIN])
-        forward, right = speed * cos, -speed * sin
+        return self.around(observation, speed * cos, -speed * sin, speed)
+
+    def around(
+        self, observation: np.ndarray, forward: float, right: float, speed: float
+    ) -> tuple[float, float]:
+        """The (velocity, yaw rate) along the body-frame velocity (forward, right) m/s a
+        guide wants, at up to `speed`, pushed clear of the neighbours."""
         radius = self.radius
         for k in range(self.slots):
             at = self.first_slot + 4 * k

@@ -43,7 +43,10 @@ ALGORITHM, TRAINING_STEPS, TASK = "bbbench.algorithm", "bbbench.training_steps",
 TRAINING_SEED = "bbbench.training_seed"
 KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK, TRAINING_SEED)
 MAX_OBSERVATION = 1024  # wider than any layout of the suite
-MAX_ACTIONS = 64
+MAX_ACTIONS = 64  # a Box's values
+# A Discrete space's actions: the largest of the suite is the steering robot's 27 times a
+# channel's 3 ** 4 messages (`bbbench.tasks.channel.MAX_WIDTH`), 2,187.
+MAX_DISCRETE = 4096
 MAX_TRAINING_STEPS = 10**13  # far beyond any training; the board shows the count as given
 MAX_SEED = 2**63 - 1
 FLAGS = "--observation N (the observation width: 5, 16, 17, 19 ...) and --action-space SPACE"
@@ -109,8 +112,8 @@ def parse_action_space(text: str, where: str) -> spaces.Discrete | spaces.Box:
     match = _DISCRETE.fullmatch(text)
     if match:
         n = int(match.group(1))
-        if not 1 <= n <= MAX_ACTIONS:
-            raise PolicyError(f"{where}: {text}: 1 to {MAX_ACTIONS} actions")
+        if not 1 <= n <= MAX_DISCRETE:
+            raise PolicyError(f"{where}: {text}: 1 to {MAX_DISCRETE} actions")
         return spaces.Discrete(n)
     match = _BOX.fullmatch(text)
     if match is None:
