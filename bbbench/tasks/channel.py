@@ -157,20 +157,29 @@ class Channel:
         """Every bot's message after a reset: zeros."""
         return [(0.0,) * self.width] * n_bots
 
-    def blocks(self, states: list[Any], sent: list[tuple[float, ...]]) -> list[list[float]]:
+    def blocks(
+        self,
+        states: list[Any],
+        sent: list[tuple[float, ...]],
+        nearest: list[list[int]] | None = None,
+    ) -> list[list[float]]:
         """The live bots' message blocks, one list of values each: from their `states`
         (in order) and the messages each `sent` with its last action (in the same
-        order). Plain floats, as `group_observations`."""
+        order); `nearest`, each bot's others nearest first where the caller has them
+        (`nearest_others`, at least `slots` each where there are as many). Plain floats,
+        as `group_observations`."""
         size = self.slots * (self.width + 3)
         silent = (0.0,) * self.width if self.muted else None
         positions = [complex(state.position[0], state.position[1]) for state in states]
-        nearest = nearest_others(positions, self.slots) if len(states) > 1 else [[]]
+        slots = self.slots
+        if nearest is None:
+            nearest = nearest_others(positions, slots) if len(states) > 1 else [[]]
         reach, rows = self.range, []
         for i, state in enumerate(states):
             forward_x, forward_y = state.heading
             turn = complex(forward_y, forward_x)  # world -> right + i ahead, as neighbours
             row: list[float] = []
-            for j in nearest[i]:
+            for j in nearest[i][:slots]:
                 offset = (positions[j] - positions[i]) * turn
                 if abs(offset) > reach:
                     break  # the rest are farther

@@ -44,6 +44,7 @@ def group_observations(
     size: int,
     extras: list[tuple[float, ...]] | None = None,
     after: list[list[float]] | None = None,
+    nearest: list[list[int]] | None = None,
 ) -> np.ndarray:
     """The observations of a group's live bots, one row of `size` values each: the robot's
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
@@ -51,6 +52,8 @@ def group_observations(
     `group.neighbours` nearest others within `group.neighbour_range`, in its own frame
     (`bbbench.tasks.observation.neighbour_layout` names the slots; the task pages show them),
     then the bot's values `after` them if given (a channel's message block, a list per bot).
+    `nearest`: each bot's others, nearest first (`nearest_others`), where the caller has
+    them already (at least `group.neighbours` each where there are as many).
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
@@ -60,7 +63,8 @@ def group_observations(
     end = size - (len(after[0]) if after else 0)  # where the neighbour block ends
     positions = [complex(state.position[0], state.position[1]) for state in states]
     velocities = [complex(*state.velocity) for state in states]
-    nearest = nearest_others(positions, k)
+    if nearest is None:
+        nearest = nearest_others(positions, k)
     rows = []
     values = robot.values
     for i, state in enumerate(states):
@@ -70,7 +74,7 @@ def group_observations(
             row += extras[i]
         here, velocity, (forward_x, forward_y) = positions[i], velocities[i], state.heading
         turn = complex(forward_y, forward_x)  # i * conj(heading): world -> right + i ahead
-        for j in nearest[i]:
+        for j in nearest[i][:k]:
             offset = (positions[j] - here) * turn
             if abs(offset) > reach:
                 break  # the rest are farther

@@ -35,7 +35,7 @@ from bbbench.portable import total
 from bbbench.robots.layout import ObservationField
 from bbbench.tasks.channel import Channel
 from bbbench.tasks.commands import SPEED_TARGETS
-from bbbench.tasks.group import Group, spawn_poses
+from bbbench.tasks.group import Group, nearest_others, spawn_poses
 from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, has_fallen
 from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
@@ -97,6 +97,7 @@ class Rendezvous(Scenario):
         self._own = len(robot) + len(_OWN_FIELDS) + len(neighbours)
         self.layout = (*robot, *_OWN_FIELDS, *neighbours, *task.channel.layout())
         self._size = len(self.layout)
+        self._heard = max(task.group.neighbours, task.channel.slots)  # others to sort
         self.landmarks: list[tuple[float, float]] = []
         self.goal = 0  # the goal's landmark
         self.scout = 0  # the bot told the goal
@@ -193,9 +194,12 @@ class Rendezvous(Scenario):
             row += told if i == scout else untold
             extras.append(row)
         self._seen = distances, limited, towards
-        blocks = self.channel.blocks(states, [scene.sent[i] for i in live])
+        # Each bot's others, nearest first, once for both blocks.
+        positions = [complex(state.position[0], state.position[1]) for state in states]
+        nearest = nearest_others(positions, self._heard)
+        blocks = self.channel.blocks(states, [scene.sent[i] for i in live], nearest)
         return group_observations(
-            self.robot, states, commands, targets, self.group, self._size, extras, blocks
+            self.robot, states, commands, targets, self.group, self._size, extras, blocks, nearest
         )
 
     def outcome(
