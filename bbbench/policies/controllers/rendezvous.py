@@ -1,10 +1,14 @@
 """The rendezvous task's classical team controller: the scout says which landmark is the
-goal, every bot that has heard it says it again (a relay, for bots beyond the scout's
-range), and each bot that knows heads there with the steering law, past its neighbours.
+goal, a bot that hears the scout says it again (a relay, for bots beyond the scout's
+slots or range), and each bot that knows heads there with the steering law, past its
+neighbours; one that knows nothing says nothing and stands.
 
-A landmark is said in the first two message values, each -1 or 1 (`CODES`); a bot that
-knows nothing says zeros, and stands. Messages are read from the nearest sender that
-says a landmark; the scout trusts its own one-hot first.
+Messages are the first two values, each -1, 0 or 1 (the nine discrete messages of a
+width-2 channel): the scout says landmark k as a corner (`TOLD`: both values +-1), a
+relay as an edge (`RELAYED`: one value 0), and (0, 0) says nothing. A relay never relays
+a relay, so that a goal that has moved on cannot circle among bots that repeat each
+other: the news travels two hops. A bot believes the scout's one-hot first, then the
+nearest sender that says the scout's words, then the nearest relay.
 """
 
 from __future__ import annotations
@@ -15,18 +19,22 @@ from bbbench.policies.controllers.steer import TARGET_VELOCITY, Avoiding, SteerC
 from bbbench.tasks.channel import Channel, code_of
 from bbbench.tasks.scenarios.rendezvous import ARRIVAL_RATE, GATHERED, LANDMARKS
 
-# Landmark k's message: its first two values (the rest zeros); zeros say nothing.
-CODES = ((-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0))
-WIDTH_NEEDED = 2  # message values the code takes
+# Landmark k as the scout says it, and as a relay says it; (0, 0) says nothing.
+TOLD = ((-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0))
+RELAYED = ((-1.0, 0.0), (0.0, -1.0), (0.0, 1.0), (1.0, 0.0))
+NOTHING = (0.0, 0.0)
+WIDTH_NEEDED = 2  # message values the words take
 
 
-def heard(values: tuple[float, float]) -> int | None:
-    """The landmark a message's first two values say, or None for one that says none (a
-    value nearer 0 than +-1)."""
-    first, second = values
-    if abs(first) < 0.5 or abs(second) < 0.5:
+def heard(values: tuple[float, float]) -> tuple[int, bool] | None:
+    """What a message's first two values say: (landmark, whether the scout said it), or
+    None for nothing. Each value is read as its nearest level of -1, 0 and 1."""
+    first, second = (-1.0 if v < -0.5 else 1.0 if v > 0.5 else 0.0 for v in values)
+    if (first, second) == NOTHING:
         return None
-    return 2 * (first > 0.0) + (second > 0.0)
+    if first and second:
+        return TOLD.index((first, second)), True
+    return RELAYED.index((first, second)), False
 
 
 class RendezvousController:
@@ -58,23 +66,30 @@ class RendezvousController:
         self.width, self.codes, self.action_mode = channel.width, channel.codes, action_mode
         self.steer = SteerController(action_mode, guide=self.guide)
 
-    def goal(self, observation: np.ndarray) -> int | None:
-        """The landmark this bot knows to be the goal: told (the scout), or heard from the
-        nearest sender that says one; None if neither."""
+    def belief(self, observation: np.ndarray) -> tuple[int | None, tuple[float, float]]:
+        """The landmark this bot believes is the goal (None: none) and what it says: the
+        scout's one-hot (said as `TOLD`), else the nearest sender saying the scout's words
+        (said again as `RELAYED`), else the nearest relay (said as nothing)."""
         told = observation[self.told : self.told + LANDMARKS]
         if float(told.max()) > 0.5:
-            return int(told.argmax())
+            goal = int(told.argmax())
+            return goal, TOLD[goal]
+        relayed = None
         for message, present in self.senders:
             if observation[present] > 0.5:
                 said = heard((float(observation[message]), float(observation[message + 1])))
                 if said is not None:
-                    return said
-        return None
+                    goal, first_hand = said
+                    if first_hand:
+                        return goal, RELAYED[goal]
+                    if relayed is None:
+                        relayed = goal
+        return relayed, NOTHING
 
     def guide(self, observation: np.ndarray) -> tuple[float, float]:
         """The (velocity, yaw rate) towards the goal, slowing to stand within `GATHERED`
         m, past the neighbours; standing when the goal is not known."""
-        goal = self.goal(observation)
+        goal, _ = self.belief(observation)
         if goal is None:
             return 0.0, 0.0
         at = self.landmarks[goal]
@@ -86,8 +101,7 @@ class RendezvousController:
 
     def __call__(self, observation: np.ndarray) -> int | np.ndarray:
         """The action for one observation: the steering law's, with the goal said."""
-        goal = self.goal(observation)
-        said = CODES[goal] if goal is not None else (0.0, 0.0)
+        _, said = self.belief(observation)
         message = (*said, *(0.0,) * (self.width - WIDTH_NEEDED))
         action = self.steer(observation)
         if self.action_mode == "discrete":

@@ -4,9 +4,9 @@ the task it plays (`TASKS`).
 
 MPE's speaker-listener, on balancing robots and for a team. Each episode draws four
 landmarks on a circle of `LANDMARK_RADIUS` m (turned at random: the same four places
-for every bot, in the same order), the goal among them, and the *scout*, one bot of the
-group: only the scout observes which landmark is the goal (`goal_is_landmark{k}`, a
-one-hot; zeros for every other bot). Every bot observes every landmark's distance and
+for every bot, in the same order), the *scout*, one bot of the group, and the goals: a
+landmark held `HOLD` s, then another (`goal_schedule`). Only the scout observes which
+landmark is the goal now (`goal_is_landmark{k}`, a one-hot; zeros for every other bot). Every bot observes every landmark's distance and
 bearing, its nearest neighbours within `SENSED_RANGE` m (too short to watch the scout
 from afar) and, through the channel, the messages of the nearest bots within the
 channel's range, beside where they are. Nothing but a message tells a bot which
@@ -47,6 +47,7 @@ GATHERED = 1.0  # m: within this of the goal a bot's target is to stand
 ARRIVAL_RATE = 1.0  # 1/s: the target speed near the goal, per m beyond GATHERED
 SEEN_DISTANCE = 10.0  # m: landmark distances are observed up to this
 SENSED_RANGE = 1.0  # m: the neighbour block's range (the channel's reaches farther)
+HOLD = (3.0, 6.0)  # s: how long each goal holds before the goal moves to another landmark
 MOST_BOTS = 8
 _GOAL_COLOUR, _OTHER_COLOUR = (0.9, 0.2, 0.2, 1.0), (0.6, 0.6, 0.6, 1.0)
 
@@ -71,6 +72,18 @@ def _landmark_fields() -> tuple[ObservationField, ...]:
 
 
 _OWN_FIELDS = _landmark_fields()
+
+
+def goal_schedule(rng: np.random.Generator, steps: int, control_dt: float) -> list[tuple[int, int]]:
+    """The episode's goals: (first step, landmark) pairs from step 0 past `steps`, each
+    goal held `HOLD` s (uniform) and the next drawn among the other landmarks."""
+    low, high = (round(seconds / control_dt) for seconds in HOLD)
+    schedule = [(0, int(rng.integers(LANDMARKS)))]
+    while schedule[-1][0] <= steps:
+        start, goal = schedule[-1]
+        other = (goal + 1 + int(rng.integers(LANDMARKS - 1))) % LANDMARKS
+        schedule.append((start + int(rng.integers(low, high + 1)), other))
+    return schedule
 
 
 @register_scenario
@@ -99,7 +112,9 @@ class Rendezvous(Scenario):
         self._size = len(self.layout)
         self._heard = max(task.group.neighbours, task.channel.slots)  # others to sort
         self.landmarks: list[tuple[float, float]] = []
-        self.goal = 0  # the goal's landmark
+        self.goal = 0  # the goal's landmark now
+        self.schedule: list[tuple[int, int]] = [(0, 0)]  # (first step, landmark) of each goal
+        self._next = 1
         self.scout = 0  # the bot told the goal
         self._shares: list[float] = []  # each bot's last share; 0 once it has left
         self._seen: tuple[list, list, list] = ([], [], [])
@@ -136,7 +151,7 @@ class Rendezvous(Scenario):
             client.changeVisualShape(body, -1, rgbaColor=colour)
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
-        """The bots as on Swap, then the landmarks' turn, the goal and the scout."""
+        """The bots as on Swap, then the landmarks' turn, the scout and the goals."""
         n, pitch = self.group.n_bots, self.task.initial_pitch
         poses = spawn_poses(rng, self.group)
         pitches = list(rng.uniform(-pitch, pitch, size=n))
@@ -148,8 +163,10 @@ class Rendezvous(Scenario):
             )
             for k in range(LANDMARKS)
         ]
-        self.goal = int(rng.integers(LANDMARKS))
         self.scout = int(rng.integers(n))
+        self.schedule = goal_schedule(rng, self.task.max_episode_steps, self.task.control_dt)
+        self.goal = self.schedule[0][1]
+        self._next = 1  # the schedule's next change
         self._shares = [0.0] * n
         return poses, pitches
 
@@ -167,6 +184,10 @@ class Rendezvous(Scenario):
         within `SENSED_RANGE` m, the message block (`Channel.blocks`, from what each live
         bot sent with its last action). What `outcome` needs is kept."""
         self._live = live = list(scene.live)
+        schedule = self.schedule
+        if self._next < len(schedule) and step >= schedule[self._next][0]:
+            self.goal = schedule[self._next][1]  # the goal moves on
+            self._next += 1
         goal, scout, seen = self.goal, self.scout, SEEN_DISTANCE
         told = tuple(1.0 if k == goal else 0.0 for k in range(LANDMARKS))
         untold = (0.0,) * LANDMARKS
@@ -245,8 +266,9 @@ TASKS = (
 Several steering bots (4 by default, `n_bots` 2-{MOST_BOTS}) start spread around a circle of
 4 m radius facing its centre, on flat ground. Four landmarks lie on a circle of
 {LANDMARK_RADIUS:g} m, turned at random; one is the goal, and one bot drawn each episode,
-the scout, is told which (a one-hot only it observes). The team must gather there: each
-bot's target speed towards the goal, drawn from [1, 2] m/s and held 2-5 s, stops within
+the scout, is told which (a one-hot only it observes). Every {HOLD[0]:g}-{HOLD[1]:g} s the goal
+moves to another landmark, and the scout is told. The team must gather at the goal: each
+bot's target speed towards it, drawn from [1, 2] m/s and held 2-5 s, stops within
 {GATHERED:g} m of it ({ARRIVAL_RATE:g}/s x the distance beyond). Every bot observes the steering
 robot's eight values, each landmark's distance and bearing, its 3 nearest neighbours
 within {SENSED_RANGE:g} m, and a message channel: 2 message values per bot in its action,
@@ -262,6 +284,6 @@ ends its own episode and leaves the world.""",
         reward=StayUpReward(),
         group=Group(spawn_radius=4.0, heading_jitter=0.3, neighbour_range=SENSED_RANGE),
         channel=Channel(width=2, range=6.0, slots=3),
-        random_return=0.6533710318925116,
+        random_return=0.6546242936604287,
     ),
 )
