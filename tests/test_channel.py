@@ -4,6 +4,8 @@ that the classical controller's score rests on what its messages carry."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -170,8 +172,8 @@ def test_the_goal_moves_on_and_the_scout_is_told_each_time():
     observations, _ = env.reset(seed=11)
     scenario = env.unwrapped.scene.scenario
     schedule = scenario.schedule
-    assert all(300 <= b[0] - a[0] <= 600 for a, b in zip(schedule, schedule[1:]))
-    assert all(a[1] != b[1] for a, b in zip(schedule, schedule[1:]))
+    assert all(300 <= b[0] - a[0] <= 600 for a, b in itertools.pairwise(schedule))
+    assert all(a[1] != b[1] for a, b in itertools.pairwise(schedule))
     scout = f"bot_{scenario.scout}"
     act = load_policy("rendezvous").actor(RENDEZVOUS)
     for step in range(1, schedule[1][0] + 2):

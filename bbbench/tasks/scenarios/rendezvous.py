@@ -6,11 +6,11 @@ MPE's speaker-listener, on balancing robots and for a team. Each episode draws f
 landmarks on a circle of `LANDMARK_RADIUS` m (turned at random: the same four places
 for every bot, in the same order), the *scout*, one bot of the group, and the goals: a
 landmark held `HOLD` s, then another (`goal_schedule`). Only the scout observes which
-landmark is the goal now (`goal_is_landmark{k}`, a one-hot; zeros for every other bot). Every bot observes every landmark's distance and
-bearing, its nearest neighbours within `SENSED_RANGE` m (too short to watch the scout
-from afar) and, through the channel, the messages of the nearest bots within the
-channel's range, beside where they are. Nothing but a message tells a bot which
-landmark it is, or which bot is the scout.
+landmark is the goal now (`goal_is_landmark{k}`, a one-hot; zeros for every other
+bot). Every bot observes every landmark's distance and bearing, its nearest neighbours
+within `SENSED_RANGE` m (too short to watch the scout from afar) and, through the
+channel, the messages of the nearest bots within the channel's range, beside where they
+are. Nothing but a message tells a bot which landmark it is, or which bot is the scout.
 
 Each bot tracks a velocity towards the goal that stops as it gathers,
 
