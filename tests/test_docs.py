@@ -130,6 +130,7 @@ GENERATED = {
         "waypointsbumps-difficulty calibration",
         "swap table",
         "convoyturns sentence",
+        "rendezvous calibration",
         "bumps-difficulty calibration",
         "obstacles-difficulty calibration",
         "slopes-difficulty calibration",
