@@ -15,11 +15,14 @@ each kernel beside its rule):
   (bbbench export normalizes observations in float64 inside the graph, as
   VecNormalize does);
 - shapes: `Reshape`, `Flatten`, `Slice`, `Concat`, `Squeeze`, `Unsqueeze`,
-  `Gather` (constant indices), `Identity`, `Constant`, and `Shape` (the int64
-  dimensions exporters gather to flatten a batch, as RLlib's does);
+  `Gather` (constant indices), `Identity`, `Constant`, `ConstantOfShape` (torch's zero
+  state of a GRU), and `Shape` (the int64 dimensions exporters gather to flatten a
+  batch, as RLlib's does);
 - pooling over slots: `ReduceMax`, and `ReduceSum` and `ReduceMean` summed in
   float64 in slot order, then rounded once (numpy's own sums change order with
-  the CPU's vector width).
+  the CPU's vector width);
+- recurrence: `GRU` (one forward layer, `bbbench.policies.onnx.recurrent`), its
+  gates' layers and activations portable's.
 
 A graph compiles to a `Program`. Its longest chain of layers and one kind of
 activation, ending in the graph's last layer, becomes an `MlpActor` (the same
@@ -211,6 +214,11 @@ class _Compiler:
         first = self.dtype(inputs[0])
         self.types[output] = first if operator.gives is None else operator.gives(params, first)
         self.steps.append(step)
+        if operator.last_output and len(node.outputs) > 1 and node.outputs[1]:
+            last = node.outputs[1]  # the first output's last entry (GRU's Y_h)
+            params = {"indices": np.int64(-1), "axis": 0}
+            self.steps.append(Step("Gather", (output,), last, params, f"{op} ({last})"))
+            self.types[last] = self.types[output]
 
     def _same_type(self, node, inputs: list) -> list:
         """Inputs of one float type: a float64 constant meeting float32 arithmetic is cast

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bbbench import portable
+from bbbench.policies.onnx.recurrent import bind_gru, run_gru
 
 F4, F8, I8 = np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int64)
 _ONNX_TYPES = {1: F4, 11: F8}  # Cast's `to`: float32, float64
@@ -41,6 +42,8 @@ class Operator:
         cast to float32, as a zip's float64 weights are).
     gives: the output's type from `(params, first input's type)`; None: the first
         input's.
+    last_output: a second output, where the node names one, is the first's last entry
+        along its first axis (a recurrent cell's final state, `Y_h` of its `Y`).
     """
 
     run: Callable[..., np.ndarray]
@@ -48,6 +51,7 @@ class Operator:
     computes: str = "float"
     same_type: bool = False
     gives: Callable[[dict[str, Any], np.dtype], np.dtype] | None = None
+    last_output: bool = False
 
 
 # -- kernels -----------------------------------------------------------------------
@@ -103,6 +107,17 @@ def _slice(params, x):
     for start, end, axis, step in params["slices"]:
         index[axis] = slice(start, end, step)
     return x[tuple(index)]
+
+
+# The most values a ConstantOfShape may make (a recurrent cell's zero state is hundreds).
+MAX_FILLED = 1_000_000
+
+
+def _constant_of_shape(params, shape):
+    dims = tuple(int(size) for size in np.asarray(shape).reshape(-1))
+    if any(size < 0 for size in dims) or np.prod(dims, dtype=np.float64) > MAX_FILLED:
+        raise ValueError(f"a shape of {list(dims)}: at most {MAX_FILLED:,} values")
+    return np.full(dims, params["value"], dtype=params["value"].dtype)
 
 
 def reduce(params, x):
@@ -221,6 +236,13 @@ def _bind_gather(compiler, node, inputs):
     return inputs[:1], {"indices": indices, "axis": node.attributes.get("axis", 0)}
 
 
+def _bind_constant_of_shape(compiler, node, inputs):
+    value = node.attributes.get("value", np.zeros(1, dtype=F4))
+    if value.size != 1 or value.dtype not in (F4, F8, I8):
+        raise compiler.fail(node, "its value must be one float32, float64 or int64")
+    return inputs[:1], {"value": value.reshape(())}
+
+
 def _bind_reduce(kind: str, since: int) -> Bind:
     def bind(compiler, node, inputs):
         attributes = node.attributes
@@ -287,6 +309,13 @@ TABLE: dict[str, Operator] = {
     "ReduceMax": Operator(reduce, _bind_reduce("max", 18)),
     "ReduceSum": Operator(reduce, _bind_reduce("sum", 13)),
     "ReduceMean": Operator(reduce, _bind_reduce("mean", 18)),
+    "ConstantOfShape": Operator(
+        _constant_of_shape,
+        _bind_constant_of_shape,
+        computes="any",
+        gives=lambda p, _: p["value"].dtype,
+    ),
+    "GRU": Operator(run_gru, bind_gru, computes="float32", last_output=True),
 }
 
 # The operators the interpreter itself turns into the graph's names, values and layers.

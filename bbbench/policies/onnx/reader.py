@@ -35,7 +35,7 @@ import numpy as np
 from bbbench.policies.archive import read_file
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.file_policy import MAX_PARAMETERS
-from bbbench.policies.onnx.operators import OPERATORS
+from bbbench.policies.onnx.operators import OPERATORS, TABLE
 from bbbench.portable import total
 
 MAX_FILE_BYTES = 64 * 2**20  # 10M float32 parameters are 40 MB
@@ -79,7 +79,7 @@ def check_safety(model, where: str) -> int:
     for node in graph.node:
         _check_node(where, node)
         tensors += [(node.output[0], a.t) for a in node.attribute if a.type == a.TENSOR]
-        declared += total(len(a.floats) + len(a.ints) for a in node.attribute)
+        declared += total(len(a.floats) + len(a.ints) + len(a.strings) for a in node.attribute)
     for tensor_name, tensor in tensors:  # every size and location before any value is decoded
         declared += _check_tensor(where, tensor_name, tensor)
         if declared > MAX_PARAMETERS:
@@ -237,13 +237,16 @@ def _check_node(path: Path, node) -> None:
 
 
 def _check_operator(path: Path, node) -> None:
-    """A node of a policy's graph: an operator of bbbench's set, with one output."""
+    """A node of a policy's graph: an operator of bbbench's set, with one output (a
+    recurrent cell's second, its final state, may be named too)."""
     if node.op_type not in OPERATORS:
         raise PolicyError(
             f"{path}: operator {node.op_type!r} is not in bbbench's operator set "
             f"({', '.join(sorted(OPERATORS))})"
         )
-    if len(node.output) != 1 or not node.output[0]:
+    operator = TABLE.get(node.op_type)
+    most = 2 if operator is not None and operator.last_output else 1
+    if not 1 <= len(node.output) <= most or not node.output[0]:
         raise PolicyError(f"{path}: operator {node.op_type} with {len(node.output)} outputs")
 
 
@@ -332,6 +335,8 @@ def _node(path: Path, node) -> Node:
             attributes[a.name] = tuple(int(v) for v in a.ints)
         elif a.type == a.FLOATS:
             attributes[a.name] = tuple(float(v) for v in a.floats)
+        elif a.type == a.STRINGS:  # GRU's activations
+            attributes[a.name] = tuple(v.decode("utf-8", "replace") for v in a.strings)
         elif a.type == a.TENSOR:
             attributes[a.name] = decode(path, node.output[0], a.t)
         else:
