@@ -5,16 +5,18 @@ muted (`mute_messages=True`), and what the channel is worth to it.
                                            [--hold 3,6]
     python scripts/calibrate_rendezvous.py --record   # the validation seeds, 4 and 8 bots
     python scripts/calibrate_rendezvous.py --table    # docs/tasks.md's block, from the record
+    python scripts/calibrate_rendezvous.py --seeds validation --policy policy.onnx
 
 `--seeds training` plays training seeds 1000-1019 (the pilots of docs/notebook.md,
 "Rendezvous-v0's pilots"); `validation`, the task's 100 validation seeds. `--record`
 plays the validation seeds at 4 and 8 bots and keeps every episode's return in
-baselines/calibrations/rendezvous.json, which `--table` prints. `--hold` plays
-a candidate whose goal moves every LOW-HIGH s (the module's `HOLD`) instead of the
-task's. Each row: the mean return per bot, normalized against the task's random return
-and the most a bot can earn, the episodes no bot fell in, and rliable's P(muted >
-heard) over the episodes' returns with its 95% interval (the channel carries the task
-where the interval lies below 0.5).
+baselines/calibrations/rendezvous.json, which `--table` prints. `--policy` plays a
+policy file (or another built-in) instead of the controller. `--hold` plays a candidate
+whose goal moves every LOW-HIGH s (the module's `HOLD`) instead of the task's. Each
+row: the mean return per bot, normalized against the task's random return and the most
+a bot can earn, the episodes no bot fell in, and rliable's P(muted > heard) over the
+episodes' returns with its 95% interval (the channel carries the task where the
+interval lies below 0.5).
 """
 
 from __future__ import annotations
@@ -36,13 +38,14 @@ PILOT_SEEDS = range(1000, 1020)
 RECORD = Path(__file__).parents[1] / "baselines" / "calibrations" / "rendezvous.json"
 
 
-def episode(job: tuple[int, bool, int, tuple[float, float] | None]) -> tuple[float, int]:
-    """One episode under the controller: its mean return per bot and its falls."""
-    bots, muted, seed, hold = job
+def episode(job: tuple[str, int, bool, int, tuple[float, float] | None]) -> tuple[float, int]:
+    """One episode under `policy` (a built-in's name or a file): its mean return per bot
+    and its falls."""
+    policy, bots, muted, seed, hold = job
     if hold is not None:
         rendezvous.HOLD = hold  # this worker's candidate
     env = bbbench.make_parallel(TASK, n_bots=bots, mute_messages=muted)
-    act = load_policy("rendezvous").actor(TASK)
+    act = load_policy(policy).actor(TASK)
     observations, _ = env.reset(seed=seed)
     returns = dict.fromkeys(env.possible_agents, 0.0)
     falls = 0
@@ -85,6 +88,7 @@ def main() -> None:
     parser.add_argument("--bots", type=int, nargs="*", default=[4])
     parser.add_argument("--hold", help="LOW,HIGH s: a candidate's goal hold")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--policy", default="rendezvous", help="a built-in or a policy file")
     parser.add_argument("--record", action="store_true", help="write the validation record")
     parser.add_argument("--table", action="store_true", help="print docs/tasks.md's block")
     args = parser.parse_args()
@@ -104,7 +108,7 @@ def main() -> None:
     with ProcessPoolExecutor(args.workers) as pool:
         for bots in args.bots:
             played = {
-                muted: list(pool.map(episode, [(bots, muted, seed, hold) for seed in seeds]))
+                muted: list(pool.map(episode, [(args.policy, bots, muted, s, hold) for s in seeds]))
                 for muted in (False, True)
             }
             heard, muted = ([r for r, _ in played[key]] for key in (False, True))
