@@ -1,7 +1,8 @@
 """Write the frame of each task for the README and the site's task pages
 (docs/images/*.png), and their GIFs.
 
-    python scripts/terrain_frames.py [--teams | --steering | --balance]  # needs bbbench[video]
+    python scripts/terrain_frames.py [--teams | --steering | --balance | --talk]
+    # needs bbbench[video]
 
 Each frame is the env's own `rgb_array` render, 1.5 s into the first evaluation seed
 with the robot's classical controller driving (PD; the wheel-legged robot's own; the
@@ -17,7 +18,8 @@ controller (steer, steer-avoid on Swap, team on ConvoyTurns; on Swap 2 s in, as 
 meet), and the GIF of steer-avoid's bots passing each other on Swap-v0
 (docs/images/swap.gif). `--balance`: the flat, pushed and crossing tasks (PD; the
 crossing controller on the multi-bot ones), and the GIF of the crossing controller's bots
-on MultiBalance-v1 (docs/images/multibalance.gif).
+on MultiBalance-v1 (docs/images/multibalance.gif). `--talk`: the tasks with a message
+channel (Rendezvous, the rendezvous controller driving; its landmarks drawn, the goal red).
 """
 
 from __future__ import annotations
@@ -84,6 +86,10 @@ STEERING = {
 }
 
 
+# The tasks with a message channel, each with its classical controller.
+TALK = {"bbbench/Rendezvous-v0": "rendezvous"}
+
+
 # The balance and crossing tasks (the site's task pages): each with its classical controller.
 BALANCE = {
     "bbbench/FlatBalance-v1": "pd",
@@ -139,8 +145,9 @@ if __name__ == "__main__":
     only.add_argument("--teams", action="store_true", help="the team tasks only")
     only.add_argument("--steering", action="store_true", help="the steering tasks only")
     only.add_argument("--balance", action="store_true", help="the balance and crossing tasks")
+    only.add_argument("--talk", action="store_true", help="the tasks with a message channel")
     args = parser.parse_args()
-    everything = not (args.teams or args.steering or args.balance)
+    everything = not (args.teams or args.steering or args.balance or args.talk)
     if everything:
         main()
         gif("legged", "bbbench/LeggedBumps-v0", "legged-bumps.gif")
@@ -153,3 +160,5 @@ if __name__ == "__main__":
     if everything or args.balance:
         frames(BALANCE)
         gif("crossing", "bbbench/MultiBalance-v1", "multibalance.gif")
+    if everything or args.talk:
+        frames(TALK)
