@@ -7,6 +7,10 @@ import numpy as np
 import pytest
 import torch
 
+import bbbench
+from bbbench.evaluation import evaluate
+from bbbench.evaluation.play import Lockstep, MultiEpisode
+from bbbench.evaluation.results import dumps
 from bbbench.policies import PolicyError
 from bbbench.policies.onnx.export import onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
@@ -147,3 +151,163 @@ def test_a_gru_bbbench_does_not_run_is_refused_by_name(changes, words):
     with pytest.raises(PolicyError, match="GRU") as raised:
         OnnxPolicy(parse_onnx(_gru_graph(**changes), "gru.onnx", "gru.onnx"))
     assert words in str(raised.value)
+
+
+class _RecurrentActor(torch.nn.Module):
+    """A recurrent actor as `onnx_bytes(state_width=...)` exports it: (obs, state) in,
+    (scores, next state) out."""
+
+    def __init__(self, hidden: int = 12) -> None:
+        super().__init__()
+        torch.manual_seed(2)
+        self.gru = torch.nn.GRU(input_size=17, hidden_size=hidden)
+        self.head = torch.nn.Linear(hidden, 9)
+
+    def forward(self, obs: torch.Tensor, state: torch.Tensor):
+        out, last = self.gru(obs.unsqueeze(0), state.unsqueeze(0))
+        return self.head(out[0]), last[0]
+
+
+def _recurrent_policy(**options) -> OnnxPolicy:
+    content = onnx_bytes(_RecurrentActor().eval(), TASK, algorithm="GRU", state_width=12, **options)
+    return OnnxPolicy(parse_onnx(content, "gru.onnx", "gru.onnx"))
+
+
+def test_a_recurrent_policy_carries_its_state_as_torch_does_over_a_sequence():
+    policy = _recurrent_policy()
+    actor = policy.actor(TASK)
+    assert actor.state_width == 12
+    assert policy.record()["contract"]["recurrent_state"] == 12
+    rng = np.random.default_rng(5)
+    states = actor.initial_state(4)
+    module = _RecurrentActor().eval()
+    h = torch.zeros(4, 12)
+    for _ in range(50):
+        observations = rng.normal(size=(4, 17)).astype(np.float32)
+        actions, states = actor.step(observations, states)
+        with torch.no_grad():
+            scores, h = module(torch.from_numpy(observations), h)
+        np.testing.assert_allclose(states, h.numpy(), rtol=0, atol=2e-5)
+        assert actions == scores.numpy().argmax(axis=1).tolist()
+    with pytest.raises(PolicyError, match="acts with its state"):
+        actor(np.zeros((1, 17), dtype=np.float32))
+
+
+class _Forgetting:
+    """A recurrent actor fed zeros for its state at every step: what the loops would play
+    if they dropped the state."""
+
+    def __init__(self, actor) -> None:
+        self.actor, self.state_width = actor, actor.state_width
+
+    def initial_state(self, rows: int) -> np.ndarray:
+        return self.actor.initial_state(rows)
+
+    def step(self, observations, states, rngs=None):
+        return self.actor.step(observations, np.zeros_like(states), rngs)
+
+
+def test_the_play_loops_hand_each_bot_its_own_state_and_replay_the_same_bytes():
+    policy = _recurrent_policy()
+    first = evaluate(policy, [TASK], episodes=2, workers=1)
+    again = evaluate(policy, [TASK], episodes=2, workers=1)
+    assert dumps(first.document) == dumps(again.document)
+    env = bbbench.make_parallel(TASK)
+    seed = bbbench.spec(TASK).eval_seeds[0]
+    carried = MultiEpisode(env, policy.actor(TASK), seed).play()
+    forgotten = MultiEpisode(env, _Forgetting(policy.actor(TASK)), seed).play()
+    assert carried.record() == first.document["tasks"][0]["episodes"][0]
+    assert carried.episode_return != forgotten.episode_return  # the state matters
+
+
+def test_single_bot_lanes_carry_their_states_and_drop_a_lane_that_ends():
+    """Lockstep: lanes end at different steps (falls), and each keeps its own state row."""
+    policy = _recurrent_policy()
+    actor = policy.actor(TASK)
+    task = "bbbench/FlatBalance-v1"
+    content = onnx_bytes(_SoloRecurrent().eval(), task, state_width=12)
+    solo = OnnxPolicy(parse_onnx(content, "solo.onnx", "solo.onnx")).actor(task)
+    seeds = bbbench.spec(task).eval_seeds[:4]
+    together = Lockstep([bbbench.make(task) for _ in seeds], solo, seeds).play()
+    alone = [Lockstep([bbbench.make(task)], solo, [seed]).play()[0] for seed in seeds]
+    assert together == alone
+    assert len({episode.length for episode in together}) > 1  # lanes ended apart
+    assert actor.state_width == 12
+
+
+class _SoloRecurrent(_RecurrentActor):
+    def __init__(self) -> None:
+        super().__init__()
+        torch.manual_seed(3)
+        self.gru = torch.nn.GRU(input_size=5, hidden_size=12)
+
+
+class _Misshapen(_RecurrentActor):
+    """Gives back a state narrower than the one it takes."""
+
+    def forward(self, obs, state):
+        scores, last = super().forward(obs, state)
+        return scores, last[:, :6]
+
+
+def _with_metadata(content: bytes, **changes: str | None) -> bytes:
+    """An exported file with its metadata keys changed (None: dropped)."""
+    import onnx
+
+    model = onnx.ModelProto()
+    model.ParseFromString(content)
+    props = {p.key: p.value for p in model.metadata_props}
+    for key, value in changes.items():
+        props.pop(f"bbbench.{key}", None)
+        if value is not None:
+            props[f"bbbench.{key}"] = value
+    del model.metadata_props[:]
+    for key, value in props.items():
+        model.metadata_props.add(key=key, value=value)
+    return model.SerializeToString()
+
+
+def _state_file(kind: str) -> bytes:
+    recurrent = onnx_bytes(_RecurrentActor().eval(), TASK, state_width=12)
+    if kind == "no state key":
+        return _with_metadata(recurrent, recurrent_state=None)
+    if kind == "no state in the graph":
+        return _with_metadata(onnx_bytes(_GruActor().eval(), TASK), recurrent_state="12")
+    if kind == "another width":
+        return _with_metadata(recurrent, recurrent_state="8")
+    if kind == "a misshapen next state":  # as another exporter wrote it (ours refuses to)
+        import io
+
+        raw = io.BytesIO()
+        names = {"input_names": ["obs", "state"], "output_names": ["action", "next_state"]}
+        axes = {name: {0: "batch"} for name in ("obs", "state", "action", "next_state")}
+        example = (torch.zeros(2, 17), torch.zeros(2, 12))
+        torch.onnx.export(
+            _Misshapen().eval(), example, raw, dynamo=False, dynamic_axes=axes, **names
+        )
+        return _with_metadata(
+            raw.getvalue(), observation="17", action_space="Discrete(9)", recurrent_state="12"
+        )
+    raise AssertionError(kind)
+
+
+@pytest.mark.parametrize(
+    ("kind", "fragment"),
+    [
+        ("no state key", "its graph takes a state ('state' in, 'next_state' out), but its"),
+        ("no state in the graph", "its contract says it carries a state of 12"),
+        ("another width", "its state input 'state' is 12 wide, but its contract says 8"),
+        ("a misshapen next state", "its state output 'next_state' has shape (1, 6), not (1, 12)"),
+    ],
+)
+def test_a_state_missing_or_misshapen_is_one_line_and_exit_2(tmp_path, capsys, kind, fragment):
+    from bbbench.cli import main
+
+    path = tmp_path / "gru.onnx"
+    path.write_bytes(_state_file(kind))
+    code = main(["eval", str(path), "--task", TASK, "--episodes", "1", "--workers", "1"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert fragment in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gru.onnx"]

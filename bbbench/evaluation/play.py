@@ -9,7 +9,11 @@ one per env API, whoever plays it (`bbbench eval` and the leaderboard, `--video`
 
 `act(batch, rngs)` is a policy's actor (`Policy.actor`): a batch of observations in,
 one action per row out (None for a NaN output); `rngs`, one generator per row, for a
-policy that acts at random. An episode ends at a fall, at its env's time limit (the
+policy that acts at random. A recurrent actor (one with a `state_width`: a
+recurrent ONNX policy's) acts through `act.step(batch, states, rngs)`, which gives the
+next states with the actions: each loop starts every bot at `act.initial_state` and
+keeps its state row beside its observation row, dropping a row when its bot or lane
+ends. An episode ends at a fall, at its env's time limit (the
 env's `truncated`, which its scene decides), at a NaN action or at an action the env
 refuses (`PlayedEpisode.failure` says which).
 """
@@ -138,8 +142,12 @@ class Lockstep:
         sums = [[0.0] * len(names) for _ in range(n)]  # lane i: each metric's sum
         fell, failures = [False] * n, [None] * n
         lane_rngs = rngs
+        states = _initial_states(act, n)
         for step in range(limit) if limit is not None else itertools.count():
-            actions = act(batch, lane_rngs)
+            if states is None:
+                actions = act(batch, lane_rngs)
+            else:
+                actions, states = act.step(batch, states, lane_rngs)
             rewards = [0.0] * len(lanes)
             ended = []
             for j, (i, action) in enumerate(zip(lanes, actions, strict=True)):
@@ -179,6 +187,8 @@ class Lockstep:
                     break
                 lanes = [lanes[j] for j in keep]
                 batch = batch[keep]
+                if states is not None:
+                    states = states[keep]
                 lane_rngs = None if rngs is None else [rngs[i] for i in lanes]
         self.results = [
             PlayedEpisode(
@@ -232,10 +242,15 @@ class MultiEpisode:
         failure = None
         team = env.task.scenario_class.team
         cause = TIME_LIMIT if team else None
+        states = _initial_states(act, len(env.agents))
         while env.agents:
             agents = env.agents
             batch = np.stack([observations[agent] for agent in agents])
-            actions = act(batch, None if rng is None else [rng] * len(agents))
+            rngs = None if rng is None else [rng] * len(agents)
+            if states is None:
+                actions = act(batch, rngs)
+            else:
+                actions, states = act.step(batch, states, rngs)
             if any(action is None for action in actions):
                 failure = f"step {steps}: {_NAN}"
                 break
@@ -247,6 +262,9 @@ class MultiEpisode:
                 failure = f"step {steps}: {problem}"
                 break
             steps += 1
+            if states is not None and len(env.agents) != len(agents):  # their rows go
+                live = set(env.agents)
+                states = states[[k for k, agent in enumerate(agents) if agent in live]]
             for agent, reward in rewards.items():
                 returns[agent] += reward
                 info = infos[agent]
@@ -276,6 +294,12 @@ class MultiEpisode:
         for _ in self:
             pass
         return self.result
+
+
+def _initial_states(act: Act, rows: int) -> np.ndarray | None:
+    """A recurrent actor's states for `rows` bots at their episodes' start; None for an
+    actor without a state."""
+    return act.initial_state(rows) if getattr(act, "state_width", None) is not None else None
 
 
 def _means(names: tuple[str, ...], sums: list[float], count: int) -> dict[str, float]:

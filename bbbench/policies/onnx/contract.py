@@ -14,7 +14,12 @@ board records covers it:
   moves every bot once; files `bbbench train` wrote for IPPO and MAPPO before issue 65
   counted bot-steps here),
   `bbbench.task` (the task it was trained on) and `bbbench.training_seed` (the
-  training's seed: marl-eval's run name, `run_<seed>`).
+  training's seed: marl-eval's run name, `run_<seed>`);
+- `bbbench.recurrent_state`, for a policy that carries a state from step to step (a
+  GRU's): the state's width N. Its graph then takes two inputs, the observation and the
+  state (batch, N), and gives two outputs, the action scores (or action) and the next
+  state (batch, N). Each bot starts its episode from zeros, and the play loops hand each
+  bot its own state back at every step.
 
 The graph's input is the raw bbbench observation (any normalization is inside
 the graph). A Discrete policy outputs one score per action and plays the best;
@@ -41,7 +46,9 @@ PREFIX = "bbbench."
 OBSERVATION, ACTION_SPACE = "bbbench.observation", "bbbench.action_space"
 ALGORITHM, TRAINING_STEPS, TASK = "bbbench.algorithm", "bbbench.training_steps", "bbbench.task"
 TRAINING_SEED = "bbbench.training_seed"
-KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK, TRAINING_SEED)
+STATE = "bbbench.recurrent_state"
+KEYS = (OBSERVATION, ACTION_SPACE, ALGORITHM, TRAINING_STEPS, TASK, TRAINING_SEED, STATE)
+MAX_STATE = 4096  # a recurrent state's values per bot: far beyond a policy's GRU
 MAX_OBSERVATION = 1024  # wider than any layout of the suite
 MAX_ACTIONS = 64  # a Box's values
 # A Discrete space's actions: the largest of the suite is the steering robot's 27 times a
@@ -71,6 +78,7 @@ class Contract:
     task: str | None = None
     training_seed: int | None = None
     source: str = "metadata"  # where it came from: "metadata" or "command line"
+    state: int | None = None  # a recurrent policy's state width (`bbbench.recurrent_state`)
 
     @property
     def observation_shape(self) -> tuple[int]:
@@ -89,15 +97,20 @@ class Contract:
             props[TASK] = self.task
         if self.training_seed is not None:
             props[TRAINING_SEED] = str(self.training_seed)
+        if self.state is not None:
+            props[STATE] = str(self.state)
         return props
 
     def record(self) -> dict[str, Any]:
         """As the results document records it."""
-        return {
+        record = {
             "observation": self.observation,
             "action_space": describe_action_space(self.action_space),
             "from": self.source,
         }
+        if self.state is not None:
+            record["recurrent_state"] = self.state
+        return record
 
 
 def describe_action_space(space: spaces.Space) -> str:
@@ -183,7 +196,10 @@ def read_contract(
         training_steps=_whole(where, TRAINING_STEPS, props.get(TRAINING_STEPS), MAX_TRAINING_STEPS),
         task=_task(where, props.get(TASK)),
         training_seed=_whole(where, TRAINING_SEED, props.get(TRAINING_SEED), MAX_SEED),
+        state=_whole(where, STATE, props.get(STATE), MAX_STATE),
     )
+    if contract.state == 0:
+        raise PolicyError(f"{where}: {STATE} must be a whole number from 1 to {MAX_STATE:,}, got 0")
     if given:
         on_command_line = (observation, action_space)
         in_file = (contract.observation, describe_action_space(contract.action_space))

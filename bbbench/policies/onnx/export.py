@@ -36,6 +36,7 @@ from bbbench.tasks.suite import agent_spaces, spec
 OPSET = 17
 IR_VERSION = 8  # read by onnxruntime 1.10 and later
 INPUT, OUTPUT = "obs", "action"
+STATE_INPUT, STATE_OUTPUT = "state", "next_state"  # a recurrent actor's
 _CHECK_ROWS = 4096
 
 
@@ -93,6 +94,7 @@ def onnx_bytes(
     training_seed: int | None = None,
     opset: int | None = None,
     dynamo: bool = False,
+    state_width: int | None = None,
 ) -> bytes:
     """The ONNX file of a torch actor that maps raw (or normalized) observations of
     `task_id`'s bots to its action scores (Discrete: one per action) or its action (Box),
@@ -102,7 +104,10 @@ def onnx_bytes(
     mean) / std, -clip, clip)` (CleanRL's and gymnasium's NormalizeObservation keep
     `mean` and `var`: std = sqrt(var + epsilon)); it is put inside the graph, computed in
     float64. `dynamo`: torch's newer exporter (`torch.onnx.export(dynamo=True)`). `opset`:
-    default 17 (18 with dynamo, its lowest).
+    default 17 (18 with dynamo, its lowest). `state_width`: a recurrent actor, whose
+    `forward(obs, state)` gives `(scores, next_state)`, each state (batch, state_width):
+    the file carries it (`bbbench.recurrent_state`) and bbbench's play loops hand each bot
+    its own state back.
     """
     import torch  # lazy: torch, for exporting only
 
@@ -116,22 +121,29 @@ def onnx_bytes(
         training_steps=training_steps,
         task=task_id,
         training_seed=training_seed,
+        state=state_width,
     )
     wrapped = _Normalized(module, mean, std, clip).eval()
-    example = torch.zeros((2, contract.observation), dtype=torch.float32)
+    example = (torch.zeros((2, contract.observation), dtype=torch.float32),)
+    names = [INPUT], [OUTPUT]
+    if state_width is not None:
+        example += (torch.zeros((2, state_width), dtype=torch.float32),)
+        names = [INPUT, STATE_INPUT], [OUTPUT, STATE_OUTPUT]
     with tempfile.TemporaryDirectory() as folder:
         raw = Path(folder) / "policy.onnx"
-        keywords: dict[str, Any] = {"input_names": [INPUT], "output_names": [OUTPUT]}
+        keywords: dict[str, Any] = {"input_names": names[0], "output_names": names[1]}
         if dynamo:
             batch = torch.export.Dim("batch", min=1, max=4096)
             keywords["dynamic_shapes"] = {"obs": {0: batch}}
+            if state_width is not None:
+                keywords["dynamic_shapes"]["state"] = {0: batch}
             keywords["verbose"] = False
         else:
-            keywords["dynamic_axes"] = {INPUT: {0: "batch"}, OUTPUT: {0: "batch"}}
+            keywords["dynamic_axes"] = {name: {0: "batch"} for name in (*names[0], *names[1])}
         with torch.no_grad():
             torch.onnx.export(
                 wrapped,
-                (example,),
+                example,
                 str(raw),
                 opset_version=opset or (18 if dynamo else OPSET),
                 dynamo=dynamo,
@@ -359,13 +371,13 @@ class _Normalized:
                     self.register_buffer("std", torch.as_tensor(np.asarray(std, np.float64)))
                     self.clip = None if clip is None else float(clip)
 
-            def forward(self, obs):
+            def forward(self, obs, *state):
                 if self.normalize:
                     scaled = (obs.double() - self.mean) / self.std
                     if self.clip is not None:
                         scaled = scaled.clamp(-self.clip, self.clip)
                     obs = scaled.float()
-                return self.module(obs)
+                return self.module(obs, *state)
 
         if (mean is None) != (std is None):
             raise ValueError("give both mean and std for a normalizer, or neither")

@@ -98,6 +98,8 @@ class _Compiler:
         self.where = model.name
         self.constants: dict[str, np.ndarray] = dict(model.constants)
         self.types: dict[str, np.dtype] = {model.input: F4}
+        if model.state_input is not None:
+            self.types[model.state_input] = F4
         self.alias: dict[str, str] = {}
         self.steps: list[Step] = []
         self.uses: dict[str, int] = {}
@@ -154,6 +156,13 @@ class _Compiler:
                 f"{self.where}: its output is {self.types[output]}; a bbbench policy outputs "
                 f"float32 (cast it)"
             )
+        if self.model.state_output is not None:
+            state = self.state_output = self.name(self.model.state_output)
+            if self.types.get(state) != F4:
+                raise PolicyError(
+                    f"{self.where}: its state output {state!r} is not a float32 tensor the "
+                    f"graph computes"
+                )
         return self.steps
 
     def _fused_bias(self, nodes, i: int) -> int | None:
@@ -334,6 +343,17 @@ class Program:
     mlp_input: str | None
     mlp_output: str | None
     suffix: tuple[Step, ...]
+    state_input: str | None = None  # a recurrent graph's state in and out
+    state_output: str | None = None
+
+    def step(self, observations: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A recurrent graph's output and next states for a batch of observations and each
+        row's state (float32, (k, n) and (k, N))."""
+        env = _run(self.prefix, {self.input: observations, self.state_input: states}, self.where)
+        if self.mlp is not None:
+            env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
+            env = _run(self.suffix, env, self.where)
+        return env[self.output], env[self.state_output]
 
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         """The graph's output for a batch of observations (float32, (k, n))."""
@@ -366,13 +386,15 @@ class Steps:
     model: Any
     steps: tuple[Step, ...]
     output: str  # the graph's output, after aliases
+    state_output: str | None = None  # a recurrent graph's next state, after aliases
 
 
 def compile_steps(model) -> Steps:
     """The steps of a checked `OnnxModel`; `PolicyError` for a graph bbbench cannot run."""
     compiler = _Compiler(model)
     steps = compiler.compile()
-    return Steps(model, tuple(steps), compiler.output)
+    state = getattr(compiler, "state_output", None)
+    return Steps(model, tuple(steps), compiler.output, state)
 
 
 def compile_graph(
@@ -382,9 +404,10 @@ def compile_graph(
     (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
     model = compiled.model
     steps, output = _fuse_normalization(list(compiled.steps), model.input), compiled.output
+    state = (model.state_input, compiled.state_output)
     segment = _mlp_segment(steps, output, shapes)
     if segment is None:
-        return Program(model.name, model.input, output, tuple(steps), None, None, None, ())
+        return Program(model.name, model.input, output, tuple(steps), None, None, None, (), *state)
     chain, activation = segment
     members = set(chain)
     head = steps[chain[-1]]
@@ -411,11 +434,15 @@ def compile_graph(
         steps[chain[0]].inputs[0],
         head.output,
         tuple(suffix),
+        *state,
     )
 
 
-def trial_shapes(compiled: Steps, observations: np.ndarray) -> dict[str, tuple]:
-    """Every computed tensor's shape on `observations`, running the graph step by step;
+def trial_shapes(
+    compiled: Steps, observations: np.ndarray, states: np.ndarray | None = None
+) -> dict[str, tuple]:
+    """Every computed tensor's shape on `observations` (and a recurrent graph's `states`),
+    running the graph step by step;
     `RefusedForSafety` as soon as one holds more than `MAX_ROW_VALUES` values a row (a
     chain of Concats doubling a tensor grows it past any memory in 40 nodes)."""
     model = compiled.model
@@ -423,8 +450,13 @@ def trial_shapes(compiled: Steps, observations: np.ndarray) -> dict[str, tuple]:
     def check(step: Step, value) -> None:
         _check_size(model.name, step.label, np.size(value), len(observations))
 
-    env = _run(compiled.steps, {model.input: observations}, model.name, check)
+    env = {model.input: observations}
+    if model.state_input is not None:
+        env[model.state_input] = states
+    env = _run(compiled.steps, env, model.name, check)
     env[model.output] = env[compiled.output]
+    if compiled.state_output is not None:
+        env[model.state_output] = env[compiled.state_output]
     return {name: np.shape(value) for name, value in env.items()}
 
 

@@ -19,7 +19,7 @@ from gymnasium import spaces
 
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.file_policy import FilePolicy
-from bbbench.policies.onnx.contract import Contract, read_contract
+from bbbench.policies.onnx.contract import STATE, Contract, read_contract
 from bbbench.policies.onnx.interpreter import Program, compile_graph, compile_steps, trial_shapes
 from bbbench.policies.onnx.reader import OnnxModel, read_onnx
 from bbbench.policies.policy import Actor
@@ -114,12 +114,60 @@ class OnnxActor:
             out = np.concatenate([self.program(row[None]) for row in observations])
         else:
             out = self.program(observations)
-        broken = np.isnan(out).any(axis=1)
-        if self.discrete:
-            actions = out.argmax(axis=1).tolist()
+        return _actions(out, self.discrete, self.low, self.high)
+
+
+def _actions(out: np.ndarray, discrete: bool, low, high) -> list:
+    """A graph's outputs as actions: Discrete, the best score; Box, the output clipped to
+    the bounds; None for a row with NaN."""
+    broken = np.isnan(out).any(axis=1)
+    if discrete:
+        actions = out.argmax(axis=1).tolist()
+    else:
+        actions = list(np.clip(out, low, high).astype(np.float32))
+    return [None if nan else action for action, nan in zip(actions, broken, strict=True)]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RecurrentOnnxActor:
+    """A recurrent graph acting (`bbbench.recurrent_state`): `step` takes each row's state
+    and gives its next one with the actions; the play loops
+    (`bbbench.evaluation.play`) start every bot at `initial_state` and hand each its own
+    state back at every step."""
+
+    program: Program
+    discrete: bool
+    rows: bool  # the graph takes one observation a call
+    state_width: int
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+
+    def initial_state(self, rows: int) -> np.ndarray:
+        """Every row's state at the start of its episode: zeros."""
+        return np.zeros((rows, self.state_width), dtype=np.float32)
+
+    def step(
+        self, observations: np.ndarray, states: np.ndarray, rngs=None
+    ) -> tuple[list, np.ndarray]:
+        """The actions for a batch of observations from each row's state, and the next
+        states."""
+        observations = np.asarray(observations, dtype=np.float32)
+        if self.rows:
+            parts = [
+                self.program.step(o[None], h[None])
+                for o, h in zip(observations, states, strict=True)
+            ]
+            out = np.concatenate([part[0] for part in parts])
+            states = np.concatenate([part[1] for part in parts])
         else:
-            actions = list(np.clip(out, self.low, self.high).astype(np.float32))
-        return [None if nan else action for action, nan in zip(actions, broken, strict=True)]
+            out, states = self.program.step(observations, states)
+        return _actions(out, self.discrete, self.low, self.high), states
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        raise PolicyError(
+            "a recurrent ONNX policy acts with its state: it plays through bbbench's play "
+            "loops (bbbench eval, the board), which carry each bot's state from step to step"
+        )
 
 
 def _actor(model, contract: Contract) -> OnnxActor:
@@ -138,42 +186,82 @@ def _actor(model, contract: Contract) -> OnnxActor:
             f"{where}: its output {model.output!r} is {model.output_width} wide, but its "
             f"contract's {space} needs {outputs}"
         )
+    state = _state_width(model, contract)
     trial = np.linspace(-1.0, 1.0, _TRIAL_ROWS * width, dtype=np.float32).reshape(
         _TRIAL_ROWS, width
     )
     compiled = compile_steps(model)
-    shapes = _trial(compiled, trial[:1], outputs)
+    shapes = _trial(compiled, trial[:1], outputs, state)
     rows = not model.batched
     if not rows:  # batched: one call must give what row-by-row calls give
         try:
-            shapes = _trial(compiled, trial, outputs)
+            shapes = _trial(compiled, trial, outputs, state)
         except PolicyError:
             rows = True
     program = compile_graph(compiled, discrete, shapes)
+    low, high = (None, None) if discrete else (space.low.copy(), space.high.copy())
+    if state is not None:
+        if not rows:
+            held = np.linspace(-0.5, 0.5, _TRIAL_ROWS * state, dtype=np.float32)
+            held = held.reshape(_TRIAL_ROWS, state)
+            together = np.concatenate(program.step(trial, held), axis=1)
+            apart = np.concatenate(
+                [
+                    np.concatenate(program.step(o[None], h[None]), axis=1)
+                    for o, h in zip(trial, held, strict=True)
+                ]
+            )
+            rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
+        return RecurrentOnnxActor(program, discrete, rows, state, low, high)
     if not rows:
         together = program(trial)
         apart = np.concatenate([program(row[None]) for row in trial])
         rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
     greedy = discrete and program.mlp is not None and program.output == program.mlp_output
-    return OnnxActor(
-        program,
-        discrete,
-        greedy,
-        rows,
-        low=None if discrete else space.low.copy(),
-        high=None if discrete else space.high.copy(),
-    )
+    return OnnxActor(program, discrete, greedy, rows, low=low, high=high)
 
 
-def _trial(compiled, observations: np.ndarray, outputs: int) -> dict[str, tuple]:
+def _state_width(model, contract: Contract) -> int | None:
+    """The recurrent state's width, where the contract and the graph agree on one;
+    `PolicyError` where one has a state and the other none, or their widths differ."""
+    where, state = model.name, contract.state
+    if state is None and model.state_input is not None:
+        raise PolicyError(
+            f"{where}: its graph takes a state ({model.state_input!r} in, "
+            f"{model.state_output!r} out), but its contract names no {STATE} width; export "
+            f"it with its state width (bbbench.policies.onnx.export.onnx_bytes(state_width=N))"
+        )
+    if state is not None and model.state_input is None:
+        raise PolicyError(
+            f"{where}: its contract says it carries a state of {state} ({STATE}), but its "
+            f"graph has no state input and output: a recurrent policy takes (observation, "
+            f"state) and gives (action, next state)"
+        )
+    if state is not None and model.state_width not in (None, state):
+        raise PolicyError(
+            f"{where}: its state input {model.state_input!r} is {model.state_width} wide, but "
+            f"its contract says {state} ({STATE})"
+        )
+    return state
+
+
+def _trial(compiled, observations: np.ndarray, outputs: int, state: int | None = None):
     model = compiled.model
-    shapes = trial_shapes(compiled, observations)
+    rows = len(observations)
+    states = None if state is None else np.zeros((rows, state), dtype=np.float32)
+    shapes = trial_shapes(compiled, observations, states)
     got = shapes[model.output]
-    want = (len(observations), outputs)
+    want = (rows, outputs)
     if got != want:
         raise PolicyError(
             f"{model.name}: on a batch of {want[0]} observation(s) its output has shape "
             f"{got}, not {want}: the output disagrees with the contract (one score per action "
             f"for Discrete, the action for Box)"
+        )
+    if state is not None and shapes[model.state_output] != (rows, state):
+        raise PolicyError(
+            f"{model.name}: on a batch of {rows} observation(s) its state output "
+            f"{model.state_output!r} has shape {shapes[model.state_output]}, not {(rows, state)} "
+            f"(the state it takes, {STATE})"
         )
     return shapes

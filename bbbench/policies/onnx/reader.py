@@ -19,7 +19,9 @@ tensor is decoded:
 - weights float32 (float16, bfloat16 and float64 kept as their values, cast to
   float32 where a float32 layer uses them, as for zips), index tensors int64 or
   int32; finite;
-- exactly one graph input, float32 of shape (batch, width), and one output.
+- one graph input, float32 of shape (batch, width), and one output; or, for a
+  recurrent policy, two of each: the observation and the state in, the action and the
+  next state out (`bbbench.policies.onnx.contract`).
 """
 
 from __future__ import annotations
@@ -116,6 +118,11 @@ class OnnxModel:
     output: str
     output_width: int | None
     output_type: int
+    # A recurrent policy's second input and output (its state in and out), and the state's
+    # declared width; None for a policy without one.
+    state_input: str | None = None
+    state_output: str | None = None
+    state_width: int | None = None
 
 
 def read_onnx(path: str | Path) -> OnnxModel:
@@ -160,13 +167,15 @@ def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
     constants = {t.name: decode(where, t.name, t) for t in graph.initializer}
     nodes = tuple(_node(where, node) for node in graph.node)
     inputs = [i for i in graph.input if i.name not in constants]
-    if len(inputs) != 1 or len(graph.output) != 1:
+    outputs = list(graph.output)
+    if len(inputs) not in (1, 2) or len(outputs) != len(inputs):
         raise PolicyError(
-            f"{where}: {len(inputs)} graph input(s) and {len(graph.output)} output(s) "
-            f"({', '.join(i.name for i in inputs)} -> {', '.join(o.name for o in graph.output)}); "
-            f"a bbbench policy takes one observation and gives one output"
+            f"{where}: {len(inputs)} graph input(s) and {len(outputs)} output(s) "
+            f"({', '.join(i.name for i in inputs)} -> {', '.join(o.name for o in outputs)}); "
+            f"a bbbench policy takes one observation and gives one output (a recurrent one "
+            f"also takes its state, second, and gives its next state, second)"
         )
-    [graph_input], [graph_output] = inputs, graph.output
+    graph_input, graph_output = inputs[0], outputs[0]
     elem, dims = _tensor_type(graph_input)
     if elem != FLOAT:
         raise PolicyError(
@@ -185,6 +194,18 @@ def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
             f"{_TYPE_NAMES.get(output_type, output_type)}; a bbbench policy outputs float32 "
             f"action scores (Discrete) or actions (Box)"
         )
+    state_width = None
+    if len(inputs) == 2:
+        for tensor, role in ((inputs[1], "state input"), (outputs[1], "state output")):
+            kind, shape = _tensor_type(tensor)
+            if kind not in (FLOAT, 0) or (shape is not None and len(shape) != 2):
+                raise PolicyError(
+                    f"{where}: 2 graph input(s) and 2 output(s) ({graph_input.name}, "
+                    f"{inputs[1].name} -> {graph_output.name}, {outputs[1].name}), but its "
+                    f"{role} {tensor.name!r} is not a recurrent state (float32, (batch, state "
+                    f"width)); keep the output that acts with bbbench export --output"
+                )
+        state_width = _static(_tensor_type(inputs[1])[1], 1)
     return OnnxModel(
         name=name,
         sha256=hashlib.sha256(content).hexdigest(),
@@ -198,6 +219,9 @@ def parse_onnx(content: bytes, where: str, name: str) -> OnnxModel:
         output=graph_output.name,
         output_width=_static(output_dims, -1),
         output_type=output_type,
+        state_input=inputs[1].name if len(inputs) == 2 else None,
+        state_output=outputs[1].name if len(outputs) == 2 else None,
+        state_width=state_width,
     )
 
 

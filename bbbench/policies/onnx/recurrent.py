@@ -35,14 +35,22 @@ class GruCell:
         self.hidden, self.before_reset = hidden, before_reset
         w, r, b = (np.asarray(a, dtype=np.float64) for a in (w, r, b))
         wb, rb = b[: 3 * hidden], b[3 * hidden :]
-        gates = slice(0, 2 * hidden)  # z and r
-        # z and r from [x, h] at once.
-        self.gates = portable.Layer(np.concatenate([w[gates].T, r[gates].T]), wb[gates] + rb[gates])
-        cand = slice(2 * hidden, 3 * hidden)
-        if before_reset:  # x W_h + Wb_h, and h R_h + Rb_h, apart
-            self.from_x = portable.Layer(w[cand].T, wb[cand])
-            self.from_h = portable.Layer(r[cand].T, rb[cand])
-        else:  # from [x, r * h] at once
+        gates, cand = slice(0, 2 * hidden), slice(2 * hidden, 3 * hidden)
+        if before_reset:
+            # One layer over [x, h] gives z's and r's pre-activations, x W_h + Wb_h and
+            # h R_h + Rb_h: a zero block adds nothing to an exact sum.
+            size = w.shape[1]
+            weight = np.zeros((size + hidden, 4 * hidden))
+            weight[:size, : 2 * hidden] = w[gates].T
+            weight[size:, : 2 * hidden] = r[gates].T
+            weight[:size, 2 * hidden : 3 * hidden] = w[cand].T
+            weight[size:, 3 * hidden :] = r[cand].T
+            bias = np.concatenate([wb[gates] + rb[gates], wb[cand], rb[cand]])
+            self.layer = portable.Layer(weight, bias)
+        else:  # z and r from [x, h]; the candidate from [x, r * h]
+            self.layer = portable.Layer(
+                np.concatenate([w[gates].T, r[gates].T]), wb[gates] + rb[gates]
+            )
             self.candidate = portable.Layer(
                 np.concatenate([w[cand].T, r[cand].T]), wb[cand] + rb[cand]
             )
@@ -50,10 +58,11 @@ class GruCell:
     def step(self, x: np.ndarray, h: np.ndarray) -> np.ndarray:
         """The next state of every row: x (k, I), h (k, H), float32."""
         hidden = self.hidden
-        gates = portable.sigmoid(self.gates(np.concatenate([x, h], axis=1)))
+        out = self.layer(np.concatenate([x, h], axis=1))
+        gates = portable.sigmoid(out[:, : 2 * hidden])
         z, r = gates[:, :hidden], gates[:, hidden:]
         if self.before_reset:
-            n = portable.tanh(self.from_x(x) + r * self.from_h(h))
+            n = portable.tanh(out[:, 2 * hidden : 3 * hidden] + r * out[:, 3 * hidden :])
         else:
             n = portable.tanh(self.candidate(np.concatenate([x, r * h], axis=1)))
         return (np.float32(1.0) - z) * n + z * h
