@@ -42,13 +42,20 @@ def member_name(task_id: str) -> str:
 
 def task_config(task_id: str) -> dict[str, Any]:
     """A task's BenchMARL configuration, from its row of the suite: the env's own
-    keywords at their defaults (`n_bots`) and `workers`, the processes that step the
-    worlds (1; the same results for any number). BenchMARL's hydra CLI finds the same in
-    hydra's config store (`bbbench.marl.run`)."""
+    keywords at their defaults (`n_bots`, and a channel's `message_width`, `comm_range`
+    and `mute_messages`) and `workers`, the processes that step the worlds (1; the same
+    results for any number). BenchMARL's hydra CLI finds the same in hydra's config store
+    (`bbbench.marl.run`)."""
     task = bbbench.spec(task_id)
     if task.group is None:
         raise ValueError(f"{task_id} is a single-bot task: BenchMARL trains the multi-bot ones")
-    return {"n_bots": task.group.n_bots, "workers": 1}
+    config: dict[str, Any] = {"n_bots": task.group.n_bots}
+    if task.channel is not None:
+        channel = task.channel
+        config.update(
+            message_width=channel.width, comm_range=channel.range, mute_messages=channel.muted
+        )
+    return {**config, "workers": 1}
 
 
 def task_class(task_id: str, **changes: Any) -> BbbenchTaskClass:
