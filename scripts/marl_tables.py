@@ -83,7 +83,7 @@ CAMPAIGN_VERSUS = tuple(
 )
 # The steering robot's tasks: PPO on the single-bot ones, the campaign's cells on the others.
 STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
-STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0")
+STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0", "bbbench/Rendezvous-v0")
 STEERING_ROWS = (
     *(  # trained on these IDs, scored on their latest versions, which the board plays
         (on, f"PPO{trained_on}", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
