@@ -197,3 +197,31 @@ def test_the_controller_scores_on_its_messages():
         [episode.episode_return for episode in episodes] for episodes in played.episodes
     )
     assert min(heard_returns) > max(muted_returns) + 25.0
+
+
+def test_a_policy_trained_with_the_messages_muted_hears_none_in_any_env():
+    """`heard_mask`: the exported policy of a muted training multiplies every message
+    value by 0, so that on the task as it is it plays as it trained."""
+    import torch
+
+    from bbbench.policies.onnx.export import onnx_bytes
+    from bbbench.policies.onnx.policy import OnnxPolicy
+    from bbbench.policies.onnx.reader import parse_onnx
+    from bbbench.training.benchmarl.train import heard_mask
+
+    layout = agent_layout(RENDEZVOUS)
+    mask = heard_mask(RENDEZVOUS, {"mute_messages": True})
+    assert [name for name, kept in zip(layout, mask, strict=True) if not kept] == [
+        f"sender{k}_message{j}" for k in (1, 2, 3) for j in (0, 1)
+    ]
+    assert heard_mask(RENDEZVOUS, {"mute_messages": False}) is None
+    torch.manual_seed(0)
+    network = torch.nn.Linear(len(layout), 243)
+    content = onnx_bytes(network, RENDEZVOUS, mask=mask)
+    actor = OnnxPolicy(parse_onnx(content, "muted.onnx", "muted.onnx")).actor(RENDEZVOUS)
+    observation = np.random.default_rng(0).uniform(-1, 1, (1, len(layout))).astype(np.float32)
+    other = observation.copy()
+    other[0, mask == 0] = -observation[0, mask == 0]
+    assert np.array_equal(actor.program(observation), actor.program(other))
+    other[0, 0] += 0.5  # a value it hears
+    assert not np.array_equal(actor.program(observation), actor.program(other))

@@ -29,6 +29,7 @@ that shows what the channel carries.
 from __future__ import annotations
 
 import operator
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -42,6 +43,8 @@ from bbbench.tasks.group import MAX_BOTS, nearest_others
 LEVELS = (-1.0, 0.0, 1.0)  # the values a discrete action's message value takes
 MAX_WIDTH = 4  # message values per bot: 3 ** 4 x 27 = 2,187 discrete actions at most
 MAX_RANGE = 20.0  # m: beyond every world's size
+# The observation's message values, by name (`Channel.layout`): what muting zeroes.
+MESSAGE_FIELD = re.compile(r"sender\d+_message\d+")
 
 
 @parameters

@@ -95,6 +95,7 @@ def onnx_bytes(
     opset: int | None = None,
     dynamo: bool = False,
     state_width: int | None = None,
+    mask: np.ndarray | None = None,
 ) -> bytes:
     """The ONNX file of a torch actor that maps raw (or normalized) observations of
     `task_id`'s bots to its action scores (Discrete: one per action) or its action (Box),
@@ -107,7 +108,8 @@ def onnx_bytes(
     default 17 (18 with dynamo, its lowest). `state_width`: a recurrent actor, whose
     `forward(obs, state)` gives `(scores, next_state)`, each state (batch, state_width):
     the file carries it (`bbbench.recurrent_state`) and bbbench's play loops hand each bot
-    its own state back.
+    its own state back. `mask`: each observation value multiplied by it first (0 where
+    the policy hears nothing: a training with the messages muted hears none in any env).
     """
     import torch  # lazy: torch, for exporting only
 
@@ -123,7 +125,7 @@ def onnx_bytes(
         training_seed=training_seed,
         state=state_width,
     )
-    wrapped = _Normalized(module, mean, std, clip).eval()
+    wrapped = _Normalized(module, mean, std, clip, mask).eval()
     example = (torch.zeros((2, contract.observation), dtype=torch.float32),)
     names = [INPUT], [OUTPUT]
     if state_width is not None:
@@ -358,7 +360,7 @@ class _Graph:
 class _Normalized:
     """Built lazily as a torch module (torch is imported only to export)."""
 
-    def __new__(cls, module, mean, std, clip):
+    def __new__(cls, module, mean, std, clip, mask=None):
         import torch  # lazy: torch, for exporting only
 
         class Normalized(torch.nn.Module):
@@ -366,12 +368,17 @@ class _Normalized:
                 super().__init__()
                 self.module = module
                 self.normalize = mean is not None
+                self.masked = mask is not None
+                if self.masked:
+                    self.register_buffer("mask", torch.as_tensor(np.asarray(mask, np.float32)))
                 if self.normalize:
                     self.register_buffer("mean", torch.as_tensor(np.asarray(mean, np.float64)))
                     self.register_buffer("std", torch.as_tensor(np.asarray(std, np.float64)))
                     self.clip = None if clip is None else float(clip)
 
             def forward(self, obs, *state):
+                if self.masked:
+                    obs = obs * self.mask
                 if self.normalize:
                     scaled = (obs.double() - self.mean) / self.std
                     if self.clip is not None:

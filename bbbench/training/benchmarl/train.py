@@ -48,6 +48,8 @@ from bbbench.marl.models import NeighbourEncoderModel
 from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
+from bbbench.tasks.channel import MESSAGE_FIELD
+from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
 from bbbench.training.beside import trainings_beside
 from bbbench.training.checks import schedule
@@ -101,6 +103,17 @@ def observation_statistics(
     return values.mean(axis=0).astype(np.float32), np.where(std < 0.01, 1.0, std).astype(np.float32)
 
 
+def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
+    """For a training with the messages muted (`mute_messages`), the observation mask its
+    exported policy is given: 0 at every message value, 1 elsewhere, so that it hears
+    nothing in any env, as it trained (the board scores it on the task as it is); None
+    for any other training."""
+    if not config.get("mute_messages"):
+        return None
+    names = agent_layout(task_id)
+    return np.array([0.0 if MESSAGE_FIELD.fullmatch(name) else 1.0 for name in names], np.float32)
+
+
 def actor_network(experiment: Experiment) -> torch.nn.Module:
     """The torch network of the policy shared by every bot: observation -> action scores."""
     policy = experiment.group_policies["bot"]
@@ -117,11 +130,22 @@ class TrainingEvaluation(Callback):
     and played on the training seeds, a point of the curve; the last file kept."""
 
     def __init__(
-        self, task_id, every, began, on_progress, budget, bots, algorithm, normalization, seed
+        self,
+        task_id,
+        every,
+        began,
+        on_progress,
+        budget,
+        bots,
+        algorithm,
+        normalization,
+        seed,
+        mask=None,
     ):
         super().__init__()
         self.task_id, self.every = task_id, every
         self.mean, self.std = normalization
+        self.mask = mask  # `heard_mask`: what the exported policy hears
         self.began, self.on_progress, self.budget = began, on_progress, budget
         self.bots, self.algorithm, self.seed = bots, algorithm, seed
         self.next_at = every
@@ -152,6 +176,7 @@ class TrainingEvaluation(Callback):
             action_mode=ACTION_MODE,
             mean=self.mean,
             std=self.std,
+            mask=self.mask,
             algorithm=self.algorithm.upper(),
             training_steps=frames,  # world steps: the board's unit
             training_seed=self.seed,
@@ -222,6 +247,7 @@ def train_marl(
             algorithm,
             task.observation_normalization,
             seed,
+            heard_mask(task_id, task.env_kwargs),
         )
         experiment = plan.build_experiment(task, seed, budget, n_envs, Path(scratch), [callback])
         try:
