@@ -157,6 +157,8 @@ class Scenario(abc.ABC):
             (`height_scan=True`); else `height_scan` is refused.
         controller: the built-in policy that is its tasks' classical controller (the one
             learned methods are set against); None for its robot's (`Robot.controller`).
+        reward_type: the reward class its tasks must score (its `outcome` calls that
+            class's terms); None for any the other checks allow.
         heads_for: what a steering controller heads for on it, read from its observation:
             "the command" (the target twist) or "the goal" (its distance and bearing);
             None where the steering controllers do not play it.
@@ -175,6 +177,7 @@ class Scenario(abc.ABC):
     scans_ground: ClassVar[bool] = False
     controller: ClassVar[str | None] = None
     heads_for: ClassVar[str | None] = None
+    reward_type: ClassVar[type | None] = None
 
     def __init__(self, task: Task) -> None:
         self.task = task
@@ -206,6 +209,8 @@ class Scenario(abc.ABC):
         if cls.steers != isinstance(task.reward, TwistReward):
             wants = "TwistReward" if cls.steers else "a velocity's reward, not TwistReward"
             return f"{task.id}: the {cls.name!r} scenario scores {wants}"
+        if cls.reward_type is not None and not isinstance(task.reward, cls.reward_type):
+            return f"{task.id}: the {cls.name!r} scenario scores {cls.reward_type.__name__}"
         if cls.most_bots is not None and task.group.n_bots > cls.most_bots:
             return (
                 f"{task.id}: n_bots must be from {MIN_BOTS} to {cls.most_bots} for the "

@@ -101,6 +101,7 @@ class Rendezvous(Scenario):
     metrics = ("velocity_error", "goal_distance")
     most_bots = MOST_BOTS
     controller = "rendezvous"  # bbbench.policies.controllers.rendezvous
+    reward_type = StayUpReward
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -125,8 +126,6 @@ class Rendezvous(Scenario):
         refused = super().refusal(task)
         if refused:
             return refused
-        if not isinstance(task.reward, StayUpReward):
-            return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
         if task.channel is None:
             return f"{task.id}: the {cls.name!r} scenario needs a message channel (Channel)"
         return None

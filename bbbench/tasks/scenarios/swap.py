@@ -55,6 +55,7 @@ class Swap(Scenario):
     metrics = ("velocity_error", "goal_distance")
     most_bots = MOST_BOTS
     heads_for = "the goal"
+    reward_type = StayUpReward
     # steer-avoid (bbbench.policies.controllers.steer.Avoiding): steer, past the others
     controller = "steer-avoid"
 
@@ -68,15 +69,6 @@ class Swap(Scenario):
         self._live: list[int] = []  # the live bots' indices at the last observation
         # Their goals' distances, their targets and their velocities towards their goals.
         self._seen: tuple[list, list, list] = ([], [], [])
-
-    @classmethod
-    def refusal(cls, task) -> str | None:
-        refused = super().refusal(task)
-        if refused:
-            return refused
-        if not isinstance(task.reward, StayUpReward):
-            return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
-        return None
 
     def build(self, client: Any, bots: tuple[Any, ...]) -> None:
         self._client = client

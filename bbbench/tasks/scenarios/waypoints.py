@@ -102,6 +102,7 @@ class Waypoints(Solo):
     metrics = ("velocity_error", "waypoints_per_minute")
     scans_ground = False
     heads_for = "the goal"
+    reward_type = StayUpReward
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -114,15 +115,6 @@ class Waypoints(Solo):
         # before the step protocol (`SCORED_AS_PUBLISHED`), those before it.
         self._late = task.id in SCORED_AS_PUBLISHED
         self._scored = (0, False)
-
-    @classmethod
-    def refusal(cls, task) -> str | None:
-        refused = super().refusal(task)
-        if refused:
-            return refused
-        if not isinstance(task.reward, StayUpReward):
-            return f"{task.id}: the {cls.name!r} scenario scores StayUpReward"
-        return None
 
     def build(self, client: Any, bots: tuple[Any, ...]) -> None:
         self._client = client
