@@ -46,14 +46,16 @@ def sb3_rate(bot_steps: int) -> float:
     return bot_steps / seconds
 
 
-def ippo_rate(batches: int, recipe_file: str | None) -> float:
-    """Bot-steps per second of `batches` IPPO iterations."""
+def ippo_rate(
+    batches: int, recipe_file: str | None, algorithm: str = "ippo", task_id: str = TASK
+) -> float:
+    """Bot-steps per second of `batches` iterations of `algorithm`'s recipe on `task_id`."""
     from bbbench.training.benchmarl.recipes import marl_recipe
     from bbbench.training.benchmarl.train import _quiet, observation_statistics
 
-    plan = marl_recipe("ippo", TASK, recipe_file)
+    plan = marl_recipe(algorithm, task_id, recipe_file)
     task = plan.task_config()
-    task.observation_normalization = observation_statistics(TASK, task.env_kwargs, seed=0)
+    task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed=0)
     frames = plan.batch() * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
         experiment = plan.build_experiment(task, 0, frames, plan.n_envs, Path(folder))

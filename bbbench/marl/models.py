@@ -7,6 +7,11 @@ present ones; on the crossing tasks (MultiBalance, MultiBumps), 5 own values and
 slots of 4, with no presence bit (an empty slot is zeros). Every bot shares its
 parameters. The network is `bbbench.policies.encoder.neighbour_encoder`, which
 `export_onnx` writes for the board (`model.net`).
+
+`RecurrentActor` is BenchMARL's own GRU model (`benchmarl.models.Gru`: one GRU cell over
+the observation, then an MLP) as one torch network that steps once: (observation,
+state) -> (action scores, next state), which `onnx_bytes(state_width=...)` writes as the
+recurrent contract the board plays.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import MISSING
 
+import torch
+from benchmarl.models import Gru
 from benchmarl.models.common import Model, ModelConfig
 from tensordict import TensorDictBase
 
@@ -85,3 +92,34 @@ class NeighbourEncoderConfig(ModelConfig):
             raise ValueError(f"{task_id} is a single-bot task: it has no neighbours to encode")
         own, slots, slot_width, presence = task.scenario_class(task).slots()
         return cls(own=own, slots=slots, slot_width=slot_width, presence=presence, **changes)
+
+
+class RecurrentActor(torch.nn.Module):
+    """A trained `Gru` model (shared by every bot) as one step of `torch.nn.GRU` and its
+    MLP: `forward(obs, state)` gives `(scores, next_state)`, each state (bots,
+    `state_width`), as BenchMARL's collection steps it (zeros at an episode's start).
+    torch writes `torch.nn.GRU` as ONNX's GRU operator, which bbbench's interpreter runs
+    on its portable arithmetic."""
+
+    def __init__(self, model: Gru) -> None:
+        super().__init__()
+        gru = model.gru
+        if model.n_layers != 1 or not model.share_params or model.centralised:
+            raise ValueError(
+                "the board's recurrent contract carries one GRU layer shared by every bot "
+                f"(got n_layers={model.n_layers}, share_params={model.share_params}, "
+                f"centralised={model.centralised})"
+            )
+        cell = gru.params["grus", "0"]
+        self.state_width = gru.hidden_size
+        self.gru = torch.nn.GRU(gru.input_size, gru.hidden_size)
+        with torch.no_grad():
+            for name in ("weight_ih", "weight_hh", "bias_ih", "bias_hh"):
+                target = getattr(self.gru, f"{name}_l0")
+                source = cell.get(name, None)  # BenchMARL's bias=False: no biases
+                target.copy_(torch.zeros_like(target) if source is None else source)
+        self.mlp = model.mlp.get_stateful_net()
+
+    def forward(self, obs: torch.Tensor, state: torch.Tensor):
+        out, next_state = self.gru(obs.unsqueeze(0), state.unsqueeze(0))
+        return self.mlp(out[0]), next_state[0]

@@ -34,6 +34,9 @@ class Trainable:
     route: str  # SB3 or BENCHMARL
     action_modes: tuple[str, ...]  # the modes it learns in; the first is its default
     config: str | None = None  # BenchMARL: its config class, "module:Name"
+    # BenchMARL: an actor with a GRU (BenchMARL's `Gru` model, exported with its state),
+    # the method's name saying so ("ippo-gru"); its recipe file's model is `name: gru`.
+    recurrent: bool = False
 
     @property
     def name(self) -> str:
@@ -43,6 +46,11 @@ class Trainable:
     def suffix(self) -> str:
         """The policy file it writes: a stable-baselines3 zip, or ONNX."""
         return ".zip" if self.route == SB3 else ".onnx"
+
+    @property
+    def centralised_critic(self) -> bool:
+        """MAPPO's critic reads every bot's observation."""
+        return self.config is not None and self.config.endswith("MappoConfig")
 
     @property
     def multi_agent_only(self) -> bool:
@@ -61,10 +69,14 @@ ALGORITHMS: dict[str, Trainable] = {
         for a in SB3_ALGORITHMS.values()
         if recipe_file(a.key).is_file()
     },
-    "ippo": Trainable("ippo", BENCHMARL, ("discrete",), "bbbench.marl.algorithms:MaskedIppoConfig"),
-    "mappo": Trainable(
-        "mappo", BENCHMARL, ("discrete",), "bbbench.marl.algorithms:MaskedMappoConfig"
-    ),
+    **{
+        key: Trainable(key, BENCHMARL, ("discrete",), config, recurrent=gru)
+        for base, config in (
+            ("ippo", "bbbench.marl.algorithms:MaskedIppoConfig"),
+            ("mappo", "bbbench.marl.algorithms:MaskedMappoConfig"),
+        )
+        for key, gru in ((base, False), (f"{base}-gru", True))
+    },
 }
 # The keys of each route, in the table's order.
 TRAINABLE = tuple(key for key, a in ALGORITHMS.items() if a.route == SB3)

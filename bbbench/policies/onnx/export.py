@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -142,7 +143,10 @@ def onnx_bytes(
             keywords["verbose"] = False
         else:
             keywords["dynamic_axes"] = {name: {0: "batch"} for name in (*names[0], *names[1])}
-        with torch.no_grad():
+        with torch.no_grad(), warnings.catch_warnings():
+            # torch's note that a GRU without its initial state as an input keeps the
+            # batch it was exported with: a recurrent actor's state is an input.
+            warnings.filterwarnings("ignore", "Exporting a model to ONNX with a batch_size")
             torch.onnx.export(
                 wrapped,
                 example,

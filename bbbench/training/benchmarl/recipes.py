@@ -5,7 +5,9 @@ An entry's sections override BenchMARL's own YAML of each config group: `task` (
 task's configuration, from its row: `bbbench.marl.family.task_config`), `algorithm` (BenchMARL's
 `conf/algorithm/<algo>.yaml`, here its masked version: `bbbench.marl.algorithms`),
 `model` and `critic_model` (`name: mlp`, BenchMARL's `conf/model/layers/mlp.yaml`, or
-`name: neighbour_encoder`, `bbbench.marl.models`) and `experiment` (BenchMARL's
+`name: neighbour_encoder`, `bbbench.marl.models`; the actor of a recurrent method,
+`ippo-gru` or `mappo-gru`, `name: gru`, BenchMARL's `conf/model/layers/gru.yaml`, one
+layer, exported with its state: `bbbench.marl.models.RecurrentActor`) and `experiment` (BenchMARL's
 `conf/experiment/base_experiment.yaml`). Every key is checked against the fields of
 BenchMARL's config classes; what `bbbench train` owns (devices, action type, evaluation,
 loggers, checkpoints) is refused, as is an entropy bonus (it would reach the policy
@@ -21,7 +23,7 @@ from typing import Any
 
 import torch.nn
 from benchmarl.experiment import Experiment, ExperimentConfig
-from benchmarl.models import MlpConfig
+from benchmarl.models import GruConfig, MlpConfig
 
 import bbbench
 from bbbench.envs.batched import check_memory
@@ -32,7 +34,10 @@ from bbbench.tasks.suite import latest_version
 from bbbench.training.algorithms import MARL_TRAINABLE, trainable
 from bbbench.training.recipe_files import read_recipe_file
 
-MODELS = ("mlp", "neighbour_encoder")
+MODELS = ("mlp", "neighbour_encoder", "gru")
+# What of BenchMARL's GRU model a recipe may set: one layer, no dropout, uncompiled (the
+# board's recurrent contract carries one GRU cell; `torch.compile` changes no result).
+_GRU_FIELDS = ("hidden_size", "bias", "mlp_num_cells", "mlp_activation_class")
 SECTIONS = ("task", "algorithm", "model", "critic_model", "experiment")
 # What bbbench train sets itself (the key, and why).
 OWNED = {
@@ -145,9 +150,13 @@ class MarlRecipe:
             if "hidden" in fields:
                 fields["hidden"] = tuple(fields["hidden"])
             return NeighbourEncoderConfig.for_task(self.key, **fields)
+        if section["name"] == "gru":
+            if "mlp_activation_class" in fields:
+                fields["mlp_activation_class"] = _torch_class(fields["mlp_activation_class"])
+            return dataclasses.replace(GruConfig.get_from_yaml(), **fields)
         for key in ("activation_class", "layer_class", "norm_class"):
             if fields.get(key) is not None:
-                fields[key] = getattr(torch.nn, fields[key].removeprefix("torch.nn."))
+                fields[key] = _torch_class(fields[key])
         return dataclasses.replace(MlpConfig.get_from_yaml(), **fields)
 
     def build_experiment(
@@ -227,7 +236,8 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         check_workers(sections["task"]["workers"], None, f"{where}, task: workers")
     for name in ("model", "critic_model"):
         _check_model(f"{where}, {name}", sections[name])
-    if algorithm == "mappo" and sections["critic_model"]["name"] != "mlp":
+    _check_recurrence(where, algorithm, sections)
+    if trainable(algorithm).centralised_critic and sections["critic_model"]["name"] != "mlp":
         raise ValueError(
             f"{where}, critic_model: MAPPO's critic is centralised (it reads every bot's "
             f"observation): use name: mlp"
@@ -304,6 +314,31 @@ def _check_task(where: str, task_id: str, keywords: dict[str, Any]) -> None:
         raise ValueError(f"{where}, task: {error}") from None
 
 
+def _check_recurrence(where: str, algorithm: str, sections: dict[str, Any]) -> None:
+    """A recurrent method's actor is BenchMARL's GRU, and only a recurrent method's; the
+    critic stays an MLP or the encoder (what the board plays is the actor)."""
+    recurrent = trainable(algorithm).recurrent
+    if (sections["model"]["name"] == "gru") != recurrent:
+        raise ValueError(
+            f"{where}, model: {algorithm}'s actor is "
+            + (
+                "name: gru (its method is recurrent)"
+                if recurrent
+                else "not a GRU: train it as "
+                f"{algorithm}-gru, whose board entry says it is recurrent"
+            )
+        )
+    if sections["critic_model"]["name"] == "gru":
+        raise ValueError(
+            f"{where}, critic_model: a GRU critic is not trained here; the critic is an "
+            f"mlp or the neighbour encoder (the recurrence is the actor's)"
+        )
+
+
+def _torch_class(name: Any) -> type:
+    return getattr(torch.nn, str(name).removeprefix("torch.nn."))
+
+
 def _check_model(where: str, section: dict[str, Any]) -> None:
     name = section.get("name")
     if name is None:
@@ -324,15 +359,27 @@ def _check_model(where: str, section: dict[str, Any]) -> None:
         if fields.get("pool", "mean") not in ("mean", "max"):
             raise ValueError(f"{where}: pool {fields['pool']!r}: mean or max")
         return
+    if name == "gru":
+        for field in fields:
+            if field not in _GRU_FIELDS:
+                raise ValueError(
+                    f"{where}: the GRU takes {', '.join(_GRU_FIELDS)} (one layer, as the "
+                    f"board's recurrent contract carries), not {field!r}"
+                )
+        _check_activation(where, fields.get("mlp_activation_class"), "mlp_activation_class")
+        return
     _check_fields(where, fields, MlpConfig)
     for key in ("layer_class", "norm_class"):
         if fields.get(key) not in (None, "torch.nn.Linear" if key == "layer_class" else None):
             raise ValueError(
                 f"{where}: {key} {fields[key]!r}: the board's ONNX reader runs Linear layers only"
             )
-    activation = fields.get("activation_class")
+    _check_activation(where, fields.get("activation_class"), "activation_class")
+
+
+def _check_activation(where: str, activation: Any, key: str) -> None:
     if activation is not None and str(activation).removeprefix("torch.nn.") not in _ACTIVATIONS:
         raise ValueError(
-            f"{where}: activation_class {activation!r}: one of "
+            f"{where}: {key} {activation!r}: one of "
             f"{', '.join('torch.nn.' + a for a in _ACTIVATIONS)}"
         )

@@ -39,12 +39,13 @@ import torchrl
 from benchmarl.experiment import Experiment
 from benchmarl.experiment import experiment as benchmarl_experiment
 from benchmarl.experiment.callback import Callback
+from benchmarl.models import Gru
 
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
-from bbbench.marl.models import NeighbourEncoderModel
+from bbbench.marl.models import NeighbourEncoderModel, RecurrentActor
 from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
@@ -115,11 +116,14 @@ def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
 
 
 def actor_network(experiment: Experiment) -> torch.nn.Module:
-    """The torch network of the policy shared by every bot: observation -> action scores."""
+    """The torch network of the policy shared by every bot: observation -> action scores
+    (a recurrent one's, `RecurrentActor`: (observation, state) -> (scores, next state))."""
     policy = experiment.group_policies["bot"]
     for module in policy.modules():
         if isinstance(module, NeighbourEncoderModel):
             return module.net
+        if isinstance(module, Gru):
+            return RecurrentActor(module)
         if hasattr(module, "mlp") and hasattr(module.mlp, "get_stateful_net"):
             return module.mlp.get_stateful_net()
     raise TypeError(f"no exportable network in {type(policy).__name__}")
@@ -170,9 +174,11 @@ class TrainingEvaluation(Callback):
         frames = self.experiment.total_frames
         if self.curve and self.curve[-1]["steps"] == frames:
             return
+        network = actor_network(self.experiment)
         candidate = onnx_bytes(
-            actor_network(self.experiment),
+            network,
             self.task_id,
+            state_width=getattr(network, "state_width", None),
             action_mode=ACTION_MODE,
             mean=self.mean,
             std=self.std,
@@ -338,6 +344,9 @@ def _quiet() -> Iterator[None]:
             warnings.filterwarnings("ignore", "PettingZoo in TorchRL is tested", UserWarning)
             warnings.filterwarnings("ignore", "SyncDataCollector has been deprecated")
             warnings.filterwarnings("ignore", "No episode terminated this iteration")
+            # BenchMARL wraps a recurrent model's env in its own transforms (InitTracker,
+            # the state primer): TorchRL's note on a future default of nested envs.
+            warnings.filterwarnings("ignore", "The default behavior of TransformedEnv")
             yield
     finally:
         benchmarl_experiment.tqdm = bar
