@@ -337,21 +337,22 @@ class Program:
     def step(self, observations: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A recurrent graph's output and next states for a batch of observations and each
         row's state (float32, (k, n) and (k, N))."""
-        env = _run(self.prefix, {self.input: observations, self.state_input: states}, self.where)
-        if self.mlp is not None:
-            env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
-            env = _run(self.suffix, env, self.where)
+        env = self._values({self.input: observations, self.state_input: states})
         return env[self.output], env[self.state_output]
 
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         """The graph's output for a batch of observations (float32, (k, n))."""
-        if self.mlp is None:
-            return _run(self.prefix, {self.input: observations}, self.where)[self.output]
-        if not self.suffix and self.output == self.mlp_output:
+        if self.mlp is not None and not self.suffix and self.output == self.mlp_output:
             return self.mlp.outputs(self._mlp_input(observations))
-        env = _run(self.prefix, {self.input: observations}, self.where)
-        env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
-        return _run(self.suffix, env, self.where)[self.output]
+        return self._values({self.input: observations})[self.output]
+
+    def _values(self, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Every value the graph computes from `inputs`: the prefix, the chain, the suffix."""
+        env = _run(self.prefix, inputs, self.where)
+        if self.mlp is not None:
+            env[self.mlp_output] = self.mlp.outputs(env[self.mlp_input])
+            env = _run(self.suffix, env, self.where)
+        return env
 
     def greedy_mlp(self, observations: np.ndarray) -> list:
         """A Discrete policy whose graph ends in its chain: the chain's own actions (its fast

@@ -200,25 +200,31 @@ def _actor(model, contract: Contract) -> OnnxActor:
             rows = True
     program = compile_graph(compiled, discrete, shapes)
     low, high = (None, None) if discrete else (space.low.copy(), space.high.copy())
+    rows = rows or not _rows_agree(program, trial, state)
     if state is not None:
-        if not rows:
-            held = np.linspace(-0.5, 0.5, _TRIAL_ROWS * state, dtype=np.float32)
-            held = held.reshape(_TRIAL_ROWS, state)
-            together = np.concatenate(program.step(trial, held), axis=1)
-            apart = np.concatenate(
-                [
-                    np.concatenate(program.step(o[None], h[None]), axis=1)
-                    for o, h in zip(trial, held, strict=True)
-                ]
-            )
-            rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
         return RecurrentOnnxActor(program, discrete, rows, state, low, high)
-    if not rows:
-        together = program(trial)
-        apart = np.concatenate([program(row[None]) for row in trial])
-        rows = not np.array_equal(together.view(np.uint32), apart.view(np.uint32))
     greedy = discrete and program.mlp is not None and program.output == program.mlp_output
     return OnnxActor(program, discrete, greedy, rows, low=low, high=high)
+
+
+def _rows_agree(program, trial: np.ndarray, state: int | None) -> bool:
+    """Whether one batched call gives, bit for bit, what row-by-row calls give (else the
+    actor calls the graph a row at a time: the same bits for any batch); a recurrent
+    graph's next states too, from states other than zeros."""
+    if state is None:
+        together = program(trial)
+        apart = np.concatenate([program(row[None]) for row in trial])
+    else:
+        held = np.linspace(-0.5, 0.5, len(trial) * state, dtype=np.float32)
+        held = held.reshape(len(trial), state)
+        together = np.concatenate(program.step(trial, held), axis=1)
+        apart = np.concatenate(
+            [
+                np.concatenate(program.step(o[None], h[None]), axis=1)
+                for o, h in zip(trial, held, strict=True)
+            ]
+        )
+    return np.array_equal(together.view(np.uint32), apart.view(np.uint32))
 
 
 def _state_width(model, contract: Contract) -> int | None:
