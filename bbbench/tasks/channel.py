@@ -211,11 +211,16 @@ def _digits(code: int, width: int) -> tuple[float, ...]:
     return tuple(reversed(digits))
 
 
+def nearest_level(value: float) -> int:
+    """The index in `LEVELS` of the level nearest `value` (between two, the lower): how a
+    message value is read as a discrete one."""
+    return min(range(len(LEVELS)), key=lambda d: abs(LEVELS[d] - value))
+
+
 def code_of(message: tuple[float, ...]) -> int:
     """The discrete code of a message of `LEVELS` values (the inverse of `_digits`); a
     value between levels goes to the nearest."""
     code = 0
     for value in message:
-        digit = min(range(len(LEVELS)), key=lambda d: abs(LEVELS[d] - value))
-        code = code * len(LEVELS) + digit
+        code = code * len(LEVELS) + nearest_level(value)
     return code

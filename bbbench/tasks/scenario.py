@@ -40,6 +40,7 @@ from collections.abc import Sequence
 from typing import Any, ClassVar, NamedTuple, final
 
 import numpy as np
+import pybullet
 from gymnasium import spaces
 from pybullet_utils.bullet_client import BulletClient
 
@@ -343,3 +344,26 @@ class Scenario(abc.ABC):
         """Bots `indices` have ended their episodes (a fall, the time limit, the team's
         end): what becomes of their bodies. By default they stay where they are; never
         move a body a constraint holds."""
+
+
+_OUT_OF_SIGHT = (0.0, 0.0, -5.0)  # where a disc waits before `place_disc` first puts it
+
+
+def discs(client: Any, count: int, radius: float, colour: tuple[float, ...]) -> list[int]:
+    """`count` flat discs for a scenario's `draw` to show on the ground (goals, a course,
+    landmarks): bodies without mass or collision shape, which no physics step meets,
+    out of sight until placed."""
+    shape = client.createVisualShape(
+        pybullet.GEOM_CYLINDER, radius=radius, length=0.01, rgbaColor=colour
+    )
+    return [client.createMultiBody(0.0, -1, shape, _OUT_OF_SIGHT) for _ in range(count)]
+
+
+def place_disc(
+    client: Any, body: int, x: float, y: float, ground: float = 0.0, colour=None
+) -> None:
+    """Lay a disc of `discs` on the ground at (x, y) (`ground`: its height there), in
+    `colour` if given."""
+    client.resetBasePositionAndOrientation(body, (x, y, ground + 0.005), (0.0, 0.0, 0.0, 1.0))
+    if colour is not None:
+        client.changeVisualShape(body, -1, rgbaColor=colour)

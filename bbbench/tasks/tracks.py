@@ -25,6 +25,9 @@ class Track:
     profile_task: str  # a task of the track: its latest version is what profiles play
     team: bool = False  # a team's tasks (cooperative), not bots each on their own
     talks: bool = False  # tasks whose bots talk over a message channel (`TaskSpec.channel`)
+    # Its entries get a team-size profile too (`bbbench.evaluation.team_sizes`): the profile
+    # task played with 2, 4, 6 and 8 bots.
+    team_sizes: bool = False
 
     def __post_init__(self) -> None:
         if not self.holds(SUITE[self.profile_task]):
@@ -66,6 +69,7 @@ TRACKS: dict[str, Track] = {
             "two-wheel",
             True,
             "bbbench/MultiBalance-v1",
+            team_sizes=True,
         ),
         Track(
             "cooperative",
@@ -99,6 +103,7 @@ TRACKS: dict[str, Track] = {
             "two-wheel-steer",
             True,
             "bbbench/Swap-v0",
+            team_sizes=True,
         ),
         Track(
             "steering-cooperative",

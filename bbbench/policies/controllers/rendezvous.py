@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench.policies.controllers.steer import TARGET_VELOCITY, Avoiding, SteerController
-from bbbench.tasks.channel import Channel, code_of
+from bbbench.tasks.channel import LEVELS, Channel, code_of, nearest_level
 from bbbench.tasks.scenarios.rendezvous import ARRIVAL_RATE, GATHERED, LANDMARKS
 
 # Landmark k as the scout says it, and as a relay says it; (0, 0) says nothing.
@@ -29,7 +29,7 @@ WIDTH_NEEDED = 2  # message values the words take
 def heard(values: tuple[float, float]) -> tuple[int, bool] | None:
     """What a message's first two values say: (landmark, whether the scout said it), or
     None for nothing. Each value is read as its nearest level of -1, 0 and 1."""
-    first, second = (-1.0 if v < -0.5 else 1.0 if v > 0.5 else 0.0 for v in values)
+    first, second = (LEVELS[nearest_level(v)] for v in values)
     if (first, second) == NOTHING:
         return None
     if first and second:

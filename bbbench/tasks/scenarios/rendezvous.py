@@ -29,7 +29,6 @@ import math
 from typing import Any
 
 import numpy as np
-import pybullet
 
 from bbbench.portable import total
 from bbbench.robots.layout import ObservationField
@@ -38,7 +37,16 @@ from bbbench.tasks.commands import SPEED_TARGETS
 from bbbench.tasks.group import Group, nearest_others, spawn_poses
 from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, has_fallen
-from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
+from bbbench.tasks.scenario import (
+    Outcome,
+    Pose,
+    Scenario,
+    Slots,
+    discs,
+    fell_cause,
+    place_disc,
+    register_scenario,
+)
 from bbbench.tasks.spec import TaskSpec
 
 LANDMARKS = 4
@@ -139,15 +147,9 @@ class Rendezvous(Scenario):
         collision shape, made at the first frame."""
         client = self._client
         if not self._markers:
-            disc = client.createVisualShape(
-                pybullet.GEOM_CYLINDER, radius=0.2, length=0.01, rgbaColor=_OTHER_COLOUR
-            )
-            self._markers = [client.createMultiBody(0.0, -1, disc, (0.0, 0.0, -5.0))
-                             for _ in range(LANDMARKS)]  # fmt: skip
+            self._markers = discs(client, LANDMARKS, 0.2, _OTHER_COLOUR)
         for k, (body, (x, y)) in enumerate(zip(self._markers, self.landmarks, strict=True)):
-            client.resetBasePositionAndOrientation(body, (x, y, 0.005), (0.0, 0.0, 0.0, 1.0))
-            colour = _GOAL_COLOUR if k == self.goal else _OTHER_COLOUR
-            client.changeVisualShape(body, -1, rgbaColor=colour)
+            place_disc(client, body, x, y, colour=_GOAL_COLOUR if k == self.goal else _OTHER_COLOUR)
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         """The bots as on Swap, then the landmarks' turn, the scout and the goals."""

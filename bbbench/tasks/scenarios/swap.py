@@ -19,14 +19,22 @@ import math
 from typing import Any
 
 import numpy as np
-import pybullet
 
 from bbbench.robots.layout import ObservationField
 from bbbench.tasks.commands import SPEED_TARGETS
 from bbbench.tasks.group import NEIGHBOUR_FIELDS, Group, spawn_poses
 from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, has_fallen
-from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
+from bbbench.tasks.scenario import (
+    Outcome,
+    Pose,
+    Scenario,
+    Slots,
+    discs,
+    fell_cause,
+    place_disc,
+    register_scenario,
+)
 from bbbench.tasks.scenarios.waypoints import SEEN_DISTANCE
 from bbbench.tasks.spec import TaskSpec
 
@@ -84,13 +92,9 @@ class Swap(Scenario):
         shape, made at the first frame."""
         client = self._client
         if not self._markers:
-            disc = client.createVisualShape(
-                pybullet.GEOM_CYLINDER, radius=0.2, length=0.01, rgbaColor=(0.6, 0.6, 0.6, 1.0)
-            )
-            self._markers = [client.createMultiBody(0.0, -1, disc, (0.0, 0.0, -5.0))
-                             for _ in self.goals]  # fmt: skip
+            self._markers = discs(client, len(self.goals), 0.2, (0.6, 0.6, 0.6, 1.0))
         for body, (x, y) in zip(self._markers, self.goals, strict=True):
-            client.resetBasePositionAndOrientation(body, (x, y, 0.005), (0.0, 0.0, 0.0, 1.0))
+            place_disc(client, body, x, y)
 
     def starts(self, rng: np.random.Generator) -> tuple[list[Pose], list[float]]:
         pitch = self.task.initial_pitch

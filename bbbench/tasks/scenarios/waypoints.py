@@ -23,13 +23,12 @@ import math
 from typing import Any
 
 import numpy as np
-import pybullet
 
 from bbbench.robots.layout import ObservationField, observation_with
 from bbbench.robots.steering import SteerState, own_values
 from bbbench.tasks.commands import PiecewiseConstantVelocity
 from bbbench.tasks.reward import StayUpReward, has_fallen
-from bbbench.tasks.scenario import Outcome, register_scenario
+from bbbench.tasks.scenario import Outcome, discs, place_disc, register_scenario
 from bbbench.tasks.scenarios.solo import Solo
 from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain
@@ -130,17 +129,11 @@ class Waypoints(Solo):
         without mass or collision shape, made at the first frame."""
         client = self._client
         if not self._markers:
-            disc = client.createVisualShape(
-                pybullet.GEOM_CYLINDER, radius=REACH, length=0.01, rgbaColor=_LATER_COLOUR
-            )
-            self._markers = [client.createMultiBody(0.0, -1, disc, (0.0, 0.0, -5.0))
-                             for _ in range(SHOWN)]  # fmt: skip
+            self._markers = discs(client, SHOWN, REACH, _LATER_COLOUR)
         for k, body in enumerate(self._markers):
-            index = min(self.goal + k, len(self.course) - 1)
-            x, y = self.course[index]
-            z = scene.ground.spawn_height(x, y) + 0.005
-            client.resetBasePositionAndOrientation(body, (x, y, z), (0.0, 0.0, 0.0, 1.0))
-            client.changeVisualShape(body, -1, rgbaColor=_GOAL_COLOUR if k == 0 else _LATER_COLOUR)
+            x, y = self.course[min(self.goal + k, len(self.course) - 1)]
+            colour = _GOAL_COLOUR if k == 0 else _LATER_COLOUR
+            place_disc(client, body, x, y, scene.ground.spawn_height(x, y), colour)
 
     def place(self, scene: Any, rng: np.random.Generator) -> None:
         """Draw the episode's course from the start stream."""
