@@ -1,6 +1,7 @@
 """A GRU policy's ONNX evaluation against its MLP twin's (issue 67: at most 2.0).
 
     python benchmarks/bench_recurrent.py [--episodes 4] [--rounds 5] [--hidden 64]
+    python benchmarks/bench_recurrent.py --trained GRU.onnx MLP.onnx --task bbbench/Rendezvous-v0
 
 Two ONNX policies for MultiBalance-v1 (17 values in, 9 actions out), exported with
 `onnx_bytes` from torch modules of the same widths: the twin, a layer of `--hidden` tanh
@@ -14,7 +15,8 @@ by the play loops, `bbbench.recurrent_state`) and the same head. Each round, in 
 
 Each ratio is the median over rounds of the GRU's time over the twin's. The untrained
 networks' bots fall within a second, so `evaluate` counts resets more than a trained
-policy's episodes would: `actor` is the policy's own share.
+policy's episodes would: `actor` is the policy's own share. `--trained` times two trained
+files of one task instead (a recurrent one first, e.g. IPPO-GRU's against IPPO's).
 """
 
 from __future__ import annotations
@@ -26,7 +28,9 @@ import time
 import numpy as np
 import torch
 
+import bbbench
 from bbbench.evaluation import evaluate
+from bbbench.policies import load_policy
 from bbbench.policies.onnx.export import onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
@@ -59,29 +63,40 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--hidden", type=int, default=64)
     parser.add_argument("--calls", type=int, default=3000)
+    parser.add_argument("--trained", nargs=2, metavar=("GRU", "MLP"), help="two policy files")
+    parser.add_argument("--task", default=TASK, help="with --trained: the task they play")
     args = parser.parse_args()
     torch.manual_seed(0)
-    policies = {
-        "mlp": OnnxPolicy(parse_onnx(onnx_bytes(Twin(args.hidden).eval(), TASK), "mlp", "mlp")),
-        "gru": OnnxPolicy(
-            parse_onnx(
-                onnx_bytes(Recurrent(args.hidden).eval(), TASK, state_width=args.hidden),
-                "gru",
-                "gru",
-            )
-        ),
-    }
-    batches = np.random.default_rng(0).normal(size=(args.calls, 4, 17)).astype(np.float32)
+    task = TASK
+    if args.trained:
+        task = args.task
+        policies = {"gru": load_policy(args.trained[0]), "mlp": load_policy(args.trained[1])}
+    else:
+        policies = {
+            "mlp": OnnxPolicy(parse_onnx(onnx_bytes(Twin(args.hidden).eval(), TASK), "mlp", "m")),
+            "gru": OnnxPolicy(
+                parse_onnx(
+                    onnx_bytes(Recurrent(args.hidden).eval(), TASK, state_width=args.hidden),
+                    "gru",
+                    "gru",
+                )
+            ),
+        }
+    bots = bbbench.spec(task).group.n_bots
+    env = bbbench.make_parallel(task)
+    width = env.observation_space(env.possible_agents[0]).shape[0]
+    env.close()
+    batches = np.random.default_rng(0).normal(size=(args.calls, bots, width)).astype(np.float32)
     per_step: dict[str, list[float]] = {name: [] for name in policies}
     per_call: dict[str, list[float]] = {name: [] for name in policies}
     for _ in range(args.rounds):
         for name, policy in policies.items():
             began = time.perf_counter()
-            played = evaluate(policy, [TASK], episodes=args.episodes, workers=1)
+            played = evaluate(policy, [task], episodes=args.episodes, workers=1)
             per_step[name].append((time.perf_counter() - began) / played.steps)
-            actor = policy.actor(TASK)
+            actor = policy.actor(task)
             if name == "gru":
-                states = actor.initial_state(4)
+                states = actor.initial_state(bots)
                 began = time.perf_counter()
                 for batch in batches:
                     _, states = actor.step(batch, states)

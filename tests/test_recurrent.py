@@ -12,6 +12,7 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.evaluation.results import dumps
 from bbbench.policies import PolicyError
+from bbbench.policies.onnx import interpreter
 from bbbench.policies.onnx.export import onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
@@ -311,3 +312,22 @@ def test_a_state_missing_or_misshapen_is_one_line_and_exit_2(tmp_path, capsys, k
     assert len(err.strip().splitlines()) == 1, err
     assert fragment in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gru.onnx"]
+
+
+def test_torchs_one_gru_step_runs_as_one_fused_step_with_the_same_bits(monkeypatch):
+    """The six reshaping steps torch writes around a recurrent actor's GRU are folded into
+    one step; the fused program and the one step by step agree bit for bit."""
+    content = onnx_bytes(_RecurrentActor().eval(), TASK, state_width=12)
+    fused = OnnxPolicy(parse_onnx(content, "gru.onnx", "gru.onnx")).actor(TASK)
+    assert [step.op for step in fused.program.prefix] == ["GruStep"]
+    monkeypatch.setattr(interpreter, "fuse_gru_step", lambda steps, state: (steps, state))
+    plain = OnnxPolicy(parse_onnx(content, "gru.onnx", "gru.onnx")).actor(TASK)
+    assert "GRU" in [step.op for step in plain.program.prefix]
+    rng = np.random.default_rng(9)
+    a, b = fused.initial_state(4), plain.initial_state(4)
+    for _ in range(100):
+        observations = (3 * rng.normal(size=(4, 17))).astype(np.float32)
+        actions_a, a = fused.step(observations, a)
+        actions_b, b = plain.step(observations, b)
+        assert actions_a == actions_b
+        assert a.tobytes() == b.tobytes()

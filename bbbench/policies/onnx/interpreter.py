@@ -42,7 +42,7 @@ from bbbench import portable
 from bbbench.policies.errors import PolicyError, RefusedForSafety
 from bbbench.policies.mlp import MlpActor
 from bbbench.policies.onnx.operators import F4, I8, TABLE, clip
-from bbbench.policies.onnx.steps import Step, fuse_normalization, mlp_segment
+from bbbench.policies.onnx.steps import Step, fuse_gru_step, fuse_normalization, mlp_segment
 
 # The most values any tensor may hold per observation (or in all, for a constant): a
 # policy for these tasks needs thousands.
@@ -71,6 +71,7 @@ KERNELS: dict[str, Callable] = {
     **{name: operator.run for name, operator in TABLE.items()},
     "Linear": _linear,
     "Normalize": _normalize,
+    "GruStep": lambda params, x, h: params["cell"].step(x, np.asarray(h, dtype=F4)),
 }
 
 
@@ -393,7 +394,8 @@ def compile_graph(
     (from `trial_shapes`); only 2-D layers join the `MlpActor`."""
     model = compiled.model
     steps, output = fuse_normalization(list(compiled.steps), model.input), compiled.output
-    state = (model.state_input, compiled.state_output)
+    steps, state_output = fuse_gru_step(steps, compiled.state_output)
+    state = (model.state_input, state_output)
     segment = mlp_segment(steps, output, shapes)
     if segment is None:
         return Program(model.name, model.input, output, tuple(steps), None, None, None, (), *state)

@@ -1,6 +1,7 @@
-"""The steps a compiled ONNX graph is made of, and the two things the compiler fuses:
-VecNormalize's arithmetic into one step, and a chain of layers and one kind of
-activation into an `MlpActor` (`bbbench.policies.onnx.interpreter`)."""
+"""The steps a compiled ONNX graph is made of, and the three things the compiler fuses:
+VecNormalize's arithmetic into one step, a recurrent actor's one GRU step and the
+reshaping around it into one step, and a chain of layers and one kind of activation
+into an `MlpActor` (`bbbench.policies.onnx.interpreter`)."""
 
 from __future__ import annotations
 
@@ -98,3 +99,64 @@ def _mlp_activation(step: Step) -> str | None:
     if step.op == "Elu" and step.params["alpha"] == np.float32(1.0):
         return "ELU"
     return None
+
+
+def fuse_gru_step(steps: list[Step], state_output: str | None) -> tuple[list[Step], str | None]:
+    """torch's export of one step of a one-layer GRU (`torch.nn.GRU` on a sequence of one,
+    as `onnx_bytes(state_width=...)` writes a recurrent actor: Unsqueeze the observation
+    and the state, GRU, Squeeze and Gather its Y, Gather its last output) as one
+    `GruStep` whose output is both the features and the next state: the same cell on the
+    same values, without the six reshaping steps around it. The steps and the state
+    output's name, unchanged where the graph is not that."""
+    producer = {step.output: i for i, step in enumerate(steps)}
+    users: dict[str, list[int]] = {}
+    for i, step in enumerate(steps):
+        for x in step.inputs:
+            if isinstance(x, str):
+                users.setdefault(x, []).append(i)
+
+    def only_user(name: str, op: str, **params) -> int | None:
+        found = users.get(name, [])
+        if len(found) != 1 or steps[found[0]].op != op:
+            return None
+        step = steps[found[0]]
+        same = all(np.array_equal(step.params.get(k), v) for k, v in params.items())
+        return found[0] if same else None
+
+    for c, gru in enumerate(steps):
+        if gru.op != "GRU" or len(gru.inputs) != 2 or state_output is None:
+            continue
+        unsqueezed = [producer.get(x) for x in gru.inputs]
+        if None in unsqueezed or any(
+            steps[u].op != "Unsqueeze" or tuple(steps[u].params.get("axes", ())) != (0,)
+            or len(users[steps[u].output]) != 1
+            for u in unsqueezed
+        ):  # fmt: skip
+            continue
+        taken = sorted(users.get(gru.output, []))
+        if len(taken) != 2:
+            continue
+        last = [i for i in taken if steps[i].op == "Gather"]
+        squeeze = [i for i in taken if steps[i].op == "Squeeze"]
+        if len(last) != 1 or len(squeeze) != 1:
+            continue
+        last, squeeze = last[0], squeeze[0]
+        if not (
+            np.array_equal(steps[last].params.get("indices"), -1)
+            and steps[last].params.get("axis") == 0
+            and tuple(steps[squeeze].params.get("axes", ())) == (1,)
+        ):
+            continue
+        features = only_user(steps[squeeze].output, "Gather", indices=0, axis=0)
+        state = only_user(steps[last].output, "Gather", indices=0, axis=0)
+        if features is None or state is None or steps[state].output != state_output:
+            continue
+        if users.get(state_output):  # the next state feeds nothing but the graph's output
+            continue
+        out = steps[features].output
+        sources = tuple(steps[u].inputs[0] for u in unsqueezed)
+        fused = Step("GruStep", sources, out, gru.params, f"{gru.label}, one step")
+        gone = {*unsqueezed, last, squeeze, features, state}
+        kept = [s if i != c else fused for i, s in enumerate(steps) if i not in gone]
+        return kept, out
+    return steps, state_output
