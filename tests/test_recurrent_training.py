@@ -9,6 +9,8 @@ that `bbbench eval` plays."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,7 +19,6 @@ from benchmarl.models import GruConfig
 from tensordict import TensorDict
 from torchrl.data import Composite, Unbounded
 
-import bbbench
 from bbbench.cli import main
 from bbbench.marl.models import RecurrentActor
 from bbbench.policies import load_policy, onnx_bytes
@@ -152,4 +153,10 @@ def test_ippo_gru_trains_and_writes_a_recurrent_policy_eval_plays(tmp_path):
     (scored_task,) = json.loads(scored.read_text())["tasks"]
     (trained_task,) = json.loads((tmp_path / "results.json").read_text())["tasks"]
     assert scored_task == trained_task
-    assert bbbench.spec(TASK).multi_agent
+    # The same seed in another process, its worlds in two workers: the same bytes.
+    again = tmp_path / "again" / "policy.onnx"
+    again.parent.mkdir()
+    argv = ["train", TASK, "--algo", "ippo-gru", "--recipe", str(recipe), "--out", str(again)]
+    command = [sys.executable, "-m", "bbbench", *argv, "--steps", "400", "--workers", "2"]
+    subprocess.run([*command, "--eval-episodes", "2"], check=True, capture_output=True)
+    assert again.read_bytes() == out.read_bytes()
