@@ -38,10 +38,12 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from bbbench.evaluation.results import read
+from bbbench.leaderboard.board import is_profile
 from bbbench.policies import classical_controller
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics
 from bbbench.tasks.suite import scored_version, spec
 from bbbench.tasks.tracks import track_of
+from bbbench.training import MARL_TRAINABLE
 from bbbench.training.beside import described
 
 LATEST_SINGLE = (
@@ -139,7 +141,7 @@ def _short(task_id: str) -> str:
 
 def policy_name(run: dict) -> str:
     """The policy file a run writes: a zip (stable-baselines3), ONNX (BenchMARL)."""
-    return "policy.onnx" if run["algo"] in MARL else "policy.zip"
+    return "policy.onnx" if run["algo"] in MARL_TRAINABLE else "policy.zip"
 
 
 def command(run: dict, folder: Path) -> list[str]:
@@ -178,7 +180,7 @@ def _add(
         + (f", beside {beside}" if beside else ""),
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
         "--run-notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}): "
-        + (f"the last of {points} evaluations" if run["algo"] in MARL
+        + (f"the last of {points} evaluations" if run["algo"] in MARL_TRAINABLE
            else f"the best of {points} evaluations")
         + f" on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
@@ -253,7 +255,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
     """The Markdown table of the runs on the board: steps, each seed's training wall
     time and its normalized score on its task's evaluation seeds, and PD's (`which`:
     "all", or "legged" for the wheel-legged robot's rows alone)."""
-    stored = [p for p in sorted((board / "results").glob("*.json")) if ".profile" not in p.name]
+    stored = [p for p in sorted((board / "results").glob("*.json")) if not is_profile(p.name)]
     results = {path.stem: read(path) for path in stored}
 
     def score(slug: str, task_id: str) -> float | None:

@@ -11,6 +11,7 @@ import pytest
 
 import bbbench
 from bbbench.envs.balance import BalanceEnv
+from bbbench.leaderboard.board import is_profile
 from bbbench.robots import FALL_TILT
 from bbbench.robots.layout import HEIGHT_SCAN_LAYOUT, SCAN_OFFSETS
 from bbbench.robots.twowheel import OBSERVATION_LAYOUT, WHEEL_SPEED_CHANGES
@@ -171,7 +172,7 @@ def recorded_seed_figures(root: Path) -> set[str]:
     runs = [
         (f"board {path.name}", path)
         for path in (root / "leaderboards" / "results").glob("*.json")
-        if ".profile" not in path.name
+        if not is_profile(path.name)
     ] + [(f"baselines {p.parent.name}", p) for p in (root / "baselines").glob("*/results.json")]
     shown: set[str] = set()
     for name, path in runs:

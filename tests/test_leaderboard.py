@@ -19,7 +19,9 @@ from bbbench.cli import main
 from bbbench.evaluation import dumps, evaluate, stats
 from bbbench.evaluation.profile import Protocol
 from bbbench.evaluation.results import read
+from bbbench.evaluation.team_sizes import TeamSizes
 from bbbench.leaderboard import Board, SubmissionError
+from bbbench.leaderboard.board import is_profile
 from bbbench.leaderboard.fields import METHOD_FIELDS, schema_files
 from bbbench.leaderboard.ranking import leaderboard_document
 from bbbench.leaderboard.submissions import read_method, read_methods
@@ -43,12 +45,16 @@ BOARD = Board(
     episodes=4,
     # Two axes, two seeds: a profile in seconds (the board's: seven axes, 20 seeds).
     profile=Protocol(episodes=2, axes=("action_delay", "push")),
+    # Two sizes, one seed (the board's: 2, 4, 6 and 8 bots, 20 seeds).
+    team_sizes=TeamSizes(episodes=1, sizes=(2, 3)),
 )
 PROFILE = 2 * 5 * 2  # a profile's episodes on BOARD: 2 axes, 5 values each, 2 seeds
+SIZES = 2 * 1  # a team-size profile's: 2 sizes, 1 seed
 # Every episode of the test board: pd, random and the three runs of ppo play the three
 # single-bot tasks, pd and random the multi-bot one and the team one; pd and random are
-# profiled on the three tracks, each run of ppo on the single-bot one.
-EPISODES = 5 * 3 * 4 + 2 * 4 + 2 * 4 + 9 * PROFILE
+# profiled on the three tracks, each run of ppo on the single-bot one; pd and random play
+# team sizes on the multi-bot track.
+EPISODES = 5 * 3 * 4 + 2 * 4 + 2 * 4 + 9 * PROFILE + 2 * SIZES
 GENERATED = ("bbbench-v0.json", "README.md", "index.html")
 RECIPE = {"world_steps": 400_000, "tasks": ["bbbench/VelocityTracking-v0"], "file": "sb3 defaults"}
 # Three PPO policies of the suite, as the three runs of one method (a fiction: they were
@@ -192,9 +198,10 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     results = json.loads((DOCS / "results-schema.json").read_text())
     profiles = json.loads((DOCS / "profile-schema.json").read_text())
     for path in (built / "results").glob("*.json"):
-        is_profile = path.name.endswith(".profile.json")
-        jsonschema.validate(json.loads(path.read_text()), profiles if is_profile else results)
+        kind = profiles if is_profile(path.name) else results
+        jsonschema.validate(json.loads(path.read_text()), kind)
     assert len(list((built / "results").glob("*.profile.json"))) == 9
+    assert len(list((built / "results").glob("*.sizes.json"))) == 2  # pd and random, multi
     method_schema = json.loads((DOCS / "submission-schema.json").read_text())
     for path in (built / "submissions").glob("*/submission.json"):
         jsonschema.validate(json.loads(path.read_text()), method_schema)
@@ -214,6 +221,29 @@ def test_every_generated_document_and_submission_follows_its_schema(built):
     ppo = next(m for m in single["methods"] if m["slug"] == "ppo")
     assert [run["slug"] for run in ppo["runs"]] == ["ppo-s0", "ppo-s1", "ppo-s2"]
     assert [run["training_seed"] for run in ppo["runs"]] == [0, 1, 2]
+
+
+def test_a_multi_bot_tracks_methods_carry_their_team_size_profiles(built):
+    document = json.loads((built / "bbbench-v0.json").read_text())
+    for track in ("multi", "cooperative"):
+        for method in methods_of(document, track):
+            sizes = method["team_sizes"]
+            if track == "cooperative":  # a beam takes 2 to 4 bots: no profile
+                assert sizes is None
+                continue
+            assert sizes["task"] == "bbbench/MultiBalance-v1"
+            assert sizes["trained_with"] is None  # controllers: no training size
+            assert [point[0] for point in sizes["points"]] == [2, 3]
+            (run,) = method["runs"]
+            stored = json.loads((built / run["team_sizes"]["profile"]).read_text())
+            (block,) = stored["axes"]
+            assert [p["aggregate"]["normalized_score"] for p in block["points"]] == [
+                point[1] for point in sizes["points"]
+            ]
+    readme = (built / "README.md").read_text()
+    assert "Team sizes on MultiBalance-v1" in readme
+    assert "| name | 2 bots | 3 bots |" in readme
+    assert "Team sizes on MultiBalance-v1" in (built / "index.html").read_text()
 
 
 def test_the_repository_board_follows_the_schemas():
@@ -305,11 +335,12 @@ def test_check_passes_on_a_fresh_build(board):
         == sum(
             block["aggregate"]["episodes"]
             for path in (board / "results").glob("*.json")
-            if ".profile" not in path.name
+            if not is_profile(path.name)
             for block in json.loads(path.read_text())["tasks"]
         )
         + 9 * 10 * 2
-    )  # every record: tasks, and 9 profiles of 10 points of 2 episodes
+        + 2 * SIZES
+    )  # every record: tasks, 9 profiles of 10 points of 2 episodes, and 2 team-size ones
     full = leaderboard.check(board, BOARD, workers=1, full=True)
     assert full.problems == []
     assert full.episodes == EPISODES
@@ -528,8 +559,8 @@ def test_add_plays_only_the_new_run(board):
     built = leaderboard.add(
         board, "stand", "twin", method, run, board=BOARD, workers=1, on_episodes=counted.append
     )
-    # stand on the 5 tasks, and its 3 profiles
-    assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE
+    # stand on the 5 tasks, its 3 profiles and its team sizes on the multi-bot track
+    assert built.played == sum(counted) == 5 * 4 + 3 * PROFILE + SIZES
     assert (board / "submissions" / "twin" / "submission.json").is_file()
     assert leaderboard.check(board, BOARD, workers=1).problems == []
 
@@ -638,8 +669,8 @@ def test_build_and_check_from_the_command(command_board, capsys):
     assert main(["leaderboard", "check", "--root", str(command_board), "--workers", "1"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("leaderboard check ok: 5 runs, 5 tasks; every number recomputed")
-    # Every record of this small board (256): the budget, 1,000, is more.
-    assert "re-scored in full (inputs changed): none; 256 episodes of the others replayed" in out
+    # Every record of this small board (260): the budget, 1,000, is more.
+    assert "re-scored in full (inputs changed): none; 260 episodes of the others replayed" in out
     assert "(a budget of 1000 shared by the runs)" in out
     assert main(["leaderboard", "check", "--root", str(command_board), "--full"]) == 0
     assert f"{episodes} episodes played again" in capsys.readouterr().out

@@ -28,10 +28,10 @@ import bbbench
 from bbbench.evaluation.harness import play_tasks
 from bbbench.evaluation.play import PlayedEpisode
 from bbbench.evaluation.results import HARNESS_VERSION, aggregate
-from bbbench.evaluation.sweep import robustness, variant
+from bbbench.evaluation.sweep import robustness, unit, variant
 from bbbench.policies.policy import Policy
 from bbbench.portable import total
-from bbbench.tasks.perturbations import PERTURBATIONS, refusal, unit
+from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import spec
 from bbbench.tasks.tracks import TRACKS
@@ -101,8 +101,10 @@ def profile(
     protocol: Protocol = PROTOCOL,
     task_id: str | None = None,
 ) -> dict[str, Any]:
-    """Play the protocol on `task_id` (a track's profile task; default `profile_task`) with
-    `policy` and return its profile document; `ValueError` if it does not fit the task,
+    """Play the protocol (the robustness `Protocol`, or a team-size one,
+    `bbbench.evaluation.team_sizes.TeamSizes`: the same document, one axis) on `task_id`
+    (a track's profile task; default `profile_task`) with `policy` and return its profile
+    document; `ValueError` if it does not fit the task,
     `RuntimeError` if an episode is lost (worker died twice)."""
     task_id = task_id or profile_task(policy)
     if task_id is None or policy.mismatch(task_id) is not None:
@@ -142,7 +144,7 @@ def profile_document(
             }
         )
     blocks = [
-        {"axis": axis, "unit": unit(axis, spec(task_id)), "points": rows, **robustness(rows)}
+        {"axis": axis, "unit": unit(axis, [task_id]), "points": rows, **robustness(rows)}
         for axis, rows in axes.items()
     ]
     return {

@@ -28,6 +28,8 @@ from bbbench.evaluation.profile import (
     stored_records,
 )
 from bbbench.evaluation.results import EPISODES_OF, HARNESS_VERSION, read
+from bbbench.evaluation.team_sizes import SUFFIX as SIZES_SUFFIX
+from bbbench.evaluation.team_sizes import TEAM_SIZES, TeamSizes, sizes_file
 from bbbench.leaderboard.submissions import Run, SubmissionError
 from bbbench.policies import Policy
 from bbbench.portable import total
@@ -41,6 +43,12 @@ PROFILE_SUFFIX = ".profile.json"  # results/<slug>.<track>.profile.json: a robus
 def profile_file(slug: str, track: str) -> str:
     """The name of an entry's robustness profile on a track, in the results folder."""
     return f"{slug}.{track}{PROFILE_SUFFIX}"
+
+
+def is_profile(name: str) -> bool:
+    """Whether a file of the results folder is a profile document (robustness, or team
+    sizes), not a run's results document."""
+    return name.endswith((PROFILE_SUFFIX, SIZES_SUFFIX))
 
 
 class BuildError(RuntimeError):
@@ -59,6 +67,8 @@ class Board:
     episodes: int | None = None
     # The robustness profile every entry gets (None: none).
     profile: Protocol | None = PROTOCOL
+    # The team-size profile every entry on a track that declares one gets (None: none).
+    team_sizes: TeamSizes | None = TEAM_SIZES
 
     def __post_init__(self) -> None:
         for task_id in self.tasks:  # a task no track ranks would silently leave the board
@@ -83,19 +93,21 @@ class Board:
 @dataclasses.dataclass(frozen=True)
 class Scored:
     """A run, its results document and its robustness profiles, one for each track it is
-    on whose profile task it fits (track name -> profile document); `played`: episodes
-    played to get them (the rest came from stored results)."""
+    on whose profile task it fits (track name -> profile document), and its team-size
+    profiles on those of the tracks that declare one (`sizes`, the same kind of
+    document); `played`: episodes played to get them (the rest came from stored results)."""
 
     run: Run
     results: dict[str, Any]
     played: int
     profiles: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    sizes: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
 
 
 def inputs_key(run: Run, board: Board) -> str:
     """SHA-256 of everything a run's numbers depend on: its method's and its own files, the
     harness's, bbbench's and the simulator's versions, the board's tasks (fingerprint and
-    seeds) and the robustness protocol. The board records it per run (`inputs`), so that
+    seeds) and the profiles' protocols. The board records it per run (`inputs`), so that
     a check finds a changed or new run without the repository's history."""
     files = [*run.files, run.policy_file, run.normalization_file]
     inputs = {
@@ -111,6 +123,13 @@ def inputs_key(run: Run, board: Board) -> str:
         "profile": None
         if board.profile is None
         else [board.profile.record(track.profiled_on) for track in TRACKS.values()],
+        "team_sizes": None
+        if board.team_sizes is None
+        else [
+            board.team_sizes.record(track.profiled_on)
+            for track in TRACKS.values()
+            if track.team_sizes
+        ],
     }
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
@@ -168,22 +187,33 @@ def score(
         protocol, profiles, profiled = board.profile, {}, 0
         tracks = [] if protocol is None else _profiled_tracks(policy, task_ids)
         tracks = [track for track in tracks if track.name in run.method["tracks"]]
-        for track in tracks:  # the run's profile on each track its method is ranked on
-            robustness = None
+        sizes: dict[str, dict[str, Any]] = {}
+        # The run's profiles on each track its method is ranked on: robustness, and team
+        # sizes where the track declares them.
+        jobs = [(protocol, profile_file(run.slug, t.name), t, profiles) for t in tracks]
+        if board.team_sizes is not None:
+            jobs += [
+                (board.team_sizes, sizes_file(run.slug, t.name), t, sizes)
+                for t in tracks
+                if t.team_sizes
+            ]
+        for kind, file_name, track, kept in jobs:
+            document = None
             if stored_here is not None:
-                robustness = _stored_profile(stored_here, run.slug, track, policy, protocol)
-            if robustness is None:
-                robustness = profile(
-                    policy, workers, backend, address, on_result, protocol, track.profiled_on
+                document = _stored_profile(stored_here, file_name, track, policy, kind)
+            if document is None:
+                document = profile(
+                    policy, workers, backend, address, on_result, kind, track.profiled_on
                 )
-                profiled += total(len(records) for records in stored_records(robustness))
-            profiles[track.name] = robustness
+                profiled += total(len(records) for records in stored_records(document))
+            kept[track.name] = document
         scored.append(
             Scored(
                 run,
                 results_document(policy, results),
                 total(len(played[t]) for t in pending) + profiled,
                 profiles,
+                sizes,
             )
         )
     return scored
@@ -200,16 +230,17 @@ def _profiled_tracks(policy: Policy, task_ids: Sequence[str]) -> list[Track]:
 
 
 def _stored_profile(
-    folder: Path, slug: str, track: Track, policy: Policy, protocol: Protocol
+    folder: Path, name: str, track: Track, policy: Policy, protocol: Protocol | TeamSizes
 ) -> dict[str, Any] | None:
-    """`folder/<slug>.<track>.profile.json` when it is today's profile of `policy` on the
-    track: the same policy, protocol and versions, and every point the spec it played then
-    (a board built before profiles were per track kept one, `<slug>.profile.json`: it is
-    today's when its protocol is the track's)."""
+    """`folder/<name>` (`<slug>.<track>.profile.json`, or `.sizes.json`) when it is today's
+    profile of `policy` on the track: the same policy, protocol and versions, and every
+    point the spec it played then (a board built before profiles were per track kept
+    one, `<slug>.profile.json`: it is today's when its protocol is the track's)."""
     try:
-        path = folder / profile_file(slug, track.name)
-        if not path.is_file():  # a board built before profiles were per track
-            path = folder / f"{slug}{PROFILE_SUFFIX}"
+        path = folder / name
+        per_track = f".{track.name}{PROFILE_SUFFIX}"
+        if not path.is_file() and name.endswith(per_track):  # before per-track profiles
+            path = folder / f"{name.removesuffix(per_track)}{PROFILE_SUFFIX}"
         old = read(path)
         task_id = track.profiled_on
         if (

@@ -27,11 +27,11 @@ from bbbench.tasks.suite import spec
 # Episodes the default check replays of the unchanged entries, drawn afresh at every run:
 # a fixed budget for the whole board, whatever its size, shared evenly by the entries (by
 # a random one each when there are more entries than episodes) and drawn uniformly from
-# each entry's records (its tasks' and its profile points'). An entry whose records are
-# all forged is caught at every run while the board has at most SPOT_BUDGET entries (with
-# probability SPOT_BUDGET / entries beyond); one forged episode among an entry's n
-# records, with probability k / n for the entry's k draws (docs/performance.md gives the
-# figures for the repository's board).
+# each entry's records (its tasks' and its profiles' points: robustness, team sizes). An
+# entry whose records are all forged is caught at every run while the board has at most
+# SPOT_BUDGET entries (with probability SPOT_BUDGET / entries beyond); one forged episode
+# among an entry's n records, with probability k / n for the entry's k draws
+# (docs/performance.md gives the figures for the repository's board).
 SPOT_BUDGET = 1000
 # The figures' bytes are the same for one matplotlib only: the version constraints.txt pins.
 PLOTTING_STACK = {"matplotlib": "3.11.2"}
@@ -171,16 +171,20 @@ def _spot_check(
             for block in entry.results["tasks"]
             for record in block["episodes"]
         ]
-        for document in entry.profiles.values():
-            task_id = document["protocol"]["task"]
-            points = [p for block in document["axes"] for p in block["points"]]
-            records += [
-                (task, record)
-                for (_, _, task), point in zip(
-                    board.profile.specs(task_id, policy.height_scan), points, strict=True
-                )
-                for record in point["episodes"]
-            ]
+        for protocol, documents in (
+            (board.profile, entry.profiles),
+            (board.team_sizes, entry.sizes),
+        ):
+            for document in documents.values():
+                task_id = document["protocol"]["task"]
+                points = [p for block in document["axes"] for p in block["points"]]
+                records += [
+                    (task, record)
+                    for (_, _, task), point in zip(
+                        protocol.specs(task_id, policy.height_scan), points, strict=True
+                    )
+                    for record in point["episodes"]
+                ]
         drawn = rng.choice(len(records), min(share, len(records)), replace=False)
         draws += [
             (policy, records[i][0], records[i][1]["seed"], entry.run.slug, records[i][1])

@@ -51,6 +51,12 @@ RECIPE = Field(
             "'bbbench/training/recipes/ppo.yml'",
             max_length=300,
         ),
+        "n_bots": Field(
+            "count",
+            "on a multi-bot task, the bots per world it trained with where not the task's "
+            "own (its team-size profile marks that size)",
+            required=False,
+        ),
     },
 )
 

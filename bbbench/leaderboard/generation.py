@@ -10,6 +10,7 @@ from typing import Any
 
 from bbbench.evaluation.profile import stored_records
 from bbbench.evaluation.results import dumps
+from bbbench.evaluation.team_sizes import sizes_file
 from bbbench.files import write_all_atomic
 from bbbench.leaderboard.board import Board, Scored, profile_file, score
 from bbbench.leaderboard.page import FIGURES, README_FIGURE, page, readme_robustness_figure
@@ -101,9 +102,16 @@ def _files(methods: list[Method], scored: list[Scored], board: Board) -> Built:
     document = leaderboard_document(methods, scored, board)
     results = _results(scored)
     profiles = {
-        profile_file(entry.run.slug, track): doc
-        for entry in scored
-        for track, doc in entry.profiles.items()
+        **{
+            profile_file(entry.run.slug, track): doc
+            for entry in scored
+            for track, doc in entry.profiles.items()
+        },
+        **{
+            sizes_file(entry.run.slug, track): doc
+            for entry in scored
+            for track, doc in entry.sizes.items()
+        },
     }
     files = {
         DOCUMENT: dumps(document).encode(),

@@ -18,6 +18,7 @@ from bbbench.leaderboard.ranking import performance_profile
 from bbbench.leaderboard.views import (
     HOW_TO_READ,
     LEGEND,
+    TEAM_SIZES_NOTE,
     columns,
     header_kind,
     header_name,
@@ -26,6 +27,7 @@ from bbbench.leaderboard.views import (
     robustness_cell,
     run_name,
     run_task_cell,
+    size_rows,
     steps_cell,
     task_cell,
     task_name,
@@ -211,6 +213,22 @@ def _table(track: dict[str, Any]) -> str:
     )
 
 
+def _sizes_table(track: dict[str, Any]) -> str:
+    """The track's team-size table (`views.size_rows`), or nothing."""
+    sized = size_rows(track)
+    if sized is None:
+        return ""
+    (task, header), body = sized
+    head = "".join(f"<th>{_e(cell)}</th>" for cell in header)
+    rows = "".join(
+        "<tr>" + "".join(f"<td>{_e(cell)}</td>" for cell in row) + "</tr>" for row in body
+    )
+    return (
+        f"<h3>Team sizes on {_e(task_name(task))}</h3><p>{_e(TEAM_SIZES_NOTE)}.</p>"
+        f'<table class="sizes"><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>'
+    )
+
+
 def _run_row(run: dict[str, Any], task_ids: list[str]) -> str:
     """A run beneath its method: its name, its robustness, its score on each task."""
     cells = ["<td></td>", f"<td>{_e(run_name(run))}</td>", "<td></td>" * 4]  # to overall
@@ -282,7 +300,7 @@ def page(document: dict[str, Any], results: Mapping[str, dict[str, Any]]) -> dic
             )
         sections.append(
             f'<section id="track-{_e(track["track"])}"><h2>{_e(track["title"].capitalize())}</h2>'
-            f"{_table(track)}{figures_html}</section>"
+            f"{_table(track)}{_sizes_table(track)}{figures_html}</section>"
         )
     legend = " ".join(LEGEND.replace("**", "").replace("`", "").split())
     intro = " ".join(HOW_TO_READ.replace("**", "").replace("`", "").split())

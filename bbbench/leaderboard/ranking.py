@@ -22,6 +22,7 @@ import numpy as np
 import bbbench
 from bbbench.evaluation import machine, stats
 from bbbench.evaluation.results import HARNESS_VERSION, normalized
+from bbbench.evaluation.team_sizes import sizes_file, trained_size
 from bbbench.leaderboard.board import Board, Scored, inputs_key, profile_file, seeds_hash
 from bbbench.leaderboard.submissions import Method, SubmissionError
 from bbbench.policies import classical_controller
@@ -182,6 +183,7 @@ def _track(
                 "tasks": task_blocks[member.slug],
                 "overall": _overall(member, counted),
                 "robustness": _method_robustness(member, track),
+                "team_sizes": _method_sizes(member, track),
                 "beaten_by": sorted(member.beaten_by),
                 "versus_next": _next(member, order, versus),
                 "runs": [_run(entry, member, track, board, task_ids) for entry in member.scored],
@@ -280,6 +282,7 @@ def _run(
         "results": f"results/{entry.run.slug}.json",
         "tasks": {t: blocks[t]["aggregate"] for t in task_ids if t in blocks},
         "robustness": _run_robustness(entry, track),
+        "team_sizes": _sizes(entry, track),
     }
 
 
@@ -349,6 +352,54 @@ def _method_robustness(member: _Listed, track: str) -> dict[str, Any] | None:
         "task": profiles[0]["task"],
         "runs": len(profiles),
         "axes": axes,
+    }
+
+
+def _sizes(entry: Scored, track: str) -> dict[str, Any] | None:
+    """A run's team-size profile on `track` as the board shows it: the normalized score
+    and its interval at each size, and the size its method trained with (None: not
+    profiled on this track)."""
+    document = entry.sizes.get(track)
+    if document is None:
+        return None
+    (block,) = document["axes"]
+    task_id = document["protocol"]["task"]
+    return {
+        "task": task_id,
+        "trained_with": trained_size(entry.run.record, task_id),
+        "profile": f"results/{sizes_file(entry.run.slug, track)}",
+        "points": [
+            [
+                point["value"],
+                point["aggregate"]["normalized_score"],
+                *point["aggregate"]["normalized_ci"],
+            ]
+            for point in block["points"]
+        ],
+    }
+
+
+def _method_sizes(member: _Listed, track: str) -> dict[str, Any] | None:
+    """The method's team-size profile: at each size its runs' mean score, between their
+    least and greatest, and the size its runs trained with (None where they differ)."""
+    runs = [_sizes(entry, track) for entry in member.scored]
+    if not runs or any(run is None for run in runs):
+        return None
+    points = np.array([run["points"] for run in runs])  # (runs, sizes, 4)
+    trained = {run["trained_with"] for run in runs}
+    return {
+        "task": runs[0]["task"],
+        "trained_with": trained.pop() if len(trained) == 1 else None,
+        "runs": len(runs),
+        "points": [
+            [
+                int(points[0, i, 0]),
+                float(points[:, i, 1].mean()),
+                float(points[:, i, 1].min()),
+                float(points[:, i, 1].max()),
+            ]
+            for i in range(points.shape[1])
+        ],
     }
 
 

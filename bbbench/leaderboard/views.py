@@ -165,6 +165,34 @@ def rows(track: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return header, body
 
 
+TEAM_SIZES_NOTE = (
+    "normalized score with that many bots, 20 evaluation seeds each, the mean of the "
+    "method's runs; * the size it trained with; not part of the rank"
+)
+
+
+def size_rows(track: dict[str, Any]) -> tuple[tuple[str, list[str]], list[list[str]]] | None:
+    """The track's team-size table (its profile task, then a row per profiled method: its
+    name and its score at each size, the training size starred); None if no method has
+    one."""
+    sized = [m for m in track["methods"] if m.get("team_sizes") is not None]
+    if not sized:
+        return None
+    sizes = [int(point[0]) for point in sized[0]["team_sizes"]["points"]]
+    header = ["name", *(f"{size} bots" for size in sizes)]
+    body = []
+    for method in sized:
+        profile = method["team_sizes"]
+        body.append(
+            [method["submission"]["name"]]
+            + [
+                fixed(point[1]) + ("*" if point[0] == profile["trained_with"] else "")
+                for point in profile["points"]
+            ]
+        )
+    return (sized[0]["team_sizes"]["task"], header), body
+
+
 def unranked_notes(track: dict[str, Any]) -> list[str]:
     """Why each unranked method is: one line each."""
     return [
@@ -201,6 +229,13 @@ def markdown(document: dict[str, Any]) -> str:
         notes = unranked_notes(track)
         if notes:
             lines += ["", "Unranked:", ""] + [f"- {_markdown_cell(note)}" for note in notes]
+        sized = size_rows(track)
+        if sized is not None:
+            (task, header), body = sized
+            lines += ["", f"Team sizes on {task_name(task)} ({TEAM_SIZES_NOTE}):", ""]
+            lines.append("| " + " | ".join(header) + " |")
+            lines.append("|---|" + "|".join("---:" for _ in header[1:]) + "|")
+            lines += ["| " + " | ".join(_markdown_cell(c) for c in row) + " |" for row in body]
         lines += ["", "Tasks (fingerprint, evaluation seeds):", ""]
         lines += [f"- {task_line(task)}" for task in track["tasks"]]
     lines += ["", "## How to read it", "", HOW_TO_READ]
