@@ -49,12 +49,20 @@ def episode(job: tuple[str, int, bool, int, tuple[float, float] | None]) -> tupl
     observations, _ = env.reset(seed=seed)
     returns = dict.fromkeys(env.possible_agents, 0.0)
     falls = 0
+    # A recurrent policy's state, a row per bot still in the episode (zeros at its start).
+    states = act.initial_state(len(env.agents)) if hasattr(act, "initial_state") else None
     while env.agents:
         agents = env.agents
-        actions = act(np.stack([observations[agent] for agent in agents]), None)
+        stacked = np.stack([observations[agent] for agent in agents])
+        if states is None:
+            actions = act(stacked, None)
+        else:
+            actions, states = act.step(stacked, states)
         observations, rewards, terminations, _, _ = env.step(
             dict(zip(agents, actions, strict=True))
         )
+        if states is not None:
+            states = states[[agents.index(agent) for agent in env.agents]]
         for agent, reward in rewards.items():
             returns[agent] += reward
         falls += sum(terminations.values())
