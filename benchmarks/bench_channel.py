@@ -25,11 +25,12 @@ TASKS = (("bbbench/Rendezvous-v0", "rendezvous"), ("bbbench/Swap-v0", "steer-avo
 
 
 class Loop:
-    """One task's env under its controller, stepped a chunk of bot-steps at a time."""
+    """One task's env under its controller, stepped a chunk of bot-steps at a time (a
+    mixed team's controller acting group by group, as the play loop does)."""
 
-    def __init__(self, task_id: str, controller: str, bots: int) -> None:
-        self.env = bbbench.make_parallel(task_id, n_bots=bots)
-        self.act = load_policy(controller).actor(task_id)
+    def __init__(self, task_id: str, controller: str, bots: int, **options) -> None:
+        self.env = bbbench.make_parallel(task_id, n_bots=bots, **options)
+        self.act = load_policy(controller, **options).actor(task_id)
         self.seeds = iter(bbbench.spec(task_id).eval_seeds * 1000)
         self.observations, _ = self.env.reset(seed=next(self.seeds))
         self.spent, self.done = 0.0, 0
@@ -38,8 +39,12 @@ class Loop:
         env, goal = self.env, self.done + bot_steps
         while self.done < goal:
             agents = env.agents
-            batch = np.stack([self.observations[agent] for agent in agents])
-            actions = dict(zip(agents, self.act(batch, None), strict=True))
+            rows = [self.observations[agent] for agent in agents]
+            if env.task.mixed:
+                acted = self.act.team(rows, [env.agent_index[agent] for agent in agents])
+            else:
+                acted = self.act(np.stack(rows), None)
+            actions = dict(zip(agents, acted, strict=True))
             began = time.perf_counter()
             self.observations, *_ = env.step(actions)
             self.spent += time.perf_counter() - began
@@ -61,14 +66,20 @@ def main() -> None:
     print("bots | Rendezvous-v0 us/bot-step | Swap-v0 us/bot-step | ratio")
     for bots in args.bots:
         loops = [Loop(task_id, controller, bots) for task_id, controller in TASKS]
-        for loop in loops:
-            loop.run(args.chunk)  # warm up, then start the clocks again
-            loop.spent, loop.done = 0.0, 0
-        while min(loop.done for loop in loops) < args.bot_steps:
-            for loop in loops:
-                loop.run(args.chunk)
-        talk, swap = (loop.per_bot_step for loop in loops)
+        talk, swap = in_turns(loops, args.bot_steps, args.chunk)
         print(f"{bots} | {talk * 1e6:.1f} | {swap * 1e6:.1f} | {talk / swap:.3f}")
+
+
+def in_turns(loops: list[Loop], bot_steps: int, chunk: int) -> list[float]:
+    """Each loop's seconds per bot-step, the loops stepped in turns of `chunk` bot-steps
+    until each has `bot_steps` (after a chunk each to warm up)."""
+    for loop in loops:
+        loop.run(chunk)  # warm up, then start the clocks again
+        loop.spent, loop.done = 0.0, 0
+    while min(loop.done for loop in loops) < bot_steps:
+        for loop in loops:
+            loop.run(chunk)
+    return [loop.per_bot_step for loop in loops]
 
 
 if __name__ == "__main__":

@@ -134,12 +134,14 @@ def play(job: tuple[str, str, int]) -> tuple[int, float]:
     return result.length, result.episode_return
 
 
-def figures(name: str, policies: tuple[str, ...], seeds, pool) -> dict:
+def figures(name: str, policies: tuple[str, ...], seeds, pool, play=play, best=None) -> dict:
     """Each policy's episodes of a candidate: (length, team return) per seed, the share
-    finished, the normalized mean, and P(team > naive) with the targets it meets."""
+    finished, the normalized mean, and P(team > naive) with the targets it meets. `play`
+    plays a job (name, policy, seed); `best`, the most a team earns (None: the
+    candidate's)."""
     jobs = [(name, policy, seed) for policy in policies for seed in seeds]
     played = dict(zip(jobs, pool.map(play, jobs, chunksize=4), strict=True))
-    best = CANDIDATES[name].max_return
+    best = CANDIDATES[name].max_return if best is None else best
     returns = {p: [played[name, p, seed][1] for seed in seeds] for p in policies}
     lengths = {p: [played[name, p, seed][0] for seed in seeds] for p in policies}
     zero = float(np.mean(returns["random"]))

@@ -33,7 +33,9 @@ def robot_rows() -> str:
     """A row per robot: its tasks' names in the suite's order, its spaces."""
     rows = []
     for name in ROBOTS:
-        tasks = dict.fromkeys(task.name for task in SUITE.values() if task.robot == name)
+        tasks = dict.fromkeys(
+            task.name for task in SUITE.values() if name in (task.robots or (task.robot,))
+        )
         rows.append(f"| `{name}` | {', '.join(tasks)} | {SPACES[name]} |")
     return "\n".join(rows)
 

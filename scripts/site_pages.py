@@ -24,7 +24,7 @@ from pathlib import Path
 
 import bbbench
 from bbbench.policies import classical_controller
-from bbbench.robots import FALL_TILT
+from bbbench.robots import FALL_TILT, ROBOTS
 from bbbench.robots.layout import fields_markdown
 from bbbench.tasks.group import MIN_BOTS
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
@@ -70,15 +70,44 @@ def maker(task: TaskSpec) -> str:
 
 
 def action_spaces(task: TaskSpec) -> str:
-    robot = task.robot_model
+    if task.mixed:  # each robot's, in the one mode they share
+        return (
+            "; ".join(
+                f"{name}: `{task.action_space(mode, bots[0])}`"
+                for mode in task.action_modes
+                for name, bots in task.robot_groups.items()
+            )
+            + f" (`{task.default_action_mode}`, the only mode every robot takes)"
+        )
     return ", ".join(
         f"`{task.action_space(mode)}` (`{mode}`{', the default' if i == 0 else ''})"
-        for i, mode in enumerate(robot.action_modes)
+        for i, mode in enumerate(task.action_modes)
     )
 
 
+def robot_row(task: TaskSpec) -> str:
+    if task.mixed:
+        kinds = " and ".join(
+            f"{name} ({'bots' if len(bots) > 1 else 'bot'} {' and '.join(map(str, bots))})"
+            for name, bots in task.robot_groups.items()
+        )
+        return f"a mixed team, by default {kinds} ([robots](../robots.md))"
+    return f"{task.robot}: {task.robot_model.summary} ([robots](../robots.md))"
+
+
+def observation_row(task: TaskSpec, scenario) -> str:
+    if task.mixed:
+        return (
+            "; ".join(
+                f"{name}: `Box({scenario.bot_observation_space(bots[0]).shape[0]},)`"
+                for name, bots in task.robot_groups.items()
+            )
+            + " of `float32` (below)"
+        )
+    return f"`Box({scenario.observation_space().shape[0]},)` of `float32` (below)"
+
+
 def glance(task: TaskSpec, scenario) -> str:
-    space = scenario.observation_space()
     track = track_of(task)
     bots = (
         f"{task.group.n_bots} (`n_bots=` {MIN_BOTS} to {scenario.most_bots or '16'}), an agent each"
@@ -89,10 +118,10 @@ def glance(task: TaskSpec, scenario) -> str:
     rows = [
         ("Make", f"`{maker(task)}`"),
         ("API", "PettingZoo `ParallelEnv`" if task.multi_agent else "Gymnasium `Env`"),
-        ("Robot", f"{task.robot}: {task.robot_model.summary} ([robots](../robots.md))"),
+        ("Robot", robot_row(task)),
         ("Bots", bots),
         ("Action space", action_spaces(task)),
-        ("Observation space", f"`Box({space.shape[0]},)` of `float32` (below)"),
+        ("Observation space", observation_row(task, scenario)),
         (
             "Episode",
             f"{task.max_episode_steps:,} steps of {task.control_dt:g} s ({seconds:g} s); "
@@ -143,9 +172,8 @@ def rules(task: TaskSpec, scenario) -> str:
 
 
 def keywords(task: TaskSpec, scenario) -> str:
-    robot = task.robot_model
-    modes = " or ".join(f'`"{mode}"`' for mode in robot.action_modes)
-    rows = [("action_mode", modes, f'`"{robot.default_action_mode}"`')]
+    modes = " or ".join(f'`"{mode}"`' for mode in task.action_modes)
+    rows = [("action_mode", modes, f'`"{task.default_action_mode}"`')]
     if task.multi_agent:
         most = scenario.most_bots or 16
         rows.append(("n_bots", f"{MIN_BOTS} to {most}", f"{task.group.n_bots}"))
@@ -255,7 +283,18 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
     pictures = [f"![{task.id}](../images/{picture}){{ width=360 }}" if picture else ""]
     if gif:
         pictures.append(f"![{task.id}, an episode](../images/{gif}){{ width=360 }}")
-    observation = fields_markdown(scenario.layout)
+    groups = task.robot_groups.items()
+    actions = "\n\n".join(
+        (f"### {name}\n\n" if task.mixed else "") + ROBOTS[name].actions_markdown()
+        for name, _ in groups
+    )
+    observation = "\n\n".join(
+        (f"### {name}\n\n" if task.mixed else "")
+        + f"One {'of its ' if task.mixed else ''}bot's observation, "
+        f"{len(scenario.bot_layout(bots[0]))} values ({scenario.name} scenario):\n\n"
+        + fields_markdown(scenario.bot_layout(bots[0]))
+        for name, bots in groups
+    )
     scan = (
         "\n\nWith `height_scan=True` the vector goes on with the ground's heights ahead "
         "(11 values, [robots](../robots.md))."
@@ -273,10 +312,9 @@ def task_page(task: TaskSpec, tracks: list[dict]) -> str:
         "## Start, reward and end",
         rules(task, scenario),
         "## Action space",
-        task.robot_model.actions_markdown(),
+        actions,
         "## Observation space",
-        f"One bot's observation, {len(scenario.layout)} values ({scenario.name} scenario):"
-        f"\n\n{observation}{scan}",
+        f"{observation}{scan}",
         "## Keywords",
         keywords(task, scenario),
         "## Run it",

@@ -172,3 +172,34 @@ def test_a_team_calibration_episode_is_what_the_controller_plays(teams_record):
     length, team_return = teams.play(("bbbench/Convoy-v0", "team", seed))
     row = teams_record["tasks"]["bbbench/Convoy-v0"]["policies"]["team"]
     assert (length, team_return) == (row["lengths"][0], row["returns"][0])
+
+
+# -- the mixed team (scripts/calibrate_mixed.py --evaluate) ------------------------------
+
+mixed = load_script("calibrate_mixed")
+
+
+@pytest.fixture(scope="module")
+def mixed_record() -> dict:
+    return _read(mixed.RECORD, "calibrate_mixed")
+
+
+def test_the_mixed_calibration_is_both_mixed_tasks_on_the_validation_seeds(mixed_record):
+    assert mixed_record["split"] == "validation"
+    assert mixed_record["seeds"] == {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)}
+    assert list(mixed_record["tasks"]) == list(mixed.MIXED_TASKS)
+    assert mixed_record["roles"] == {"random": "random", "naive": "per-bot", "team": "mixed-team"}
+    for name, task in mixed_record["tasks"].items():
+        assert bbbench.spec(name).mixed
+        assert list(task["policies"]) == list(teams.POLICIES)
+        for row in task["policies"].values():
+            assert len(row["returns"]) == len(row["lengths"]) == len(VALIDATION_SEEDS)
+    assert mixed_record["holds"]
+
+
+def test_a_mixed_calibration_episode_is_what_the_builtin_plays(mixed_record):
+    task_id = "bbbench/MixedBeamCarryBumps-v0"
+    for role in ("team", "naive"):
+        length, team_return = mixed.play((task_id, role, VALIDATION_SEEDS[1]))
+        row = mixed_record["tasks"][task_id]["policies"][role]
+        assert (length, team_return) == (row["lengths"][1], row["returns"][1])

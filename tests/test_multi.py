@@ -126,8 +126,9 @@ def test_observations_stay_in_their_space_at_every_step(task_id):
         while env.agents:
             for agent, observation in observations.items():
                 assert env.observation_space(agent).contains(observation), (agent, observation)
-            width = env.action_space("bot_0").shape[0]  # 2 for the steering robot
-            actions = {a: rng.uniform(-1, 1, size=width).astype(np.float32) for a in env.agents}
+            # Each agent's width: 2 for the steering robot, 6 for a wheel-legged one.
+            widths = {a: env.action_space(a).shape[0] for a in env.agents}
+            actions = {a: rng.uniform(-1, 1, size=widths[a]).astype(np.float32) for a in env.agents}
             observations, *_ = env.step(actions)
         for agent, observation in observations.items():
             assert env.observation_space(agent).contains(observation)

@@ -311,5 +311,6 @@ def test_each_task_has_a_classical_controller_that_plays_it():
     assert classical_controller("bbbench/Waypoints-v0") == "steer"
     assert classical_controller("bbbench/Swap-v0") == "steer-avoid"
     assert classical_controller("bbbench/ConvoyTurns-v0") == "team"
+    assert classical_controller("bbbench/MixedBeamCarry-v0") == "mixed-team"
     with pytest.raises(ValueError, match="unknown task 'bbbench/Nope-v0'"):
         classical_controller("bbbench/Nope-v0")

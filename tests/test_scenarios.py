@@ -108,7 +108,7 @@ def test_every_task_before_the_teams_plays_solo_or_crossing():
         elif task.coupling is None:
             assert task.scenario_class is (Crossing if task.multi_agent else Solo)
         else:
-            assert task.scenario in ("beam-carry", "convoy")
+            assert task.scenario in ("beam-carry", "convoy", "mixed-beam-carry")
 
 
 def test_naming_the_implied_scenario_leaves_the_fingerprint():
@@ -233,18 +233,21 @@ def test_every_task_of_the_suite_is_on_a_declared_track_and_an_undeclared_one_is
 def test_a_scenarios_layout_names_every_value_a_bot_observes(task_id):
     task = SUITE[task_id]
     scenario = task.scenario_class(task)
-    names = [field.name for field in scenario.layout]
-    assert len(set(names)) == len(names)
-    assert all(field.low < field.high and field.meaning for field in scenario.layout)
+    n = task.group.n_bots if task.multi_agent else 1
+    layouts = [scenario.bot_layout(i) for i in range(n)]  # each its robot's on a mixed team
+    for layout in layouts:
+        names = [field.name for field in layout]
+        assert len(set(names)) == len(names)
+        assert all(field.low < field.high and field.meaning for field in layout)
     if task.multi_agent:
         env = bbbench.make_parallel(task_id)
         observations, _ = env.reset(seed=0)
-        widths = {len(observation) for observation in observations.values()}
+        widths = [len(observations[agent]) for agent in env.possible_agents]
     else:
         env = bbbench.make(task_id)
-        widths = {len(env.reset(seed=0)[0])}
+        widths = [len(env.reset(seed=0)[0])]
     env.close()
-    assert widths == {len(names)}
+    assert widths == [len(layout) for layout in layouts]
 
 
 def test_a_scenario_heading_for_what_no_guide_follows_is_refused_when_registered():

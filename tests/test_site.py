@@ -57,7 +57,8 @@ def test_a_stale_page_is_named_and_a_stray_one_too(tmp_path, monkeypatch, capsys
 def table_after(text: str, heading: str) -> list[list[str]]:
     """The rows (cells) of the first Markdown table after `heading`."""
     section = text.split(f"\n{heading}\n", 1)[1]
-    lines = [line for line in section.split("\n\n## ", 1)[0].splitlines() if line.startswith("|")]
+    section = section.split("\n\n## ", 1)[0].split("\n\n### ", 1)[0]
+    lines = [line for line in section.splitlines() if line.startswith("|")]
     return [[cell.strip() for cell in line.strip("|").split("|")] for line in lines[2:]]
 
 
@@ -65,16 +66,27 @@ def table_after(text: str, heading: str) -> list[list[str]]:
 def test_each_page_gives_its_tasks_own_spaces(task_id):
     task = SUITE[task_id]
     page = (DOCS / "environments" / f"{task.name.lower()}.md").read_text()
-    observation, action = agent_spaces(task_id, task.robot_model.default_action_mode)
-    rows = table_after(page, "## Observation space")
-    assert len(rows) == observation.shape[0]
-    assert [int(row[0]) for row in rows] == list(range(observation.shape[0]))
-    low = np.array([float(row[2]) for row in rows])
-    high = np.array([float(row[3]) for row in rows])
-    np.testing.assert_allclose(low, observation.low, rtol=1e-4)
-    np.testing.assert_allclose(high, observation.high, rtol=1e-4)
-    assert f"`{action}`" in page
-    assert f"`Box({observation.shape[0]},)`" in page
+    # Each robot's spaces under its own heading on a mixed team's page.
+    section = page.split("## Observation space", 1)[1]
+    env = bbbench.make_parallel(task_id) if task.multi_agent else None
+    for name, bots in task.robot_groups.items():
+        if env is None:
+            observation, action = agent_spaces(task_id, task.default_action_mode)
+        else:
+            agent = env.possible_agents[bots[0]]
+            observation, action = env.observation_space(agent), env.action_space(agent)
+        rows = table_after(
+            page if not task.mixed else section,
+            f"### {name}" if task.mixed else "## Observation space",
+        )
+        assert len(rows) == observation.shape[0]
+        assert [int(row[0]) for row in rows] == list(range(observation.shape[0]))
+        low = np.array([float(row[2]) for row in rows])
+        high = np.array([float(row[3]) for row in rows])
+        np.testing.assert_allclose(low, observation.low, rtol=1e-4)
+        np.testing.assert_allclose(high, observation.high, rtol=1e-4)
+        assert f"`{action}`" in page
+        assert f"`Box({observation.shape[0]},)`" in page
     for entry in task.version_history:
         assert f"- {entry}" in page
 

@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> None:
     rows += [
         (
             spec.id,
-            spec.robot,
+            "+".join(spec.robots) if spec.mixed else spec.robot,
             str(spec.group.n_bots) if spec.multi_agent else "1",
             str(spec.max_episode_steps),
             f"{spec.control_dt:g}",
@@ -76,8 +76,9 @@ def describe(task_id: str) -> None:
         print(f"(superseded by {newer})")
     print(f"\n{spec.description.strip()}\n")
     bots = spec.group.n_bots if spec.multi_agent else 1
+    robot = " and ".join(spec.robots) if spec.mixed else spec.robot
     print(
-        f"robot {spec.robot}, scenario {spec.scenario} ({spec.scenario_class.summary}), "
+        f"robot {robot}, scenario {spec.scenario} ({spec.scenario_class.summary}), "
         f"bots {bots}, {spec.max_episode_steps} steps of "
         f"{spec.control_dt:g} s, max return {spec.max_return:g}, "
         f"{len(spec.eval_seeds)} eval seeds, fingerprint {spec.fingerprint}"

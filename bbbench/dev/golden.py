@@ -34,11 +34,11 @@ GOLDEN_STEPS = 200  # per seed, or until the episode ends
 DECIMALS = 4  # observations and rewards are rounded to 1e-4 before hashing
 
 
-def golden_actions(robot: Robot = TWO_WHEEL) -> list:
+def golden_actions(robot: Robot = TWO_WHEEL, action_mode: str | None = None) -> list:
     """The fixed action sequence of every golden rollout of `robot`'s tasks, in its default
-    action mode: uniform draws from its action space (for the two-wheel bot, discrete
-    indices 0-8)."""
-    space = robot.action_space(robot.default_action_mode)
+    action mode (or `action_mode`: a mixed team's): uniform draws from its action space
+    (for the two-wheel bot, discrete indices 0-8)."""
+    space = robot.action_space(action_mode or robot.default_action_mode)
     rng = np.random.default_rng(0)
     if isinstance(space, spaces.Discrete):
         return [int(a) for a in rng.integers(0, space.n, size=GOLDEN_STEPS)]
@@ -74,13 +74,27 @@ def rollout_hash(task: TaskSpec) -> str:
 
 
 def _multi_rollout_hash(task: TaskSpec) -> str:
-    """The same for a multi-bot task: bot j plays the fixed sequence shifted by j steps."""
+    """The same for a multi-bot task: bot j plays the fixed sequence shifted by j steps (on
+    a mixed team, its robot's sequence in the task's action mode)."""
     env = MultiBalanceEnv(task)
+    robots = [model.name for model in task.bot_robots] if task.mixed else None
+    sequences = (
+        {model.name: golden_actions(model, env.action_mode) for model in task.bot_robots}
+        if robots
+        else {}
+    )
     actions = golden_actions()
 
-    def act(batch, rngs) -> list[int]:  # step t: the live bots' actions, in env.agents' order
+    def of(bots: list[int]) -> list:  # step t: the actions of the live `bots`, in order
         t = env.scene.steps
-        return [actions[(t + env.agent_index[a]) % GOLDEN_STEPS] for a in env.agents]
+        if robots is None:
+            return [actions[(t + j) % GOLDEN_STEPS] for j in bots]
+        return [sequences[robots[j]][(t + j) % GOLDEN_STEPS] for j in bots]
+
+    def act(batch, rngs) -> list:
+        return of([env.agent_index[a] for a in env.agents])
+
+    act.team = lambda rows, bots, rngs: of(bots)  # a mixed team's (`TeamActor.team`)
 
     digest = hashlib.sha256()
     for seed in GOLDEN_SEEDS:

@@ -16,10 +16,10 @@ from bbbench.tasks.suite import list_tasks, spec
 
 def measure(task_ids: list[str] | None = None, workers: int | None = None) -> dict[str, float]:
     """The random policy's mean return per bot over all eval seeds, acting in each task's
-    robot's default action mode (discrete for the two-wheel bot)."""
+    default action mode (discrete for the two-wheel bot, continuous for a mixed team)."""
     by_mode: dict[str, list[str]] = {}
     for task_id in task_ids or list_tasks():
-        by_mode.setdefault(spec(task_id).robot_model.default_action_mode, []).append(task_id)
+        by_mode.setdefault(spec(task_id).default_action_mode, []).append(task_id)
     measured = {}
     for action_mode, tasks in by_mode.items():
         policy = load_policy("random", action_mode=action_mode)

@@ -95,7 +95,7 @@ class MultiBalanceEnv(ParallelEnv):
         self,
         task: str | TaskSpec = "bbbench/MultiBalance-v1",
         n_bots: int | None = None,
-        action_mode: str = "discrete",
+        action_mode: str | None = None,
         render_mode: str | None = None,
         difficulty: float | None = None,
         max_episode_steps: int | None = None,
@@ -104,6 +104,7 @@ class MultiBalanceEnv(ParallelEnv):
         options = {"n_bots": n_bots, "max_episode_steps": max_episode_steps}
         options["difficulty"] = difficulty  # in this order in the messages
         task = task if isinstance(task, TaskSpec) else spec(task)
+        action_mode = action_mode or task.default_action_mode  # a mixed team: continuous
         modes = self.metadata["render_modes"]
         task = requested_task(
             task, unknown, options, action_mode, render_mode, modes, several_bots=True
@@ -116,11 +117,11 @@ class MultiBalanceEnv(ParallelEnv):
         self.possible_agents = [f"bot_{i}" for i in range(group.n_bots)]
         self.agents: list[str] = []
         self.agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        self._action_space = task.action_space(action_mode)
+        self._action_spaces = task.action_spaces(action_mode)  # on a mixed team, per robot
         # The episode's world, ground and bots, and what its seed drew (`scene.episode`).
         self.scene = scene = Scene(task, action_mode)
         self._scenario = scenario = scene.scenario
-        self._observation_space = scenario.observation_space()
+        self._observation_spaces = list(map(scenario.bot_observation_space, range(group.n_bots)))
         self.metrics = scenario.metrics  # per-episode metrics: info keys, averaged per bot-step
         self._np_random: np.random.Generator | None = None
         self._episode_seed = -1
@@ -137,16 +138,15 @@ class MultiBalanceEnv(ParallelEnv):
         return self._episode_seed
 
     def observation_space(self, agent: str) -> spaces.Box:
-        self._check_agent(agent)
-        return self._observation_space
+        return self._observation_spaces[self._check_agent(agent)]
 
     def action_space(self, agent: str) -> spaces.Space:
-        self._check_agent(agent)
-        return self._action_space
+        return self._action_spaces[self._check_agent(agent)]
 
-    def _check_agent(self, agent: str) -> None:
+    def _check_agent(self, agent: str) -> int:  # its index, or a clear error
         if agent not in self.agent_index:
             raise ValueError(_unknown_agent(self, agent))
+        return self.agent_index[agent]
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None

@@ -99,8 +99,13 @@ class Scene:
         self.robot = task.robot_model
         self.scenario = scenario = task.scenario_class(task)
         self.n_bots = scenario.n_bots
-        self.action_mode = action_mode = action_mode or self.robot.default_action_mode
-        self.decode_action = self.robot.action_decoder(action_mode)  # checks the mode
+        self.action_mode = action_mode = action_mode or task.default_action_mode
+        task.check_action_mode(action_mode)
+        self.decode_action = self.robot.action_decoder(action_mode)
+        # A mixed team's bots decode each with its own robot's decoder (None: one robot).
+        self._decoders = (
+            [model.action_decoder(action_mode) for model in scenario.roster] if task.mixed else None
+        )
         # The channel's messages (`bbbench.tasks.channel`): what each bot sent with its
         # last action (zeros after reset), and the function that parts an action.
         self.channel = channel = task.channel
@@ -247,7 +252,10 @@ class Scene:
             actions = [action for action, _ in parted]
             for i, (_, message) in zip(self.live, parted, strict=True):
                 self.sent[i] = message
+        decoders = self._decoders
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
+            if decoders is not None:
+                decode = decoders[self.live[k]]
             try:
                 bot.act(decode(action))
             except ValueError as error:
@@ -358,7 +366,7 @@ class Scene:
     def _build(self) -> None:
         client = self.world.client
         self._ground = load_ground(client, self.task.terrain)
-        self._bots = tuple(self.robot.body(client) for _ in range(self.n_bots))
+        self._bots = tuple(model.body(client) for model in self.scenario.roster)
         self._first = self._bots[0]
         self.scenario.build(client, self._bots)
         self._world_step = self.world.step
@@ -421,8 +429,7 @@ def requested_task(
             f"{task.id} is a single-bot task: make it with gymnasium.make or bbbench.make"
         )
     terrain = task.difficulty is not None
-    robot = task.robot_model
-    accepted = [f"action_mode={robot.action_modes}", f"render_mode={(None, *render_modes)}"]
+    accepted = [f"action_mode={task.action_modes}", f"render_mode={(None, *render_modes)}"]
     scans = task.scenario_class.scans_ground
     accepted += [
         name
@@ -453,7 +460,7 @@ def requested_task(
         task = task.with_channel(**talk)
     for keyword, value in perturbations.items():
         task = task.with_perturbation(PERTURBATIONS[keyword](value))
-    robot.check_action_mode(action_mode)
+    task.check_action_mode(action_mode)
     if render_mode is not None and render_mode not in render_modes:
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
     if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):

@@ -242,14 +242,18 @@ class MultiEpisode:
         failure = None
         team = env.task.scenario_class.team
         cause = TIME_LIMIT if team else None
+        mixed = env.task.mixed  # each robot's bots through its own actor (`TeamActor`)
         states = _initial_states(act, len(env.agents))
         while env.agents:
             agents = env.agents
-            batch = np.stack([observations[agent] for agent in agents])
             rngs = None if rng is None else [rng] * len(agents)
-            if states is None:
-                actions = act(batch, rngs)
+            if mixed:
+                rows = [observations[agent] for agent in agents]
+                actions = act.team(rows, [env.agent_index[agent] for agent in agents], rngs)
+            elif states is None:
+                actions = act(np.stack([observations[agent] for agent in agents]), rngs)
             else:
+                batch = np.stack([observations[agent] for agent in agents])
                 actions, states = act.step(batch, states, rngs)
             if any(action is None for action in actions):
                 failure = f"step {steps}: {_NAN}"

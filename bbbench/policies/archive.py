@@ -49,32 +49,39 @@ def read_file(path: Path, limit: int, what: str) -> bytes:
 class Archive:
     """The members of a zip held in memory, each allowed at most `limits[name]` bytes.
 
-    `required` members must be present; any member not in `limits` is refused.
+    `required` members must be present; any member not in `limits` is refused. `kind` names
+    what the zip should be, in errors: a stable-baselines3 model, or a mixed team's policy
+    file (`bbbench.policies.onnx.team`).
     """
 
-    def __init__(self, path: Path, content: bytes, limits: dict[str, int], required=()) -> None:
+    def __init__(
+        self,
+        path: Path,
+        content: bytes,
+        limits: dict[str, int],
+        required=(),
+        kind: str = "a stable-baselines3 model",
+    ) -> None:
         self.path = path
         self.content = content
         self.limits = limits
+        self.kind = kind
         try:
             members = zipfile.ZipFile(io.BytesIO(content)).infolist()
         except (zipfile.BadZipFile, EOFError, ValueError, NotImplementedError) as error:
-            raise PolicyError(
-                f"{path}: not a readable zip ({error}); expected a stable-baselines3 model "
-                f"saved with model.save()"
-            ) from None
+            raise PolicyError(f"{path}: not a readable zip ({error}); expected {kind}") from None
         names = [member.filename for member in members]
         for name in required:
             if name not in names:
                 raise PolicyError(
-                    f"{path}: no {name!r} member; expected a complete stable-baselines3 "
-                    f"model.save() file (is it truncated?)"
+                    f"{path}: no {name!r} member; expected a complete file, {kind} (is it "
+                    f"truncated?)"
                 )
         unexpected = sorted(set(names) - set(limits))
         if unexpected:
             raise RefusedForSafety(
-                f"{path}: unexpected member(s) {unexpected} in the zip; a stable-baselines3 "
-                f"model holds only {sorted(limits)}"
+                f"{path}: unexpected member(s) {unexpected} in the zip; {kind} holds only "
+                f"{sorted(limits)}"
             )
         if len(set(names)) != len(names):
             raise RefusedForSafety(f"{path}: the zip names a member twice")
@@ -85,14 +92,12 @@ class Archive:
     def _check(self, member: zipfile.ZipInfo) -> None:
         name, limit = member.filename, self.limits[member.filename]
         if member.flag_bits & 0x1:
-            raise PolicyError(
-                f"{self.path}: member {name!r} is encrypted; stable-baselines3 never encrypts"
-            )
+            raise PolicyError(f"{self.path}: member {name!r} is encrypted; {self.kind} never is")
         if member.compress_type not in _METHODS:
             method = _METHOD_NAMES.get(member.compress_type, f"method {member.compress_type}")
             raise PolicyError(
-                f"{self.path}: member {name!r} is compressed with {method}; a stable-baselines3 "
-                f"zip is stored or deflated"
+                f"{self.path}: member {name!r} is compressed with {method}; {self.kind} is "
+                f"stored or deflated"
             )
         if member.file_size > limit:
             raise RefusedForSafety(

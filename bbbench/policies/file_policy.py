@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from gymnasium import spaces
 
-from bbbench.policies.policy import Policy, describe_space
+from bbbench.policies.policy import Policy, describe_space, mixed_mismatch
 from bbbench.robots import ROBOTS
 from bbbench.tasks.suite import agent_spaces, list_tasks, spec
 
@@ -34,7 +34,7 @@ class FilePolicy(Policy):
 
     def _fits(self, task_id: str) -> bool:
         task = spec(task_id)
-        if self.action_mode not in task.robot_model.action_modes:
+        if task.mixed or self.action_mode not in task.robot_model.action_modes:
             return False
         observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
         return observation_space.shape == self.observation_shape and (
@@ -45,6 +45,8 @@ class FilePolicy(Policy):
         if self._fits(task_id):
             return None
         task = spec(task_id)
+        if task.mixed:
+            return mixed_mismatch(self, task_id)
         robot = task.robot_model
         if task.multi_agent:
             wants = describe_space(agent_spaces(task_id, robot.default_action_mode)[0])

@@ -21,7 +21,7 @@ from gymnasium import spaces
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.normalization import ObservationNormalization
 from bbbench.robots import ROBOTS
-from bbbench.tasks.suite import list_tasks
+from bbbench.tasks.suite import list_tasks, spec
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
 
@@ -101,6 +101,37 @@ class PDActor:
         return [self.controller(row) for row in observations]
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class TeamActor:
+    """A mixed team's actor (`TaskSpec.robots`): one actor per robot, each called once a
+    step on a batch of its robot's live bots (the agent groups BenchMARL trains a policy
+    each for). Bot i plays robots[i % len(robots)], as `TaskSpec.robots` says, at any
+    team size. A play loop calls `team`, not the actor."""
+
+    actors: dict[str, Actor]  # robot name: the actor of its bots
+    robots: tuple[str, ...]  # the task's `robots`
+
+    def team(self, rows: Sequence[np.ndarray], bots: Sequence[int], rngs=None) -> list:
+        """The actions of the live bots `bots` (indices), observing `rows` (each bot's own
+        width), in their order; `rngs`, one per row, for actors that act at random."""
+        actions: list = [None] * len(rows)
+        robots = self.robots
+        for name, actor in self.actors.items():
+            mine = [k for k, bot in enumerate(bots) if robots[bot % len(robots)] == name]
+            if mine:
+                batch = np.stack([rows[k] for k in mine])
+                acted = actor(batch, None if rngs is None else [rngs[k] for k in mine])
+                for k, action in zip(mine, acted, strict=True):
+                    actions[k] = action
+        return actions
+
+    def __call__(self, observations: np.ndarray, rngs=None) -> list:
+        raise TypeError(
+            "a mixed team's actor acts through team(rows, bots, rngs): its bots observe in "
+            "their own robots' widths"
+        )
+
+
 @dataclasses.dataclass(frozen=True)
 class RandomActor:
     """Uniform actions, each row's from its episode's generator."""
@@ -147,6 +178,15 @@ class TorchActor:
         if isinstance(self.policy.action_space, spaces.Discrete):
             return [int(a) for a in actions]
         return list(actions)
+
+
+def mixed_mismatch(policy: Policy, task_id: str) -> str:
+    """Why a policy of one robot's bots cannot play a mixed team's task."""
+    task = spec(task_id)
+    return (
+        f"{task_id} plays a mixed team of {' and '.join(task.robots)} robots, each in its own "
+        f"spaces; {policy.name} plays one robot's bots"
+    )
 
 
 def act_once(actor: Actor, observation: np.ndarray, rng: np.random.Generator | None = None):

@@ -12,7 +12,9 @@ from bbbench.policies.controllers.builtin import (
     CrossingPolicy,
     LeggedPolicy,
     LQRPolicy,
+    MixedTeamPolicy,
     PDPolicy,
+    PerBotPolicy,
     RandomPolicy,
     RendezvousPolicy,
     StandPolicy,
@@ -23,6 +25,7 @@ from bbbench.policies.controllers.builtin import (
 )
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.onnx.policy import OnnxPolicy
+from bbbench.policies.onnx.team import TeamFilePolicy, is_team_file
 from bbbench.policies.policy import Policy, describe_space
 from bbbench.policies.sb3.policy import SB3ZipPolicy
 from bbbench.policies.sb3.vecnormalize import find_rl_zoo_statistics, read_statistics
@@ -54,6 +57,8 @@ BUILTIN_POLICIES: dict[str, Callable[..., Policy]] = {
     "lqr": LQRPolicy,
     "legged": LeggedPolicy,
     "team": TeamPolicy,
+    "mixed-team": MixedTeamPolicy,
+    "per-bot": PerBotPolicy,
     "crossing": CrossingPolicy,
     "steer": SteerPolicy,
     "steer-avoid": SteerAvoidPolicy,
@@ -98,6 +103,10 @@ def _is_onnx(text: str) -> bool:
     if path.suffix.lower() == ".onnx":
         return True
     return path.suffix.lower() != ".zip" and path.is_file() and _first_bytes(path) != b"PK"
+
+
+def _is_team(text: str) -> bool:
+    return is_team_file(Path(text))
 
 
 def _is_zip(text: str) -> bool:
@@ -156,6 +165,7 @@ LOADERS = (
         "built-in policy", lambda text: text in BUILTIN_POLICIES, _load_builtin, ("action_mode",)
     ),
     Loader("ONNX model", _is_onnx, _load_onnx, ("action_mode", "observation", "action_space")),
+    Loader("mixed team's policy file", _is_team, lambda text, **_: TeamFilePolicy(text), ()),
     Loader("stable-baselines3 zip", _is_zip, _load_zip, ("action_mode", "backend", "vecnormalize")),
 )
 _FLAGS = {

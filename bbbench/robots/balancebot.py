@@ -61,6 +61,11 @@ class RobotModel(WheeledModel):
         """Height of the torso's centre of mass above the axle, m."""
         return self.torso_com_height - self.axle_height
 
+    @property
+    def top_above_com(self) -> float:
+        """m: the top of the torso above its centre of mass (where a beam is hinged)."""
+        return self.torso_top_height - self.torso_com_height
+
 
 def read_model(urdf_path: Path = URDF_PATH) -> RobotModel:
     """Parse the facts `BalanceBot` needs out of the URDF."""

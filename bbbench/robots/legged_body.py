@@ -74,6 +74,12 @@ class LeggedModel(WheeledModel):
     mass: float  # kg, the whole robot
 
     @property
+    def top_above_com(self) -> float:
+        """m: the top of the torso above its centre of mass (where a beam is hinged); the
+        URDF puts the torso's centre of mass at the centre of its box."""
+        return self.torso_size[2] / 2
+
+    @property
     def standing(self) -> tuple[float, ...]:
         """The leg angles at rest (rad, LEG_JOINT_NAMES' order): the centre of each range."""
         return tuple(leg.centre for leg in self.legs)

@@ -141,6 +141,8 @@ class Scenario(abc.ABC):
         multi_agent: played by `MultiBalanceEnv` (PettingZoo, needs the spec's `Group`),
             or by `BalanceEnv` (Gymnasium, one bot).
         robots: the robots it can play (`bbbench.robots.ROBOTS` names); None for any.
+        mixes: it plays a mixed team (`TaskSpec.robots`): each bot's layout and spaces
+            its own robot's (`layouts`).
         metrics: the names of the per-episode metrics: each is an `info` key of every
             agent's step, and an episode's value is its mean over the episode's
             bot-steps (`bbbench.evaluation.play`). The results document writes them in
@@ -169,6 +171,7 @@ class Scenario(abc.ABC):
     summary: ClassVar[str]
     multi_agent: ClassVar[bool] = False
     robots: ClassVar[tuple[str, ...] | None] = None
+    mixes: ClassVar[bool] = False
     metrics: ClassVar[tuple[str, ...]] = ("velocity_error",)
     team: ClassVar[bool] = False
     perturbations: ClassVar[tuple[str, ...] | None] = None
@@ -183,16 +186,21 @@ class Scenario(abc.ABC):
     def __init__(self, task: Task) -> None:
         self.task = task
         self.robot = task.robot_model
+        # Each bot's robot, in order: `robot` for every bot but on a mixed team.
+        self.roster = task.bot_robots
         self.reward = task.reward
 
     @classmethod
     def refusal(cls, task: Task) -> str | None:
         """Why the scenario cannot play `task` (its robot, its group); None if it can."""
-        if cls.robots is not None and task.robot not in cls.robots:
-            return (
-                f"{task.id}: the {cls.name!r} scenario cannot play the {task.robot} robot: "
-                f"it plays {', '.join(cls.robots)}"
-            )
+        if task.robots and not cls.mixes:
+            return f"{task.id}: the {cls.name!r} scenario plays one robot, not a mixed team"
+        for name in task.robots or (task.robot,):
+            if cls.robots is not None and name not in cls.robots:
+                return (
+                    f"{task.id}: the {cls.name!r} scenario cannot play the {name} robot: "
+                    f"it plays {', '.join(cls.robots)}"
+                )
         if cls.multi_agent and task.group is None:
             return f"{task.id}: the {cls.name!r} scenario needs several bots (a Group)"
         if not cls.multi_agent and task.group is not None:
@@ -289,6 +297,21 @@ class Scenario(abc.ABC):
             space = self.__dict__["_space"] = box(self.layout)
         return space
 
+    def bot_layout(self, bot: int) -> tuple[ObservationField, ...]:
+        """Bot `bot`'s fields: `layout`, but on a mixed team, where each bot observes in
+        its own robot's layout (a `mixes` scenario writes this)."""
+        return self.layout
+
+    def bot_observation_space(self, bot: int) -> spaces.Box:
+        """Bot `bot`'s observation space, from `bot_layout` (one object per layout)."""
+        layout = self.bot_layout(bot)
+        if layout is self.layout:
+            return self.observation_space()
+        spaces_ = self.__dict__.setdefault("_spaces", {})
+        if layout not in spaces_:
+            spaces_[layout] = box(layout)
+        return spaces_[layout]
+
     @abc.abstractmethod
     def observe(
         self,
@@ -330,6 +353,10 @@ class Scenario(abc.ABC):
     def slots(self) -> Slots | None:
         """How its observation lays out the neighbours (`Slots`); None for one bot."""
         return None
+
+    def bot_slots(self, bot: int) -> Slots | None:
+        """`slots` of bot `bot`'s observation (its own robot's, on a mixed team)."""
+        return self.slots()
 
     # -- pickling ---------------------------------------------------------------------
 

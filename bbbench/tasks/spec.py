@@ -68,6 +68,7 @@ _OPTIONS_ADDED_LATER = {
     "coupling": None,
     "validation_seeds": VALIDATION_SEEDS,
     "channel": None,
+    "robots": (),
 }
 
 
@@ -151,6 +152,9 @@ class TaskSpec:
     perturbations: tuple[Any, ...] = ()
     # The robot the task plays (`bbbench.robots.ROBOTS`): its body, actions and layout.
     robot: str = "two-wheel"
+    # A mixed team's robots (`bbbench.robots.ROBOTS` names, `robot` first): bot i plays
+    # robots[i % len(robots)]. Empty: every bot plays `robot`.
+    robots: tuple[str, ...] = ()
     # The task's rules (`bbbench.tasks.scenario.SCENARIOS`): extra bodies, starts,
     # observation, outcome, metrics. None: the one its group implies, "crossing" for a
     # group and "solo" for one bot (the published tasks' scenarios, hashed as if absent).
@@ -186,12 +190,14 @@ class TaskSpec:
                 f"{self.id}: robot must be one of {', '.join(map(repr, ROBOTS))}, "
                 f"got {self.robot!r}"
             )
-        top_speed = ROBOTS[self.robot].top_speed
-        if not self.command.top_target <= top_speed:
-            raise ValueError(
-                f"{self.id}: the command asks for up to {self.command.top_target:g} m/s, "
-                f"beyond the {self.robot} robot's top speed {top_speed:g} m/s"
-            )
+        self._check_team()
+        for name in self.robots or (self.robot,):
+            top_speed = ROBOTS[name].top_speed
+            if not self.command.top_target <= top_speed:
+                raise ValueError(
+                    f"{self.id}: the command asks for up to {self.command.top_target:g} m/s, "
+                    f"beyond the {name} robot's top speed {top_speed:g} m/s"
+                )
         if self.scenario is None:
             object.__setattr__(self, "scenario", implied_scenario(self.group))
         if self.scenario not in SCENARIOS:
@@ -220,21 +226,92 @@ class TaskSpec:
         if self.channel is not None and self.group is None:
             raise ValueError(f"{self.id}: a message channel needs several bots (a Group)")
 
+    def _check_team(self) -> None:
+        """A mixed team (`robots`): several bots, known robots, `robot` first, two kinds
+        at least, and an action mode every one of them takes."""
+        if not self.robots:
+            return
+        names = tuple(self.robots)
+        unknown = [name for name in names if name not in ROBOTS]
+        if self.group is None or unknown or len(set(names)) < 2 or names[0] != self.robot:
+            raise ValueError(
+                f"{self.id}: a mixed team's robots are two or more of "
+                f"{', '.join(map(repr, ROBOTS))}, the first the task's robot "
+                f"({self.robot!r}), on a multi-bot task (a Group); got {self.robots!r}"
+            )
+        object.__setattr__(self, "robots", names)
+        if self.channel is not None:
+            raise ValueError(f"{self.id}: a mixed team has no message channel")
+        if not self.action_modes:
+            raise ValueError(f"{self.id}: the robots {names} share no action mode")
+
     @property
     def robot_model(self) -> Robot:
-        """The robot the task plays: its body, action spaces and observation layout."""
+        """The robot the task plays (a mixed team's first robot, its leader's): its body,
+        action spaces and observation layout."""
         return robot(self.robot)
+
+    @property
+    def mixed(self) -> bool:
+        """Whether the team mixes robots (`robots`): each keeps its own spaces."""
+        return bool(self.robots)
+
+    @property
+    def bot_robots(self) -> tuple[Robot, ...]:
+        """The robot of each bot, in order: a mixed team's cycle of `robots`, else `robot`
+        for every bot."""
+        n = self.group.n_bots if self.group is not None else 1
+        names = self.robots or (self.robot,)
+        return tuple(robot(names[i % len(names)]) for i in range(n))
+
+    @property
+    def robot_groups(self) -> dict[str, tuple[int, ...]]:
+        """The bots each robot plays, by robot name, in order (one entry but on a mixed
+        team): the agent groups a MARL library trains one policy each for."""
+        groups: dict[str, list[int]] = {}
+        for i, model in enumerate(self.bot_robots):
+            groups.setdefault(model.name, []).append(i)
+        return {name: tuple(bots) for name, bots in groups.items()}
+
+    @property
+    def action_modes(self) -> tuple[str, ...]:
+        """The action modes every bot of the task takes, the first robot's order."""
+        models = [robot(name) for name in self.robots or (self.robot,)]
+        return tuple(m for m in models[0].action_modes if all(m in r.action_modes for r in models))
+
+    @property
+    def default_action_mode(self) -> str:
+        return self.action_modes[0]
+
+    def check_action_mode(self, action_mode: str) -> None:
+        """A clear ValueError for an action mode some bot of the task does not take."""
+        if not self.mixed:
+            self.robot_model.check_action_mode(action_mode)
+        elif action_mode not in self.action_modes:
+            raise ValueError(
+                f"action_mode must be one of {self.action_modes} for {self.id}'s team of "
+                f"{' and '.join(self.robots)} robots, got {action_mode!r}"
+            )
 
     @property
     def scenario_class(self) -> type[Scenario]:
         """The task's rules: `Scene` makes one of these per world."""
         return SCENARIOS[self.scenario]
 
-    def action_space(self, action_mode: str) -> spaces.Space:
-        """One bot's action space: its robot's in `action_mode`, grown by the message
+    def action_space(self, action_mode: str, bot: int = 0) -> spaces.Space:
+        """Bot `bot`'s action space: its robot's in `action_mode`, grown by the message
         values where the task has a channel (`bbbench.tasks.channel`)."""
-        space = self.robot_model.action_space(action_mode)
+        model = self.bot_robots[bot] if self.mixed else self.robot_model
+        space = model.action_space(action_mode)
         return space if self.channel is None else self.channel.action_space(space)
+
+    def action_spaces(self, action_mode: str) -> list[spaces.Space]:
+        """Every bot's action space, in order: one object per robot, shared by its bots."""
+        own: dict[str, spaces.Space] = {}
+        for i, model in enumerate(self.bot_robots):
+            if model.name not in own:
+                own[model.name] = self.action_space(action_mode, i)
+        return [own[model.name] for model in self.bot_robots]
 
     @property
     def difficulty(self) -> float | None:
@@ -386,6 +463,8 @@ def _behaviour_hash(task: TaskSpec) -> str:
     ]
     digest = hashlib.sha256(json.dumps(behaviour, sort_keys=True).encode())
     digest.update(task.robot_model.urdf_path.read_bytes())
+    for name in task.robots[1:]:  # a mixed team's other robots
+        digest.update(robot(name).urdf_path.read_bytes())
     return digest.hexdigest()[:16]
 
 

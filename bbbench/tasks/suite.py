@@ -127,6 +127,18 @@ def agent_spaces(
     return scenario.observation_space(), task.action_space(action_mode)
 
 
+def group_spaces(task_id: str) -> dict[str, tuple[spaces.Box, spaces.Space]]:
+    """Each robot group's observation and action space (in the task's action mode) on a
+    task, by robot: one entry, but on a mixed team (`TaskSpec.robot_groups`)."""
+    task = spec(task_id)
+    scenario = task.scenario_class(task)
+    mode = task.default_action_mode
+    return {
+        group: (scenario.bot_observation_space(bots[0]), task.action_space(mode, bots[0]))
+        for group, bots in task.robot_groups.items()
+    }
+
+
 def agent_layout(task_id: str, height_scan: bool = False) -> tuple[str, ...]:
     """The names of one bot's observation values on a task, in order: what its
     observation means, where `agent_spaces` gives only its width."""

@@ -28,6 +28,9 @@ class Track:
     # Its entries get a team-size profile too (`bbbench.evaluation.team_sizes`): the profile
     # task played with 2, 4, 6 and 8 bots.
     team_sizes: bool = False
+    # A mixed team's tasks (`TaskSpec.robots`): `robot` leads, and each robot's bots have a
+    # policy of their own.
+    mixed: bool = False
 
     def __post_init__(self) -> None:
         if not self.holds(SUITE[self.profile_task]):
@@ -42,6 +45,7 @@ class Track:
             and task.multi_agent == self.multi_agent
             and task.scenario_class.team == self.team
             and (task.channel is not None) == self.talks
+            and task.mixed == self.mixed
         )
 
     @property
@@ -79,6 +83,17 @@ TRACKS: dict[str, Track] = {
             True,
             "bbbench/BeamCarry-v0",
             team=True,
+        ),
+        Track(
+            "mixed-team",
+            "mixed-team",
+            "a mixed team's tasks (wheel-legged robots and two-wheel bots carrying one beam, "
+            "one team reward, one policy per robot)",
+            "wheel-legged",
+            True,
+            "bbbench/MixedBeamCarry-v0",
+            team=True,
+            mixed=True,
         ),
         Track(
             "wheel-legged",

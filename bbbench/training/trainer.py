@@ -99,6 +99,12 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
             f"{task} is a single-bot task: {name} trains the bots of a multi-bot task "
             f"({', '.join(multi)}); train {task} with --algo ppo or sac"
         )
+    if spec(task).mixed:
+        raise ValueError(
+            f"{task} is a mixed team ({' and '.join(spec(task).robots)} robots, continuous "
+            f"actions, one policy per robot): {name} here trains one robot's discrete actions; "
+            f"score the team's controllers with bbbench eval mixed-team or per-bot"
+        )
     if action_mode not in (None, "discrete"):
         space = agent_spaces(task, "discrete")[1]
         raise ValueError(f"{name} trains discrete actions ({space} on {task}): drop --action-mode")

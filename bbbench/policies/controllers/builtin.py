@@ -13,14 +13,21 @@ from bbbench.policies.controllers.lqr import LQRController
 from bbbench.policies.controllers.pd import PDController
 from bbbench.policies.controllers.rendezvous import RendezvousController
 from bbbench.policies.controllers.steer import GUIDES, Avoiding, SteerController
-from bbbench.policies.controllers.team import SteeringTeam, TeamController
+from bbbench.policies.controllers.team import (
+    MIXED_LEG_LENGTH,
+    LeggedTeam,
+    SteeringTeam,
+    TeamController,
+)
 from bbbench.policies.policy import (
     Actor,
     ConstantActor,
     PDActor,
     Policy,
     RandomActor,
+    TeamActor,
     describe_space,
+    mixed_mismatch,
 )
 from bbbench.robots import ROBOTS
 from bbbench.robots.twowheel import WHEEL_SPEED_CHANGES
@@ -39,7 +46,10 @@ class TwoWheelPolicy(Policy):
 
 def robot_mismatch(policy: Policy, task_id: str) -> str | None:
     """Why `policy`, made for the robot `policy.robot`, cannot play `task_id`, or None."""
-    robot = spec(task_id).robot
+    task = spec(task_id)
+    if task.mixed:
+        return mixed_mismatch(policy, task_id)
+    robot = task.robot
     if robot == policy.robot:
         return None
     return f"{task_id} plays the {robot} robot; {policy.name} controls the {policy.robot} robot"
@@ -99,6 +109,8 @@ class TeamPolicy(TwoWheelPolicy):
 
     def mismatch(self, task_id: str) -> str | None:
         task = spec(task_id)
+        if task.mixed:
+            return mixed_mismatch(self, task_id) + " (mixed-team plays it)"
         if task.robot not in self.robots:
             return (
                 f"{task_id} plays the {task.robot} robot; team controls {' and '.join(self.robots)}"
@@ -125,6 +137,62 @@ class TeamPolicy(TwoWheelPolicy):
 
 def _is_team(task_id: str) -> bool:
     return issubclass(spec(task_id).scenario_class, Column)
+
+
+class MixedTeamPolicy(Policy):
+    """The mixed team's classical controller (`bbbench.policies.controllers.team`): the
+    team law on every bot, tracked by PD on a two-wheel bot and by the wheel-legged
+    robot's controller on a wheel-legged one (`LeggedTeam`), its legs riding at
+    `MIXED_LEG_LENGTH`. It plays the mixed teams' tasks (MixedBeamCarry,
+    MixedBeamCarryBumps) only; on them, `per-bot` is the naive baseline."""
+
+    name = algorithm = "mixed-team"
+    action_mode = "continuous"
+    naive = False  # `per-bot`: each robot's own controller on what it observes
+
+    def __init__(self, leg_length: float = MIXED_LEG_LENGTH) -> None:
+        self.leg_length = leg_length  # m, hip to axle: a wheel-legged robot's legs
+
+    def mismatch(self, task_id: str) -> str | None:
+        if spec(task_id).mixed:
+            return None
+        mixed = [t for t in list_tasks(multi_agent=True, latest=True) if spec(t).mixed]
+        return f"{task_id} is not a mixed team's task; {self.name} plays {', '.join(mixed)}"
+
+    def spaces_text(self) -> str:
+        spaces = " or ".join(
+            f"{robot} robot -> {describe_space(ROBOTS[robot].action_space(self.action_mode))}"
+            for robot in ("two-wheel", "wheel-legged")
+        )
+        return f"the mixed teams' tasks: {spaces}"
+
+    def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        task = spec(task_id)
+        scenario = task.scenario_class(task)
+        actors = {}
+        for name, bots in task.robot_groups.items():
+            # Each robot by its own controller (`Robot.controller`): PD, or `legged`.
+            own = ROBOTS[name].controller
+            if self.naive:
+                controller = LeggedController() if own == "legged" else PDController("continuous")
+            else:
+                team = (scenario.bot_layout(bots[0]), scenario.pull_forward)
+                controller = (
+                    LeggedTeam(*team, self.leg_length)
+                    if own == "legged"
+                    else TeamController(*team, "continuous")
+                )
+            actors[name] = PDActor(controller)
+        return TeamActor(actors, task.robots)
+
+
+class PerBotPolicy(MixedTeamPolicy):
+    """The mixed teams' naive baseline: each bot its robot's own classical controller (PD
+    on a two-wheel bot, `legged` on a wheel-legged one) on the target it observes, so a
+    follower holds the 0 it reads, as `pd` is on the one-robot teams."""
+
+    name = algorithm = "per-bot"
+    naive = True
 
 
 class CrossingPolicy(TwoWheelPolicy):
@@ -272,15 +340,25 @@ class RandomPolicy(Policy):
         self.action_mode = action_mode
 
     def mismatch(self, task_id: str) -> str | None:
-        robot = spec(task_id).robot_model
-        if self.action_mode in robot.action_modes:
+        task = spec(task_id)
+        robot = task.robot_model
+        if self.action_mode in task.action_modes:
             return None
+        if task.mixed:
+            return f"{task_id}: {task.robots} take {' or '.join(task.action_modes)} actions"
         return (
             f"{task_id} plays the {robot.name} robot, which takes {' or '.join(robot.action_modes)}"
             f" actions, not {self.action_mode} ones (--action-mode {robot.default_action_mode})"
         )
 
     def actor(self, task_id: str, deterministic: bool = True) -> Actor:
+        task = spec(task_id)
+        if task.mixed:  # each robot's bots in its own space
+            actors = {
+                name: RandomActor(task.action_space(self.action_mode, bots[0]))
+                for name, bots in task.robot_groups.items()
+            }
+            return TeamActor(actors, task.robots)
         return RandomActor(agent_spaces(task_id, self.action_mode)[1])
 
 

@@ -32,7 +32,7 @@ from bbbench.policies.onnx.contract import Contract, describe_action_space, read
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import MAX_FILE_BYTES, check_safety, parse_onnx, parse_proto
 from bbbench.policies.policy import NormalizedActor, Policy, fitting_tasks
-from bbbench.tasks.suite import agent_spaces, spec
+from bbbench.tasks.suite import agent_spaces, group_spaces, spec
 
 OPSET = 17
 IR_VERSION = 8  # read by onnxruntime 1.10 and later
@@ -97,6 +97,7 @@ def onnx_bytes(
     dynamo: bool = False,
     state_width: int | None = None,
     mask: np.ndarray | None = None,
+    group: str | None = None,
 ) -> bytes:
     """The ONNX file of a torch actor that maps raw (or normalized) observations of
     `task_id`'s bots to its action scores (Discrete: one per action) or its action (Box),
@@ -111,12 +112,22 @@ def onnx_bytes(
     the file carries it (`bbbench.recurrent_state`) and bbbench's play loops hand each bot
     its own state back. `mask`: each observation value multiplied by it first (0 where
     the policy hears nothing: a training with the messages muted hears none in any env).
+    `group`: on a mixed team's task, the robot whose bots the actor plays (its spaces; a
+    team file holds one such file per group, `bbbench.policies.onnx.team`).
     """
     import torch  # lazy: torch, for exporting only
 
     task = spec(task_id)
-    mode = action_mode or task.robot_model.default_action_mode
-    observation_space, action_space = agent_spaces(task_id, mode)
+    mode = action_mode or task.default_action_mode
+    if task.mixed or group is not None:
+        groups = group_spaces(task_id)
+        if group not in groups:
+            raise ValueError(
+                f"{task_id}'s robot groups are {', '.join(groups)}: give group= one of them"
+            )
+        observation_space, action_space = groups[group]
+    else:
+        observation_space, action_space = agent_spaces(task_id, mode)
     contract = Contract(
         observation=observation_space.shape[0],
         action_space=action_space,

@@ -23,7 +23,7 @@ from bbbench.policies.onnx.contract import STATE, Contract, read_contract
 from bbbench.policies.onnx.interpreter import Program, compile_graph, compile_steps, trial_shapes
 from bbbench.policies.onnx.reader import OnnxModel, read_onnx
 from bbbench.policies.policy import Actor
-from bbbench.tasks.suite import agent_layout
+from bbbench.tasks.suite import agent_layout, spec
 
 _TRIAL_ROWS = 3
 
@@ -55,7 +55,9 @@ class OnnxPolicy(FilePolicy):
             "discrete" if isinstance(self.action_space, spaces.Discrete) else "continuous"
         )
         self._set_layout()
-        if contract.task is not None and self.mismatch(contract.task) is not None:
+        # A mixed team's group policy names its team's task: the team file checks its fit.
+        trained_on = None if contract.task is None or spec(contract.task).mixed else contract.task
+        if trained_on is not None and self.mismatch(trained_on) is not None:
             raise PolicyError(
                 f"{self.name}: its metadata says it was trained on {contract.task}, which it "
                 f"cannot play ({self.spaces_text()}): {self.mismatch(contract.task)}"

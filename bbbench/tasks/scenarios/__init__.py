@@ -17,17 +17,19 @@ from bbbench.tasks.scenarios import steer
 from bbbench.tasks.scenarios import waypoints
 from bbbench.tasks.scenarios import swap
 from bbbench.tasks.scenarios import rendezvous
+from bbbench.tasks.scenarios import mixed_team
 from bbbench.tasks.scenarios.beam_carry import Beam, BeamCarry
 from bbbench.tasks.scenarios.column import Column
 from bbbench.tasks.scenarios.convoy import Convoy, ConvoyTurns, Tether
 from bbbench.tasks.scenarios.crossing import Crossing
+from bbbench.tasks.scenarios.mixed_team import MixedBeamCarry
 from bbbench.tasks.scenarios.rendezvous import Rendezvous
 from bbbench.tasks.scenarios.solo import Solo
 from bbbench.tasks.scenarios.steer import Steer
 from bbbench.tasks.scenarios.swap import Swap
 from bbbench.tasks.scenarios.waypoints import Waypoints
 
-MODULES = (solo, crossing, beam_carry, convoy, steer, waypoints, swap, rendezvous)
+MODULES = (solo, crossing, beam_carry, convoy, steer, waypoints, swap, rendezvous, mixed_team)
 TASKS = tuple(task for module in MODULES for task in module.TASKS)
 
 __all__ = [
@@ -40,6 +42,7 @@ __all__ = [
     "Convoy",
     "ConvoyTurns",
     "Crossing",
+    "MixedBeamCarry",
     "Rendezvous",
     "Scenario",
     "Solo",

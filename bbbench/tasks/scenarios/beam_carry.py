@@ -129,9 +129,8 @@ class BeamCarry(Column):
         for bot in bots:  # the beam collides with the ground only
             for link in (-1, *range(client.getNumJoints(bot.body))):
                 client.setCollisionFilterPair(self.beam, bot.body, -1, link, 0)
-        model = self.robot.model
-        above_com = model.torso_top_height - model.torso_com_height
         self.hinges = []  # per bot: its two constraints
+        self._above_com = above = [model.model.top_above_com for model in self.roster]
         for i, bot in enumerate(bots):
             along = (n - 1) / 2 * beam.spacing - i * beam.spacing  # bot 0 at the front end
             pair = []
@@ -143,13 +142,12 @@ class BeamCarry(Column):
                     -1,
                     pybullet.JOINT_POINT2POINT,
                     (0.0, 0.0, 0.0),
-                    (side, 0.0, above_com),
+                    (side, 0.0, above[i]),
                     (side, along, -beam.thickness / 2),
                 )
                 client.changeConstraint(constraint, maxForce=BEAM_HINGE_FORCE_LIMIT)
                 pair.append(constraint)
             self.hinges.append(tuple(pair))
-        self._above_com = above_com
         self._placed = False
 
     def move_clear(self, scene) -> None:
@@ -162,10 +160,10 @@ class BeamCarry(Column):
     def place(self, scene, rng) -> None:
         """The beam level on the torsos' tops, along the column."""
         client, tops = self._client, []
-        for body in self._bodies:
+        for body, above in zip(self._bodies, self._above_com, strict=True):
             position, orientation = client.getBasePositionAndOrientation(body)
             up = pybullet.getMatrixFromQuaternion(orientation)[2::3]
-            tops.append([p + self._above_com * u for p, u in zip(position, up, strict=True)])
+            tops.append([p + above * u for p, u in zip(position, up, strict=True)])
         centre = np.mean(tops, axis=0)
         centre[2] += self.coupling.thickness / 2
         forward = np.subtract(tops[0], tops[-1])

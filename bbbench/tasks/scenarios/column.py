@@ -71,7 +71,11 @@ class Column(Scenario):
         super().__init__(task)
         self.coupling = task.coupling
         self.spacing = self.coupling_spacing(task.coupling)
-        self.layout = self.robot.layout() + self.coupling_layout + NEIGHBOUR_LAYOUT
+        team = self.coupling_layout + NEIGHBOUR_LAYOUT
+        self.layout = self.robot.layout() + team
+        # Each robot's fields on a mixed team (`mixes`): its own values, then the team's.
+        self._layouts = {model.name: model.layout() + team for model in self.roster}
+        self._layouts[self.robot.name] = self.layout
         self._bodies: tuple[int, ...] = ()
         self._client_id = -1
 
@@ -111,11 +115,17 @@ class Column(Scenario):
 
     # -- observations ----------------------------------------------------------------
 
+    def bot_layout(self, bot: int) -> tuple[ObservationField, ...]:
+        return self._layouts[self.roster[bot].name] if self.task.mixed else self.layout
+
     def slots(self) -> Slots:
         """The robot's own values and the coupling's, then the bots ahead and behind,
         each slot led by its presence bit."""
+        return self.bot_slots(0)
+
+    def bot_slots(self, bot: int) -> Slots:
         width = len(NEIGHBOUR_LAYOUT) // 2
-        return Slots(len(self.layout) - 2 * width, 2, width, 0)
+        return Slots(len(self.bot_layout(bot)) - 2 * width, 2, width, 0)
 
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
@@ -124,15 +134,20 @@ class Column(Scenario):
         what it observes of the coupling, and its neighbours ahead and behind."""
         self.read(states)
         values = self.robot.values
+        mixed = self.task.mixed
         n = len(states)
         rows = []
         for i, state in enumerate(states):
+            if mixed:  # every bot its robot's values (a team ends whole: bot i is live i)
+                values = self.roster[i].values
             reading = (state.pitch, state.pitch_rate, state.wheel_speed)
             row = [*values(reading, commands[i], targets[i] if i == 0 else 0.0, state)]
             row += self.coupling_terms(i)
             row += _neighbour(state, states[i - 1]) if i > 0 else _ABSENT
             row += _neighbour(state, states[i + 1]) if i + 1 < n else _ABSENT
             rows.append(row)
+        if mixed:  # rows of each robot's width
+            return [np.array(row, dtype=OBSERVATION_DTYPE) for row in rows]
         return np.array(rows, dtype=OBSERVATION_DTYPE)
 
     def read(self, states: list[Any]) -> None:
