@@ -235,3 +235,9 @@ def test_an_unknown_terrain_or_noise_parameter_names_the_accepted_ones(make, nam
 def test_noise_needs_one_deviation_per_reading():
     with pytest.raises(ValueError, match="one standard deviation per reading"):
         NoisySensors(noise_std=(0.1, 0.2))
+
+
+def test_a_taskspec_where_an_id_is_taken_says_how_to_make_its_env():
+    made = dataclasses.replace(bbbench.spec("bbbench/BeamCarry-v0"), id="bbbench/Made-v0")
+    with pytest.raises(ValueError, match=r"give a task ID, not a TaskSpec \('bbbench/Made-v0'\)"):
+        bbbench.make_parallel(made)

@@ -69,6 +69,10 @@ def test_the_training_size_is_the_recipes_else_the_tasks_and_none_for_a_controll
     six = {"recipe": {"world_steps": 1000, "n_bots": 6}}
     assert trained_size(six, "bbbench/Swap-v0") == 6
     assert trained_size({"recipe": {"world_steps": 0}}, "bbbench/Swap-v0") is None
+    # The size of the task it trained on, not the profile task's: a run of a 3-bot team
+    # task profiled on a 4-bot task was trained with 3.
+    beam = {"recipe": {"world_steps": 1000, "tasks": ["bbbench/BeamCarry-v0"]}}
+    assert trained_size(beam, "bbbench/MultiBalance-v1") == 3
 
 
 def test_a_team_size_profile_document_holds_every_episode_and_its_aggregates():

@@ -66,13 +66,16 @@ def checked_variant(task: TaskSpec, size: int) -> TaskSpec:
 
 
 def trained_size(run_record: dict[str, Any], task_id: str) -> int | None:
-    """The bots per world a run's method trained with on `task_id`: its recipe's `n_bots`
-    when the run says it, else the task's own; None for a policy that was not trained
+    """The bots per world a run's method trained with, marked on `task_id`'s profile: its
+    recipe's `n_bots` when the run says it, else the size of the multi-bot task it trained
+    on (its recipe's first), else `task_id`'s own; None for a policy that was not trained
     (a controller: no world steps)."""
     recipe = run_record.get("recipe") or {}
     if not recipe.get("world_steps"):
         return None
-    return int(recipe.get("n_bots", spec(task_id).group.n_bots))
+    trained_on = [spec(t) for t in recipe.get("tasks", ()) if spec(t).multi_agent]
+    group = (trained_on[0] if trained_on else spec(task_id)).group
+    return int(recipe.get("n_bots", group.n_bots))
 
 
 TEAM_SIZES = TeamSizes()

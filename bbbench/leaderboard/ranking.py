@@ -13,7 +13,7 @@ policy or an env.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from importlib import metadata as package_metadata
 from typing import Any
 
@@ -333,15 +333,7 @@ def _method_robustness(member: _Listed, track: str) -> dict[str, Any] | None:
         axes[axis] = {
             "score": float(np.mean([p["axes"][axis]["score"] for p in profiles])),
             "worst_case": float(min(p["axes"][axis]["worst_case"] for p in profiles)),
-            "points": [
-                [
-                    float(points[0, i, 0]),
-                    float(points[:, i, 1].mean()),
-                    float(points[:, i, 1].min()),
-                    float(points[:, i, 1].max()),
-                ]
-                for i in range(points.shape[1])
-            ],
+            "points": _over_runs(points, float),
         }
     worst = min(profiles, key=lambda profile: profile["worst_case"])
     return {
@@ -391,16 +383,22 @@ def _method_sizes(member: _Listed, track: str) -> dict[str, Any] | None:
         "task": runs[0]["task"],
         "trained_with": trained.pop() if len(trained) == 1 else None,
         "runs": len(runs),
-        "points": [
-            [
-                int(points[0, i, 0]),
-                float(points[:, i, 1].mean()),
-                float(points[:, i, 1].min()),
-                float(points[:, i, 1].max()),
-            ]
-            for i in range(points.shape[1])
-        ],
+        "points": _over_runs(points, int),
     }
+
+
+def _over_runs(points: np.ndarray, value: Callable[[Any], Any]) -> list[list[Any]]:
+    """A method's profile from its runs' (runs, grid values, 4) `points`: per grid value,
+    [the value (as `value` makes it), the runs' mean score, their least, their greatest]."""
+    return [
+        [
+            value(points[0, i, 0]),
+            float(points[:, i, 1].mean()),
+            float(points[:, i, 1].min()),
+            float(points[:, i, 1].max()),
+        ]
+        for i in range(points.shape[1])
+    ]
 
 
 def performance_profile(

@@ -105,6 +105,11 @@ def spec(task_id: str) -> TaskSpec:
         return SUITE[task_id]
     except (KeyError, TypeError):
         pass
+    if isinstance(task_id, TaskSpec):  # a spec made in code, not an ID of the suite
+        raise ValueError(
+            f"give a task ID, not a TaskSpec ({task_id.id!r}): an env of a spec is "
+            f"bbbench.envs.MultiBalanceEnv(spec) or BalanceEnv(spec)"
+        )
     close = difflib.get_close_matches(str(task_id), list(SUITE), n=3, cutoff=0.5)
     if not close and isinstance(task_id, str):
         # "FlatBalance-v0" without the namespace, or any case.
