@@ -92,6 +92,47 @@ def test_a_task_builds_one_batched_env_of_its_worlds_with_its_bots_in_one_group(
     env.close()
 
 
+def test_a_mixed_teams_task_has_a_group_per_robot_in_its_own_spaces():
+    task = BbbenchTask.MIXEDBEAMCARRY_V0.get_from_yaml()
+    assert not task.supports_discrete_actions()  # the wheel-legged robot's is continuous
+    env = task.get_env_fun(2, True, seed=0, device="cpu")()
+    assert task.group_map(env) == {"wheel-legged": ["bot_0", "bot_2"], "two-wheel": ["bot_1"]}
+    spec = task.observation_spec(env)
+    assert spec["wheel-legged", "observation"].shape == (2, 31)
+    assert spec["two-wheel", "observation"].shape == (1, 19)
+    actions = task.action_spec(env)
+    assert actions["wheel-legged", "action"].shape == (2, 6)
+    assert actions["two-wheel", "action"].shape == (1, 1)
+    rollout = env.rollout(5)
+    assert rollout["next", "wheel-legged", "mask"].all()
+    reward = rollout["next", "two-wheel", "reward"]
+    assert torch.equal(rollout["next", "wheel-legged", "reward"][:, :1], reward)  # the team's
+    env.close()
+
+
+@pytest.mark.slow
+def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
+    config = tiny_config(tmp_path, frames=400, batch=200)
+    config.on_policy_n_envs_per_worker = 2  # BenchMARL stacks the team's one-world envs
+    torch.manual_seed(0)
+    experiment = Experiment(
+        task=BbbenchTask.MIXEDBEAMCARRY_V0.get_from_yaml(),
+        algorithm_config=IppoConfig.get_from_yaml(),
+        model_config=MlpConfig.get_from_yaml(),
+        critic_model_config=MlpConfig.get_from_yaml(),
+        seed=0,
+        config=config,
+    )
+    experiment.run()
+    assert experiment.total_frames == 400
+    assert list(experiment.group_map) == ["wheel-legged", "two-wheel"]
+    policy = experiment.algorithm.get_policy_for_collection()
+    batch = experiment.test_env.reset()
+    acted = policy(batch)
+    assert acted["wheel-legged", "action"].shape == (2, 6)
+    assert acted["two-wheel", "action"].shape == (1, 1)
+
+
 @pytest.mark.slow
 def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
     config = tiny_config(tmp_path, frames=400, batch=200)

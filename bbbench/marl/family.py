@@ -4,7 +4,9 @@ One BenchMARL task per latest multi-bot task ID (`BbbenchTask`). BenchMARL asks 
 for an env of `num_envs` worlds; a bbbench task gives one batched env of that many
 worlds (`bbbench.marl.batched_env`, `batch_size=[num_envs]`, as VMAS's), so the
 collector calls the policy once a step for every world, and every bot is in one
-group, `bot`. The task's configuration, made from its row (`task_config`), holds the
+group, `bot`; a mixed team's bots are in a group per robot, one world per env, which
+BenchMARL stacks (`_team_env`). The task's configuration, made from its row
+(`task_config`), holds the
 env's own keywords (`n_bots`) and `workers`, the
 processes that step the worlds (the same results for any number). The action mode
 follows BenchMARL's `prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))`
@@ -108,13 +110,18 @@ class BbbenchTaskClass(TaskClass):
             env.set_seed(seed)
             return env
 
-        return make
+        return _team_env(task, mode, seed, device, config) if self.mixed else make
+
+    @property
+    def mixed(self) -> bool:
+        """A mixed team's task: one group of agents per robot, in its own spaces."""
+        return bbbench.spec(self.task_id).mixed
 
     def supports_continuous_actions(self) -> bool:
         return True
 
     def supports_discrete_actions(self) -> bool:
-        return True
+        return "discrete" in bbbench.spec(self.task_id).action_modes
 
     def get_env_transforms(self, env: EnvBase) -> list[Transform]:
         if self.observation_normalization is None:
@@ -162,6 +169,32 @@ class BbbenchTaskClass(TaskClass):
     @staticmethod
     def env_name() -> str:
         return ENV_NAME
+
+
+def _team_env(task: str, mode: str, seed: int | None, device: Any, config: dict[str, Any]):
+    """A mixed team's env maker: one world, TorchRL's own `PettingZooWrapper` over the
+    task's parallel env with a group per robot (`TaskSpec.robot_groups`), so that
+    BenchMARL trains a policy per group; BenchMARL stacks `num_envs` of them (its
+    `SerialEnv`, or `ParallelEnv` with `parallel_collection`)."""
+
+    def make() -> EnvBase:
+        from torchrl.envs.libs.pettingzoo import PettingZooWrapper  # lazy: torchrl's wrapper
+
+        env = bbbench.make_parallel(task, action_mode=mode, **config)
+        agents = env.possible_agents
+        groups = {name: [agents[i] for i in bots] for name, bots in env.task.robot_groups.items()}
+        wrapped = PettingZooWrapper(
+            env,
+            use_mask=True,
+            done_on_any=False,
+            categorical_actions=True,
+            group_map=groups,
+            device=device,
+        )
+        wrapped.set_seed(seed)
+        return wrapped
+
+    return make
 
 
 class _Family(Task):

@@ -102,8 +102,9 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
     if spec(task).mixed:
         raise ValueError(
             f"{task} is a mixed team ({' and '.join(spec(task).robots)} robots, continuous "
-            f"actions, one policy per robot): {name} here trains one robot's discrete actions; "
-            f"score the team's controllers with bbbench eval mixed-team or per-bot"
+            f"actions, a policy per robot): bbbench train's {name} recipes train one robot's "
+            f"discrete actions; BenchMARL trains the team's groups through "
+            f"bbbench.marl.BbbenchTask (docs/guides/training-marl.md)"
         )
     if action_mode not in (None, "discrete"):
         space = agent_spaces(task, "discrete")[1]
