@@ -345,7 +345,11 @@ class RandomPolicy(Policy):
         if self.action_mode in task.action_modes:
             return None
         if task.mixed:
-            return f"{task_id}: {task.robots} take {' or '.join(task.action_modes)} actions"
+            return (
+                f"{task_id}'s robots ({' and '.join(task.robots)}) take "
+                f"{' or '.join(task.action_modes)} actions, not {self.action_mode} ones "
+                f"(--action-mode {task.default_action_mode})"
+            )
         return (
             f"{task_id} plays the {robot.name} robot, which takes {' or '.join(robot.action_modes)}"
             f" actions, not {self.action_mode} ones (--action-mode {robot.default_action_mode})"
