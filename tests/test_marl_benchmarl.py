@@ -3,6 +3,7 @@ Experiment trains on them with no glue."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
 from benchmarl.algorithms import IppoConfig
@@ -11,6 +12,7 @@ from benchmarl.experiment import Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
 
 import bbbench
+from bbbench.evaluation import evaluate
 from bbbench.marl import BbbenchTask
 
 
@@ -126,11 +128,30 @@ def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     experiment.run()
     assert experiment.total_frames == 400
     assert list(experiment.group_map) == ["wheel-legged", "two-wheel"]
-    policy = experiment.algorithm.get_policy_for_collection()
+    # Exported: a team file of a model per group, scored by bbbench as BenchMARL acts.
+    from tensordict.nn import InteractionType, set_interaction_type
+
+    from bbbench.policies import load_policy
+    from bbbench.training.benchmarl.train import team_file
+
+    path = tmp_path / "team.zip"
+    path.write_bytes(team_file(experiment, "bbbench/MixedBeamCarry-v0", "IPPO"))
+    team = load_policy(path)
+    assert team.mismatch("bbbench/MixedBeamCarry-v0") is None
     batch = experiment.test_env.reset()
-    acted = policy(batch)
-    assert acted["wheel-legged", "action"].shape == (2, 6)
-    assert acted["two-wheel", "action"].shape == (1, 1)
+    with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
+        acted = experiment.algorithm.get_policy_for_collection()(batch)
+    legged = batch["wheel-legged", "observation"].numpy()
+    wheels = batch["two-wheel", "observation"].numpy()
+    ours = team.actor("bbbench/MixedBeamCarry-v0").team(
+        [legged[0], wheels[0], legged[1]], [0, 1, 2]
+    )
+    np.testing.assert_allclose(
+        np.stack([ours[0], ours[2]]), acted["wheel-legged", "action"].numpy(), atol=1e-5
+    )
+    np.testing.assert_allclose(ours[1], acted["two-wheel", "action"].numpy()[0], atol=1e-5)
+    results = evaluate(team, ["bbbench/MixedBeamCarry-v0"], episodes=1, workers=1)
+    assert results.document["tasks"][0]["episodes"][0]["length"] >= 1
 
 
 @pytest.mark.slow

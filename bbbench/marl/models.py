@@ -123,3 +123,17 @@ class RecurrentActor(torch.nn.Module):
     def forward(self, obs: torch.Tensor, state: torch.Tensor):
         out, next_state = self.gru(obs.unsqueeze(0), state.unsqueeze(0))
         return self.mlp(out[0]), next_state[0]
+
+
+class DeterministicAction(torch.nn.Module):
+    """A continuous BenchMARL actor's deterministic action: the first `actions` values of
+    its network's output (the loc, as `NormalParamExtractor` splits loc from scale),
+    through tanh, which is `TanhNormal`'s deterministic sample on [-1, 1] (BenchMARL's
+    `use_tanh_normal`, its PPO default)."""
+
+    def __init__(self, net: torch.nn.Module, actions: int) -> None:
+        super().__init__()
+        self.net, self.actions = net, actions
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return torch.tanh(self.net(obs)[..., : self.actions])

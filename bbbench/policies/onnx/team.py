@@ -175,6 +175,12 @@ def _manifest(path: Path, text: bytes) -> dict[str, str]:
 
 def write_team(path: Path, models: dict[str, bytes]) -> None:
     """Write a team file atomically: `models` maps each robot group to its ONNX bytes."""
+    write_atomic(Path(path), team_bytes(models))
+
+
+def team_bytes(models: dict[str, bytes]) -> bytes:
+    """A team file's bytes (the same for the same models): `models` maps each robot group
+    to its ONNX bytes."""
     unknown = [group for group in models if group not in ROBOTS]
     if unknown or not models:
         raise ValueError(
@@ -190,4 +196,4 @@ def write_team(path: Path, models: dict[str, bytes]) -> None:
             info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))  # the same bytes
             info.compress_type = zipfile.ZIP_DEFLATED
             archive.writestr(info, data)
-    write_atomic(Path(path), buffer.getvalue())
+    return buffer.getvalue()

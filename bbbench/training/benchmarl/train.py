@@ -45,10 +45,11 @@ import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
-from bbbench.marl.models import NeighbourEncoderModel, RecurrentActor
+from bbbench.marl.models import DeterministicAction, NeighbourEncoderModel, RecurrentActor
 from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
+from bbbench.policies.onnx.team import team_bytes
 from bbbench.tasks.channel import MESSAGE_FIELD
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
@@ -115,10 +116,22 @@ def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
     return np.array([0.0 if MESSAGE_FIELD.fullmatch(name) else 1.0 for name in names], np.float32)
 
 
-def actor_network(experiment: Experiment) -> torch.nn.Module:
-    """The torch network of the policy shared by every bot: observation -> action scores
-    (a recurrent one's, `RecurrentActor`: (observation, state) -> (scores, next state))."""
-    policy = experiment.group_policies["bot"]
+def team_file(experiment: Experiment, task_id: str, algorithm: str) -> bytes:
+    """A mixed team's trained policies as one team file (`bbbench.policies.onnx.team`):
+    each robot group's actor, deterministic, written to ONNX with that group's spaces."""
+    models = {}
+    for group in experiment.group_map:
+        actions = experiment.action_spec[group, "action"].shape[-1]
+        actor = DeterministicAction(actor_network(experiment, group), actions)
+        models[group] = onnx_bytes(actor, task_id, algorithm=algorithm, group=group)
+    return team_bytes(models)
+
+
+def actor_network(experiment: Experiment, group: str = "bot") -> torch.nn.Module:
+    """The torch network of a group's policy (every bot's, but on a mixed team): observation
+    -> action scores, or a continuous policy's loc and scale (a recurrent one's,
+    `RecurrentActor`: (observation, state) -> (scores, next state))."""
+    policy = experiment.group_policies[group]
     for module in policy.modules():
         if isinstance(module, NeighbourEncoderModel):
             return module.net
