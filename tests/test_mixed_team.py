@@ -285,3 +285,31 @@ def test_a_broken_team_file_is_refused_in_one_line(tmp_path, members, expected):
         load_policy(path)
     assert expected in str(refused.value)
     assert "\n" not in str(refused.value)
+
+
+def test_the_board_reads_a_team_file_as_a_runs_policy(tmp_path):
+    import json
+    import shutil
+    from pathlib import Path
+
+    from bbbench.leaderboard.submissions import read_method
+
+    submissions = Path(__file__).parents[1] / "leaderboards" / "submissions"
+    folder = tmp_path / "submissions" / "ippo-team"
+    run = folder / "runs" / "s0"
+    run.mkdir(parents=True)
+    method = submissions / "ippo-rendezvous-v0-3m"
+    metadata = json.loads((method / "submission.json").read_text())
+    recipe = {"world_steps": 1000, "tasks": [MIXED], "file": "a BenchMARL experiment"}
+    metadata.update(name="IPPO team", tracks=["mixed-team"], action_mode="continuous")
+    metadata["recipe"] = recipe
+    (folder / "submission.json").write_text(json.dumps(metadata))
+    run_record = json.loads((method / "runs" / "s0" / "run.json").read_text())
+    run_record.update(training_seed=0, recipe=recipe)
+    (run / "run.json").write_text(json.dumps(run_record))
+    shutil.copyfile(_team_file(tmp_path)[0], run / "policy.zip")
+    (read,) = read_method(folder).runs
+    policy = read.load_policy()
+    assert type(policy).__name__ == "TeamFilePolicy"
+    assert policy.mismatch(MIXED) is None
+    assert set(policy.record()["groups"]) == {"wheel-legged", "two-wheel"}
