@@ -20,6 +20,7 @@ meet), and the GIF of steer-avoid's bots passing each other on Swap-v0
 crossing controller on the multi-bot ones), and the GIF of the crossing controller's bots
 on MultiBalance-v1 (docs/images/multibalance.gif). `--talk`: the tasks with a message
 channel (Rendezvous, the rendezvous controller driving; its landmarks drawn, the goal red).
+`--mixed`: the mixed team's tasks, the mixed-team controller driving.
 """
 
 from __future__ import annotations
@@ -89,6 +90,9 @@ STEERING = {
 # The tasks with a message channel, each with its classical controller.
 TALK = {"bbbench/Rendezvous-v0": "rendezvous"}
 
+# The mixed team's tasks, the mixed team's controller driving.
+MIXED = {"bbbench/MixedBeamCarry-v0": "mixed-team", "bbbench/MixedBeamCarryBumps-v0": "mixed-team"}
+
 
 # The balance and crossing tasks (the site's task pages): each with its classical controller.
 BALANCE = {
@@ -110,7 +114,11 @@ def frames(tasks: dict[str, str]) -> None:
         observations, _ = env.reset(seed=bbbench.spec(task_id).eval_seeds[0])
         for _ in range(200 if name == "steer-avoid" else 150):
             if multi:
-                actions = actor(np.stack([observations[a] for a in env.agents]))
+                rows = [observations[a] for a in env.agents]
+                if env.task.mixed:  # each robot's bots through its own actor
+                    actions = actor.team(rows, [env.agent_index[a] for a in env.agents])
+                else:
+                    actions = actor(np.stack(rows))
                 observations, *_ = env.step(dict(zip(env.agents, actions, strict=True)))
             else:
                 observations, *_ = env.step(actor(observations[None])[0])
@@ -146,8 +154,9 @@ if __name__ == "__main__":
     only.add_argument("--steering", action="store_true", help="the steering tasks only")
     only.add_argument("--balance", action="store_true", help="the balance and crossing tasks")
     only.add_argument("--talk", action="store_true", help="the tasks with a message channel")
+    only.add_argument("--mixed", action="store_true", help="the mixed team's tasks")
     args = parser.parse_args()
-    everything = not (args.teams or args.steering or args.balance or args.talk)
+    everything = not (args.teams or args.steering or args.balance or args.talk or args.mixed)
     if everything:
         main()
         gif("legged", "bbbench/LeggedBumps-v0", "legged-bumps.gif")
@@ -162,3 +171,5 @@ if __name__ == "__main__":
         gif("crossing", "bbbench/MultiBalance-v1", "multibalance.gif")
     if everything or args.talk:
         frames(TALK)
+    if everything or args.mixed:
+        frames(MIXED)
