@@ -30,6 +30,7 @@ from benchmarl.environments.common import Task, TaskClass
 from benchmarl.utils import _read_yaml_config
 from torchrl.data import Composite
 from torchrl.envs import EnvBase, ObservationNorm, Transform
+from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
 import bbbench
 from bbbench.marl.batched import batched_env
@@ -178,8 +179,6 @@ def _team_env(task: str, mode: str, seed: int | None, device: Any, config: dict[
     `SerialEnv`, or `ParallelEnv` with `parallel_collection`)."""
 
     def make() -> EnvBase:
-        from torchrl.envs.libs.pettingzoo import PettingZooWrapper  # lazy: torchrl's wrapper
-
         env = bbbench.make_parallel(task, action_mode=mode, **config)
         agents = env.possible_agents
         groups = {name: [agents[i] for i in bots] for name, bots in env.task.robot_groups.items()}
