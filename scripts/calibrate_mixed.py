@@ -54,8 +54,6 @@ def play(job: tuple) -> tuple[int, float]:
 
 def evaluate(workers: int) -> dict:
     """The record: both mixed tasks on their 100 validation seeds."""
-    from bbbench.evaluation import machine
-
     start = time.monotonic()
     with ProcessPoolExecutor(workers) as pool:
         tasks = {
@@ -64,24 +62,10 @@ def evaluate(workers: int) -> dict:
             )
             for name in MIXED_TASKS
         }
-    return {
-        "schema": "bbbench-calibration/1",
-        "calibration": "the mixed team's tasks",
-        "split": "validation",
-        "seeds": {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)},
-        "rule": (
-            "team clearly above naive (P's interval above 0.5), team at most "
-            f"{teams.TEAM_CEILING} normalized or at most {teams.FINISHED_CEILING:.0%} "
-            "finished, random finishing none"
-        ),
-        "roles": BUILT_IN,
-        "tasks": tasks,
-        "holds": all(task["meets"] for task in tasks.values()),
-        "command": "python scripts/calibrate_mixed.py --evaluate",
-        "seconds": round(time.monotonic() - start, 1),
-        "machine": machine.described(machine.record()),
-        "date": time.strftime("%Y-%m-%d"),
-    }
+    extra = {"roles": BUILT_IN}
+    return teams.validation_record(
+        "the mixed team's tasks", extra, tasks, "calibrate_mixed.py", start
+    )
 
 
 def legs(lengths: list[float], episodes: int, workers: int) -> None:

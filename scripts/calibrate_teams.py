@@ -194,14 +194,23 @@ def explore(args) -> None:
 
 def evaluate(workers: int) -> dict:
     """The record: the suite's three team tasks on their 100 validation seeds."""
-    from bbbench.evaluation import machine
-
     start = time.monotonic()
     with ProcessPoolExecutor(workers) as pool:
         tasks = {name: figures(name, POLICIES, VALIDATION_SEEDS, pool) for name in TEAM_TASKS}
+    extra = {"was": "the evaluation seeds"}
+    return validation_record("the team tasks", extra, tasks, "calibrate_teams.py", start)
+
+
+def validation_record(
+    calibration: str, extra: dict, tasks: dict, script: str, start: float
+) -> dict:
+    """A calibration's record of `tasks` (`figures` of each) on the validation seeds,
+    against the team tasks' targets; `extra` keys go before the tasks."""
+    from bbbench.evaluation import machine
+
     return {
         "schema": "bbbench-calibration/1",
-        "calibration": "the team tasks",
+        "calibration": calibration,
         "split": "validation",
         "seeds": {"first": VALIDATION_SEEDS[0], "count": len(VALIDATION_SEEDS)},
         "rule": (
@@ -209,10 +218,10 @@ def evaluate(workers: int) -> dict:
             f"{TEAM_CEILING} normalized or at most {FINISHED_CEILING:.0%} finished, random "
             "finishing none"
         ),
-        "was": "the evaluation seeds",
+        **extra,
         "tasks": tasks,
         "holds": all(task["meets"] for task in tasks.values()),
-        "command": "python scripts/calibrate_teams.py --evaluate",
+        "command": f"python scripts/{script} --evaluate",
         "seconds": round(time.monotonic() - start, 1),
         "machine": machine.described(machine.record()),
         "date": time.strftime("%Y-%m-%d"),

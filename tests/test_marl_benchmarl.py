@@ -35,6 +35,21 @@ def tiny_config(tmp_path, frames: int, batch: int, discrete: bool = False) -> Ex
     return config
 
 
+def ippo_run(task, config: ExperimentConfig) -> Experiment:
+    """BenchMARL's IPPO with its MLPs on a task of the family, seed 0, run to its end."""
+    torch.manual_seed(0)
+    experiment = Experiment(
+        task=task.get_from_yaml(),
+        algorithm_config=IppoConfig.get_from_yaml(),
+        model_config=MlpConfig.get_from_yaml(),
+        critic_model_config=MlpConfig.get_from_yaml(),
+        seed=0,
+        config=config,
+    )
+    experiment.run()
+    return experiment
+
+
 def test_the_family_is_every_latest_multi_bot_task_made_from_the_suite():
     from bbbench.marl.family import task_config
 
@@ -116,16 +131,7 @@ def test_a_mixed_teams_task_has_a_group_per_robot_in_its_own_spaces():
 def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     config = tiny_config(tmp_path, frames=400, batch=200)
     config.on_policy_n_envs_per_worker = 2  # BenchMARL stacks the team's one-world envs
-    torch.manual_seed(0)
-    experiment = Experiment(
-        task=BbbenchTask.MIXEDBEAMCARRY_V0.get_from_yaml(),
-        algorithm_config=IppoConfig.get_from_yaml(),
-        model_config=MlpConfig.get_from_yaml(),
-        critic_model_config=MlpConfig.get_from_yaml(),
-        seed=0,
-        config=config,
-    )
-    experiment.run()
+    experiment = ippo_run(BbbenchTask.MIXEDBEAMCARRY_V0, config)
     assert experiment.total_frames == 400
     assert list(experiment.group_map) == ["wheel-legged", "two-wheel"]
     # Exported: a team file of a model per group, scored by bbbench as BenchMARL acts.
@@ -156,17 +162,7 @@ def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
 
 @pytest.mark.slow
 def test_benchmarls_experiment_trains_ippo_on_a_team_task(tmp_path):
-    config = tiny_config(tmp_path, frames=400, batch=200)
-    torch.manual_seed(0)
-    experiment = Experiment(
-        task=BbbenchTask.BEAMCARRY_V0.get_from_yaml(),
-        algorithm_config=IppoConfig.get_from_yaml(),
-        model_config=MlpConfig.get_from_yaml(),
-        critic_model_config=MlpConfig.get_from_yaml(),
-        seed=0,
-        config=config,
-    )
-    experiment.run()
+    experiment = ippo_run(BbbenchTask.BEAMCARRY_V0, tiny_config(tmp_path, frames=400, batch=200))
     assert experiment.total_frames == 400
     assert experiment.n_iters_performed == 2
 
