@@ -32,7 +32,7 @@ from bbbench.tasks.scenario import Scenario
 from bbbench.tasks.spec import TaskSpec
 from bbbench.tasks.suite import SUITE, list_tasks
 from bbbench.tasks.tracks import TRACKS, track_of
-from bbbench.training import ALGORITHMS, MARL_TRAINABLE
+from bbbench.training import ALGORITHMS, policy_suffix
 from bbbench.training.recipe_files import read_recipe_file
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -248,7 +248,7 @@ def run_it(task: TaskSpec) -> str:
         f"bbbench eval {controller} --task {task.id}   # the classical controller",
     ]
     for algorithm in trained[:1]:  # the first recipe; `--algo` takes the others
-        out = f"{short}-{algorithm}.{'onnx' if algorithm in MARL_TRAINABLE else 'zip'}"
+        out = f"{short}-{algorithm}{policy_suffix(algorithm, [task.id])}"
         lines += [
             f"bbbench train {task.id} --algo {algorithm} --out {out}",
             f"bbbench eval {out} --task {task.id}",

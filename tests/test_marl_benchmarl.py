@@ -35,11 +35,14 @@ def tiny_config(tmp_path, frames: int, batch: int, discrete: bool = False) -> Ex
     return config
 
 
-def ippo_run(task, config: ExperimentConfig) -> Experiment:
-    """BenchMARL's IPPO with its MLPs on a task of the family, seed 0, run to its end."""
+def ippo_run(task, config: ExperimentConfig, normalization=None) -> Experiment:
+    """BenchMARL's IPPO with its MLPs on a task of the family, seed 0, run to its end
+    (its observations through `normalization`, by group, if given)."""
     torch.manual_seed(0)
+    task = task.get_from_yaml()
+    task.observation_normalization = normalization
     experiment = Experiment(
-        task=task.get_from_yaml(),
+        task=task,
         algorithm_config=IppoConfig.get_from_yaml(),
         model_config=MlpConfig.get_from_yaml(),
         critic_model_config=MlpConfig.get_from_yaml(),
@@ -131,24 +134,33 @@ def test_a_mixed_teams_task_has_a_group_per_robot_in_its_own_spaces():
 def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     config = tiny_config(tmp_path, frames=400, batch=200)
     config.on_policy_n_envs_per_worker = 2  # BenchMARL stacks the team's one-world envs
-    experiment = ippo_run(BbbenchTask.MIXEDBEAMCARRY_V0, config)
-    assert experiment.total_frames == 400
-    assert list(experiment.group_map) == ["wheel-legged", "two-wheel"]
-    # Exported: a team file of a model per group, scored by bbbench as BenchMARL acts.
     from tensordict.nn import InteractionType, set_interaction_type
 
     from bbbench.policies import load_policy
-    from bbbench.training.benchmarl.train import team_file
+    from bbbench.training.benchmarl.train import observation_statistics, team_file
 
+    # Each robot's bots observe through their own group's normalizer (31 and 19 values).
+    normalization = observation_statistics("bbbench/MixedBeamCarry-v0", {}, seed=0)
+    assert {group: len(mean) for group, (mean, _) in normalization.items()} == {
+        "wheel-legged": 31,
+        "two-wheel": 19,
+    }
+    experiment = ippo_run(BbbenchTask.MIXEDBEAMCARRY_V0, config, normalization)
+    assert experiment.total_frames == 400
+    assert list(experiment.group_map) == ["wheel-legged", "two-wheel"]
+    # Exported: a team file of a model per group, its normalizer inside, scored by
+    # bbbench as BenchMARL acts (on the observations its normalizers give the models).
     path = tmp_path / "team.zip"
-    path.write_bytes(team_file(experiment, "bbbench/MixedBeamCarry-v0", "IPPO"))
+    path.write_bytes(team_file(experiment, "bbbench/MixedBeamCarry-v0", "IPPO", normalization))
     team = load_policy(path)
     assert team.mismatch("bbbench/MixedBeamCarry-v0") is None
     batch = experiment.test_env.reset()
     with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
         acted = experiment.algorithm.get_policy_for_collection()(batch)
-    legged = batch["wheel-legged", "observation"].numpy()
-    wheels = batch["two-wheel", "observation"].numpy()
+    legged, wheels = (
+        batch[group, "observation"].numpy() * normalization[group][1] + normalization[group][0]
+        for group in ("wheel-legged", "two-wheel")
+    )
     ours = team.actor("bbbench/MixedBeamCarry-v0").team(
         [legged[0], wheels[0], legged[1]], [0, 1, 2]
     )

@@ -15,12 +15,13 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.policies import classical_controller, load_policy
-from bbbench.training import MARL_TRAINABLE, recipe
+from bbbench.training import MARL_TRAINABLE, recipe, trainable
 from bbbench.training.recipe_files import recipe_file
 from bbbench.training.sb3.recipes import recipes
 from conftest import one_line_exit_2
 
 TASK = "bbbench/BeamCarry-v0"
+MIXED = "bbbench/MixedBeamCarry-v0"
 # A recipe for tests: BenchMARL iterations of 200 world steps from 2 worlds, one pass of two
 # minibatches.
 SMALL = """\
@@ -49,10 +50,12 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
     import yaml
 
     table = yaml.safe_load(recipe_file(algorithm).read_text())
-    # A recipe for every latest multi-bot and team task of one robot, and for none other.
+    # A recipe for every latest multi-bot and team task (the recurrent ones: for those of
+    # one robot; a team file carries no recurrent state), and for none other.
     latest = bbbench.list_tasks(multi_agent=True, latest=True)
-    one_robot = [t for t in latest if not bbbench.spec(t).mixed]
-    assert sorted(table) == one_robot
+    if trainable(algorithm).recurrent:
+        latest = [t for t in latest if not bbbench.spec(t).mixed]
+    assert sorted(table) == latest
     for task_id in table:
         plan = recipe(algorithm, task_id)
         assert plan.algorithm_config().entropy_coef == 0.0
@@ -64,7 +67,9 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
         assert plan.n_timesteps == 3_000_000
         assert plan.batch() >= 6000
         assert plan.n_envs >= 10
-        assert plan.task_config().config["workers"] == 2
+        # Worker processes step the batched env's worlds; BenchMARL stacks a mixed team's.
+        workers = 1 if bbbench.spec(task_id).mixed else 2
+        assert plan.task_config().config["workers"] == workers
 
 
 def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
@@ -77,7 +82,15 @@ def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
     [
         (["bbbench/FlatBalance-v1", "--algo", "mappo"], "is a single-bot task: MAPPO trains"),
         (["bbbench/BeamCarry-v0", "--algo", "qmix"], "unknown algorithm 'qmix'"),
-        (["bbbench/MixedBeamCarry-v0", "--algo", "ippo"], "is a mixed team"),
+        (
+            ["bbbench/MixedBeamCarry-v0", "--algo", "ippo", "--action-mode", "discrete"],
+            "is a mixed team (wheel-legged and two-wheel robots): IPPO trains the continuous",
+        ),
+        (["bbbench/MixedBeamCarry-v0", "--algo", "mappo", "--out", "p.onnx"], "ending in .zip"),
+        (
+            ["bbbench/MixedBeamCarry-v0", "--algo", "ippo-gru"],
+            "no recurrent state: train it with ippo",
+        ),
         (["bbbench/BeamCarry-v0", "--algo", "ippo", "--out", "p.zip"], "ending in .onnx"),
         (
             ["bbbench/BeamCarry-v0", "--algo", "ippo", "--action-mode", "continuous"],
@@ -194,6 +207,47 @@ def untimed(curve: Path) -> list[dict]:
 
 
 @pytest.mark.slow
+def test_a_mixed_team_trains_a_policy_per_robot_into_one_team_file(tmp_path):
+    """On a mixed team IPPO learns the continuous actions both robots take, a policy per
+    robot, and writes a team file (`bbbench.policies.onnx.team`): the file its curve's
+    last point played, the same bytes from the same seed in another process."""
+    from bbbench.evaluation.episodes import LockstepPlayer
+    from bbbench.policies.onnx.team import TeamFilePolicy
+    from bbbench.training.logs import curve_point
+    from bbbench.training.seeds import evaluation_seeds
+
+    plan = small_recipe(tmp_path, SMALL.replace(TASK, MIXED))
+    written = []
+    for name in ("here", "there"):
+        out = tmp_path / name / "policy.zip"
+        out.parent.mkdir()
+        argv = ["train", MIXED, "--algo", "ippo", "--recipe", plan, "--out", str(out), *TRAIN]
+        if name == "here":
+            assert main(argv) == 0
+        else:
+            bbbench_cli(*argv)
+        written.append(out)
+    assert written[0].read_bytes() == written[1].read_bytes()
+    team = load_policy(written[0])
+    assert isinstance(team, TeamFilePolicy)
+    assert team.mismatch(MIXED) is None
+    assert team.action_mode == "continuous"
+    assert {group: policy.contract.training_steps for group, policy in team.groups.items()} == {
+        "wheel-legged": 400,
+        "two-wheel": 400,
+    }
+    record = json.loads((written[0].parent / "train.json").read_text())
+    assert record["action_mode"] == "continuous"
+    assert record["observation_statistics"]["controller"] == "mixed-team"
+    # The last point of the curve is the file's play of the training seeds.
+    last = json.loads((written[0].parent / "curve.json").read_text())["points"][-1]
+    player = LockstepPlayer({MIXED: team.actor(MIXED)}, "continuous", sampled=False)
+    played = player.play(MIXED, evaluation_seeds(MIXED))
+    player.close()
+    assert curve_point(played, 0.0, steps=400, bot_steps=1200)["mean"] == last["mean"]
+
+
+@pytest.mark.slow
 def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(tmp_path):
     """A seed trained alone (its worlds in two processes) and the same seed among --seeds
     (in one), each in a fresh process, write the same bytes; another seed writes other
@@ -262,10 +316,12 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     over hundredths of a radian there, not over the tenths of bots falling at random."""
     from bbbench.training.benchmarl.train import observation_statistics
 
-    mean, std = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
+    (group,) = statistics = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
     again = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
-    assert mean.tobytes() == again[0].tobytes()
-    assert std.tobytes() == again[1].tobytes()
+    assert group == "bot"  # the batched env's one group
+    mean, std = statistics[group]
+    assert mean.tobytes() == again[group][0].tobytes()
+    assert std.tobytes() == again[group][1].tobytes()
     assert mean.shape == std.shape == (17,)
     assert std[0] < 0.1  # pitch, rad
     assert (std > 0).all()
@@ -277,7 +333,7 @@ def test_the_steering_robot_normalizer_is_measured_under_its_own_controller():
     pitch then spreads over 0.30 rad (measured), as under random play."""
     from bbbench.training.benchmarl.train import observation_statistics
 
-    _, std = observation_statistics("bbbench/Swap-v0", {}, seed=0)
+    _, std = observation_statistics("bbbench/Swap-v0", {}, seed=0)["bot"]
     assert std[0] < 0.15  # pitch, rad: 0.10 under steer-avoid
 
 

@@ -68,7 +68,9 @@ def add_parser(commands) -> None:
         "same result for any number)",
     )
     trainer.add_argument(
-        "--out", help="the policy file (default policy.zip; policy.onnx for IPPO and MAPPO)"
+        "--out",
+        help="the policy file (default policy.zip; policy.onnx for IPPO and MAPPO, and "
+        "policy.zip, a team file, on a mixed team)",
     )
     trainer.add_argument(
         "--log", help="folder for curve.json, curve.png, train.json (default: the zip's)"
@@ -99,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
 
     marl = args.algo in training.MARL_TRAINABLE
     if args.out is None:
-        args.out = "policy.onnx" if marl else "policy.zip"
+        known = args.algo in training.ALGORITHMS  # an unknown one is refused below
+        args.out = "policy" + (training.policy_suffix(args.algo, args.task) if known else ".zip")
     if args.seeds is not None:
         return _run_seeds(args)
     if args.backend != "local" or args.address is not None:
@@ -110,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         )
         check_seed(args.seed)
         check_eval_episodes(args.eval_episodes, tasks)
-        training.check_policy_path(args.algo, args.out)
+        training.check_policy_path(args.algo, args.out, tasks)
         training.check_fresh(args.out, args.log)
         plan = training.recipe(args.algo, key, args.recipe)
         training.statistics_path(args.out, plan)
@@ -213,7 +216,8 @@ def _run_seeds(args: argparse.Namespace) -> int:
         tasks, key, _ = training.check_request(
             args.task, args.algo, args.action_mode, args.steps, args.recipe
         )
-        training.check_policy_path(args.algo, args.out)  # its folder holds the seeds' folders
+        # Its folder holds the seeds' folders.
+        training.check_policy_path(args.algo, args.out, tasks)
         check_eval_episodes(args.eval_episodes, tasks)
         plan = training.recipe(args.algo, key, args.recipe)
         _, _, note = training.check_collection(plan, tasks, args.n_envs, args.workers, args.steps)

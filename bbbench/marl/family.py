@@ -33,7 +33,8 @@ from torchrl.envs import EnvBase, ObservationNorm, Transform
 from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
 import bbbench
-from bbbench.marl.batched import batched_env
+from bbbench.marl.batched import GROUP, batched_env
+from bbbench.tasks.spec import TaskSpec
 
 ENV_NAME = "bbbench"
 
@@ -61,6 +62,15 @@ def task_config(task_id: str) -> dict[str, Any]:
     return {**config, "workers": 1}
 
 
+def agent_groups(task: TaskSpec) -> dict[str, tuple[int, ...]]:
+    """BenchMARL's agent groups of a task's bots (at its `n_bots`): a group per robot on a
+    mixed team (`TaskSpec.robot_groups`), and otherwise every bot in the batched env's
+    one group, `bot`."""
+    if task.mixed:
+        return dict(task.robot_groups)
+    return {GROUP: tuple(range(task.group.n_bots))}
+
+
 def task_class(task_id: str, **changes: Any) -> BbbenchTaskClass:
     """The BenchMARL task of any multi-bot task of the suite (no member of `BbbenchTask`
     needed), its configuration from the suite with `changes`."""
@@ -80,12 +90,13 @@ def task_id(name: str) -> str:
 class BbbenchTaskClass(TaskClass):
     """A bbbench multi-bot task, as BenchMARL builds and reads it.
 
-    `observation_normalization`, if set to (mean, std) per observation value, puts a fixed
-    `ObservationNorm` in front of the models ((observation - mean) / std), in training and
-    evaluation alike: what `bbbench train` sets from random play (`bbbench.training.benchmarl`).
+    `observation_normalization`, if set to (mean, std) per observation value for each agent
+    group (`agent_groups`), puts a fixed `ObservationNorm` per group in front of the
+    models ((observation - mean) / std), in training and evaluation alike: what `bbbench
+    train` sets from its classical controller's play (`bbbench.training.benchmarl`).
     """
 
-    observation_normalization: tuple[Any, Any] | None = None
+    observation_normalization: dict[str, tuple[Any, Any]] | None = None
 
     @property
     def task_id(self) -> str:
@@ -127,11 +138,15 @@ class BbbenchTaskClass(TaskClass):
     def get_env_transforms(self, env: EnvBase) -> list[Transform]:
         if self.observation_normalization is None:
             return []
-        mean, std = (
-            torch.as_tensor(value, dtype=torch.float32) for value in self.observation_normalization
-        )
-        keys = [(group, "observation") for group in self.group_map(env)]
-        return [ObservationNorm(loc=mean, scale=std, in_keys=keys, standard_normal=True)]
+        return [
+            ObservationNorm(
+                loc=torch.as_tensor(mean, dtype=torch.float32),
+                scale=torch.as_tensor(std, dtype=torch.float32),
+                in_keys=[(group, "observation")],
+                standard_normal=True,
+            )
+            for group, (mean, std) in self.observation_normalization.items()
+        ]
 
     def max_steps(self, env: EnvBase) -> int:
         return bbbench.spec(self.task_id).max_episode_steps

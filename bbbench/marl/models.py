@@ -4,8 +4,9 @@
 scenario says (`Scenario.slots`): on the team tasks, 9 own values and 2 slots of 5 (the
 bot ahead, the bot behind), each slot's presence bit first, mean-pooled over the
 present ones; on the crossing tasks (MultiBalance, MultiBumps), 5 own values and 3
-slots of 4, with no presence bit (an empty slot is zeros). Every bot shares its
-parameters. The network is `bbbench.policies.encoder.neighbour_encoder`, which
+slots of 4, with no presence bit (an empty slot is zeros); on a mixed team, each robot
+group's own layout (`Scenario.bot_slots`). Every bot of a group shares its parameters.
+The network is `bbbench.policies.encoder.neighbour_encoder`, which
 `export_onnx` writes for the board (`model.net`).
 
 `RecurrentActor` is BenchMARL's own GRU model (`benchmarl.models.Gru`: one GRU cell over
@@ -32,7 +33,7 @@ from bbbench.policies.encoder import neighbour_encoder
 class NeighbourEncoderModel(Model):
     """`neighbour_encoder` on every bot's observation, one set of parameters for all."""
 
-    def __init__(self, own, slots, slot_width, presence, embed, hidden, pool, **kwargs):
+    def __init__(self, own, slots, slot_width, presence, embed, hidden, pool, groups, **kwargs):
         super().__init__(
             input_spec=kwargs.pop("input_spec"),
             output_spec=kwargs.pop("output_spec"),
@@ -47,6 +48,8 @@ class NeighbourEncoderModel(Model):
             is_critic=kwargs.pop("is_critic"),
         )
         self.output_features = self.output_leaf_spec.shape[-1]
+        if groups is not None:  # a mixed team: this group's robot lays its observation out
+            own, slots, slot_width, presence = groups[self.agent_group]
         self.net = neighbour_encoder(
             own, slots, slot_width, self.output_features, presence, embed, tuple(hidden), pool
         ).to(self.device)
@@ -79,6 +82,8 @@ class NeighbourEncoderConfig(ModelConfig):
     embed: int = 32
     hidden: Sequence[int] = (64, 64)
     pool: str = "mean"
+    # On a mixed team, each agent group's (own, slots, slot_width, presence), by group.
+    groups: dict[str, tuple[int, int, int, int | None]] | None = None
 
     @staticmethod
     def associated_class():
@@ -90,8 +95,17 @@ class NeighbourEncoderConfig(ModelConfig):
         task = bbbench.spec(task_id)
         if not task.multi_agent:
             raise ValueError(f"{task_id} is a single-bot task: it has no neighbours to encode")
-        own, slots, slot_width, presence = task.scenario_class(task).slots()
-        return cls(own=own, slots=slots, slot_width=slot_width, presence=presence, **changes)
+        scenario = task.scenario_class(task)
+        own, slots, slot_width, presence = scenario.slots()
+        groups = None
+        if task.mixed:
+            groups = {
+                group: tuple(scenario.bot_slots(bots[0]))
+                for group, bots in task.robot_groups.items()
+            }
+        return cls(
+            own=own, slots=slots, slot_width=slot_width, presence=presence, groups=groups, **changes
+        )
 
 
 class RecurrentActor(torch.nn.Module):

@@ -21,6 +21,7 @@ from gymnasium import spaces
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.normalization import ObservationNormalization
 from bbbench.robots import ROBOTS
+from bbbench.tasks.group import team_robot
 from bbbench.tasks.suite import list_tasks, spec
 
 Actor = Callable[[np.ndarray, "Sequence[np.random.Generator] | None"], list]
@@ -115,9 +116,8 @@ class TeamActor:
         """The actions of the live bots `bots` (indices), observing `rows` (each bot's own
         width), in their order; `rngs`, one per row, for actors that act at random."""
         actions: list = [None] * len(rows)
-        robots = self.robots
         for name, actor in self.actors.items():
-            mine = [k for k, bot in enumerate(bots) if robots[bot % len(robots)] == name]
+            mine = [k for k, bot in enumerate(bots) if team_robot(self.robots, bot) == name]
             if mine:
                 batch = np.stack([rows[k] for k in mine])
                 acted = actor(batch, None if rngs is None else [rngs[k] for k in mine])

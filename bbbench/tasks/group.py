@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -94,3 +95,9 @@ def nearest_others(positions: list[complex], k: int) -> list[list[int]]:
     distance = np.abs(points[None, :] - points[:, None])
     distance.flat[:: n + 1] = np.inf  # not itself
     return np.argsort(distance, axis=1, kind="stable")[:, : min(k, n - 1)].tolist()
+
+
+def team_robot(robots: Sequence[str], bot: int) -> str:
+    """The robot that bot `bot` of a team of `robots` plays: bot i plays robots[i %
+    len(robots)], at any team size (`TaskSpec.robots`)."""
+    return robots[bot % len(robots)]

@@ -19,7 +19,7 @@ from bbbench.parameters import parameters
 from bbbench.robots import FALL_TILT, ROBOTS, Robot, robot
 from bbbench.tasks.channel import Channel
 from bbbench.tasks.commands import CommandSchedule, ConstantVelocity
-from bbbench.tasks.group import MIN_BOTS, Group
+from bbbench.tasks.group import MIN_BOTS, Group, team_robot
 from bbbench.tasks.perturbations import PERTURBATIONS
 from bbbench.tasks.reward import Reward, RewardWeights
 from bbbench.tasks.scenario import SCENARIOS, Scenario
@@ -261,8 +261,7 @@ class TaskSpec:
         """The robot of each bot, in order: a mixed team's cycle of `robots`, else `robot`
         for every bot."""
         n = self.group.n_bots if self.group is not None else 1
-        names = self.robots or (self.robot,)
-        return tuple(robot(names[i % len(names)]) for i in range(n))
+        return tuple(robot(team_robot(self.robots or (self.robot,), i)) for i in range(n))
 
     @property
     def robot_groups(self) -> dict[str, tuple[int, ...]]:

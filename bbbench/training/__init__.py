@@ -12,7 +12,12 @@ beside (`beside`) and the fan-out of seeds (`fanout`).
 """
 
 from bbbench.training.algorithms import ALGORITHMS, MARL_TRAINABLE, TRAINABLE, trainable
-from bbbench.training.checks import check_collection, check_fresh, check_policy_path
+from bbbench.training.checks import (
+    check_collection,
+    check_fresh,
+    check_policy_path,
+    policy_suffix,
+)
 from bbbench.training.logs import Trained
 from bbbench.training.sb3.recipes import MIX, Recipe, statistics_path
 from bbbench.training.seeds import EVALUATION_EPISODES, evaluation_seeds
@@ -31,6 +36,7 @@ __all__ = [
     "check_policy_path",
     "check_request",
     "evaluation_seeds",
+    "policy_suffix",
     "recipe",
     "statistics_path",
     "train",

@@ -8,16 +8,29 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from bbbench.files import check_output_path
+from bbbench.tasks import SUITE
 from bbbench.training.algorithms import trainable
 
 
-def check_policy_path(algorithm: str, out: str | Path) -> Path:
-    """`out` as the policy file `algorithm` writes: a name ending in .zip
-    (stable-baselines3) or .onnx (IPPO, MAPPO), in a folder it can write, so that it is
-    never taken for one of the logs written beside it (curve.json, train.json ...);
-    `ValueError` saying what to give."""
+def policy_suffix(algorithm: str, tasks: Sequence[str] = ()) -> str:
+    """How the policy file `algorithm` writes on `tasks` ends: .zip (stable-baselines3),
+    .onnx (IPPO, MAPPO), or .zip for IPPO and MAPPO on a mixed team (a team file: an ONNX
+    policy per robot, `bbbench.policies.onnx.team`)."""
     suffix = trainable(algorithm).suffix
-    written = "an ONNX policy" if suffix == ".onnx" else "a zip policy"
+    if suffix == ".onnx" and any(task in SUITE and SUITE[task].mixed for task in tasks):
+        return ".zip"
+    return suffix
+
+
+def check_policy_path(algorithm: str, out: str | Path, tasks: Sequence[str] = ()) -> Path:
+    """`out` as the policy file `algorithm` writes on `tasks` (`policy_suffix`), in a
+    folder it can write, so that it is never taken for one of the logs written beside it
+    (curve.json, train.json ...); `ValueError` saying what to give."""
+    suffix = policy_suffix(algorithm, tasks)
+    if suffix != trainable(algorithm).suffix:
+        written = "a mixed team's policy file (a zip of an ONNX policy per robot)"
+    else:
+        written = "an ONNX policy" if suffix == ".onnx" else "a zip policy"
     if Path(str(out)).suffix != suffix:
         raise ValueError(
             f"--out {out}: {algorithm.upper()} writes {written}: give a file name ending in "
@@ -103,7 +116,7 @@ def schedule(
     recipe's, the logs to the policy's folder (made), the evaluations to a tenth of the
     budget and at least a batch. `ValueError` for what cannot be trained or written."""
     budget, batch, _ = check_collection(plan, tasks, n_envs, workers, steps)
-    out = check_policy_path(algorithm, out)
+    out = check_policy_path(algorithm, out, tasks)
     log_dir = Path(log_dir) if log_dir is not None else out.parent
     log_dir.mkdir(parents=True, exist_ok=True)
     check_output_path(log_dir / "curve.json", "--log")

@@ -99,13 +99,19 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
             f"{task} is a single-bot task: {name} trains the bots of a multi-bot task "
             f"({', '.join(multi)}); train {task} with --algo ppo or sac"
         )
-    if spec(task).mixed:
-        raise ValueError(
-            f"{task} is a mixed team ({' and '.join(spec(task).robots)} robots, continuous "
-            f"actions, a policy per robot): bbbench train's {name} recipes train one robot's "
-            f"discrete actions; BenchMARL trains the team's groups through "
-            f"bbbench.marl.BbbenchTask (docs/guides/training-marl.md)"
-        )
+    if spec(task).mixed:  # its robots share continuous actions only
+        if action_mode not in (None, "continuous"):
+            raise ValueError(
+                f"{task} is a mixed team ({' and '.join(spec(task).robots)} robots): {name} "
+                f"trains the continuous actions they share: drop --action-mode"
+            )
+        if trainable(algorithm).recurrent:
+            raise ValueError(
+                f"{task} is a mixed team, whose policy file (a team file) carries no "
+                f"recurrent state: train it with {algorithm.removesuffix('-gru')}"
+            )
+        recipe(algorithm, task, recipe_file)
+        return tasks, task, "continuous"
     if action_mode not in (None, "discrete"):
         space = agent_spaces(task, "discrete")[1]
         raise ValueError(f"{name} trains discrete actions ({space} on {task}): drop --action-mode")

@@ -62,7 +62,17 @@ class TeamFilePolicy(Policy):
 
     def __init__(self, path: str | Path) -> None:
         path = Path(path)
-        content = read_file(path, len(ROBOTS) * MAX_FILE_BYTES + _MANIFEST_BYTES, _KIND)
+        self._read(path, read_file(path, len(ROBOTS) * MAX_FILE_BYTES + _MANIFEST_BYTES, _KIND))
+
+    @classmethod
+    def from_bytes(cls, content: bytes, name: str) -> TeamFilePolicy:
+        """A team file held in memory (a training's candidate), read as one on disk is;
+        `name` stands for its path in messages."""
+        policy = cls.__new__(cls)
+        policy._read(Path(name), content)
+        return policy
+
+    def _read(self, path: Path, content: bytes) -> None:
         self.name = path.name
         self.sha256 = hashlib.sha256(content).hexdigest()
         names = _member_names(path, content)

@@ -21,6 +21,7 @@ import functools
 from pathlib import Path
 from typing import Any
 
+import torch
 import torch.nn
 from benchmarl.experiment import Experiment, ExperimentConfig
 from benchmarl.models import GruConfig, MlpConfig
@@ -66,6 +67,27 @@ OWNED = {
     "max_n_iters": "the budget is max_n_frames (or --steps)",
 }
 _ACTIVATIONS = ("Tanh", "ReLU", "LeakyReLU", "ELU", "Sigmoid")  # the ONNX reader runs these
+
+
+# Torch threads of a training's updates (the advantages and the minibatch passes). While
+# they run, the worker processes that step the worlds wait, so their cores are free;
+# collection stays on one thread, beside the workers. A fixed count, not the machine's,
+# so that a call writes the same bytes on every machine of one kind.
+UPDATE_THREADS = 2
+
+
+class PhasedExperiment(Experiment):
+    """BenchMARL's `Experiment`, its updates on `UPDATE_THREADS` torch threads and its
+    collection on one: from the batch collected to the last group's training end."""
+
+    def _on_batch_collected(self, batch) -> None:
+        super()._on_batch_collected(batch)
+        torch.set_num_threads(UPDATE_THREADS)
+
+    def _on_train_end(self, training_td, group: str) -> None:
+        if group == list(self.train_group_map)[-1]:
+            torch.set_num_threads(1)
+        super()._on_train_end(training_td, group)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -164,7 +186,7 @@ class MarlRecipe:
     ) -> Experiment:
         """BenchMARL's `Experiment` of this recipe on `task` (`task_config()`'s, perhaps
         changed): `frames` world steps from `n_envs` worlds, writing under `folder`."""
-        return Experiment(
+        return PhasedExperiment(
             task=task,
             algorithm_config=self.algorithm_config(),
             model_config=self.model_config(),
@@ -179,7 +201,8 @@ class MarlRecipe:
         for key, value in self.experiment.items():
             setattr(config, key, value)
         config.sampling_device = config.train_device = config.buffer_device = "cpu"
-        config.prefer_continuous_actions = False
+        # Discrete actions, but on a mixed team, whose robots share continuous ones only.
+        config.prefer_continuous_actions = bbbench.spec(self.key).mixed
         config.share_policy_params = True
         config.max_n_frames = frames
         config.max_n_iters = None
@@ -287,6 +310,8 @@ def _like(task_id: str, table: dict[str, Any]) -> str | None:
         return None
     if not task.multi_agent or latest_version(task_id) != task_id:
         return None  # an older version keeps no recipe: the recipes train the latest
+    if task.mixed:
+        return None  # a mixed team acts in other spaces than any one robot's team
     known = [k for k in table if k in bbbench.list_tasks(multi_agent=True)]
     for same in (
         lambda other: other.scenario_class is task.scenario_class,

@@ -14,8 +14,9 @@ training. Written beside it, as for stable-baselines3: `curve.json`, `curve.png`
 A budget is trained in whole batches (at least one), and evaluated at most once a
 batch. The worlds are collected in one batched env (`bbbench.marl.batched_env`),
 stepped in `workers` processes; seeded (BenchMARL's `seed_everything`, world k's first
-episode on seed + k) and on one torch thread, so the same call writes the same bytes
-for any number of workers, on any machine of one kind.
+episode on seed + k), collected on one torch thread and updated on a fixed two
+(`recipes.UPDATE_THREADS`), so the same call writes the same bytes for any number of
+workers, on any machine of one kind.
 """
 
 from __future__ import annotations
@@ -45,11 +46,14 @@ import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
+from bbbench.marl.batched import GROUP
+from bbbench.marl.family import agent_groups
 from bbbench.marl.models import DeterministicAction, NeighbourEncoderModel, RecurrentActor
 from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
-from bbbench.policies.onnx.team import team_bytes
+from bbbench.policies.onnx.team import TeamFilePolicy, team_bytes
+from bbbench.policies.policy import TeamActor
 from bbbench.tasks.channel import MESSAGE_FIELD
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
@@ -68,41 +72,65 @@ STATISTICS_STEPS = 2000
 STATISTICS_EPSILON = 0.2
 
 
+def training_action_mode(task_id: str) -> str:
+    """The actions IPPO and MAPPO learn on a task: discrete (`ACTION_MODE`), but on a mixed
+    team, whose robots share continuous actions only (`TaskSpec.action_modes`)."""
+    modes = bbbench.spec(task_id).action_modes
+    return ACTION_MODE if ACTION_MODE in modes else modes[0]
+
+
 def observation_statistics(
     task_id: str, config: dict[str, Any], seed: int
-) -> tuple[np.ndarray, np.ndarray]:
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Mean and standard deviation of each observation value over `STATISTICS_STEPS`
     world steps of the task's classical controller (`STATISTICS_EPSILON` of its actions
-    random; seeded), pooled over the bots still playing: the fixed normalizer the models
-    see observations through (a value that varies by less than 0.01 there is left
-    unscaled). These are the states a standing bot visits. Under random play the bots
-    are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
+    random; seeded), pooled over the bots still playing of each agent group (`bot`; on a
+    mixed team, each robot's: `bbbench.marl.family.agent_groups`): the fixed normalizer
+    the models see observations through (a value that varies by less than 0.01 there is
+    left unscaled). These are the states a standing bot visits. Under random play the
+    bots are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
     0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
     random play, or raw observations, IPPO and MAPPO fell more as they trained
     (docs/notebook.md, "BenchMARL: IPPO and MAPPO")."""
-    env = bbbench.make_parallel(task_id, action_mode=ACTION_MODE, **config)
+    env = bbbench.make_parallel(task_id, action_mode=training_action_mode(task_id), **config)
     controller = load_policy(classical_controller(task_id)).actor(task_id)
+    team = isinstance(controller, TeamActor)
+    group_of = {bot: group for group, bots in agent_groups(env.task).items() for bot in bots}
+    seen: dict[str, list[np.ndarray]] = {group: [] for group in dict.fromkeys(group_of.values())}
     rng = np.random.default_rng([seed, 7])
-    seen: list[np.ndarray] = []
     observations, _ = env.reset(seed=seed)
     for _ in range(STATISTICS_STEPS):
         bots = list(env.agents)
-        rows = np.stack([observations[bot] for bot in bots])
-        seen += list(rows)
-        chosen = controller(rows, None)
+        indices = [env.possible_agents.index(bot) for bot in bots]
+        rows = [observations[bot] for bot in bots]
+        for index, row in zip(indices, rows, strict=True):
+            seen[group_of[index]].append(row)
+        chosen = controller.team(rows, indices) if team else controller(np.stack(rows), None)
         actions = {
-            bot: int(rng.integers(env.action_space(bot).n))
+            bot: _random_action(env.action_space(bot), rng)
             if rng.random() < STATISTICS_EPSILON
-            else int(chosen[i])
+            else chosen[i]
             for i, bot in enumerate(bots)
         }
         observations, _, _, _, _ = env.step(actions)
         if not env.agents:
             observations, _ = env.reset(seed=int(rng.integers(2**31)))
     env.close()
-    values = np.asarray(seen, np.float64)
-    std = values.std(axis=0)
-    return values.mean(axis=0).astype(np.float32), np.where(std < 0.01, 1.0, std).astype(np.float32)
+    statistics = {}
+    for group, rows in seen.items():
+        values = np.asarray(rows, np.float64)
+        std = values.std(axis=0)
+        statistics[group] = (
+            values.mean(axis=0).astype(np.float32),
+            np.where(std < 0.01, 1.0, std).astype(np.float32),
+        )
+    return statistics
+
+
+def _random_action(space: Any, rng: np.random.Generator) -> Any:
+    if hasattr(space, "n"):
+        return int(rng.integers(space.n))
+    return rng.uniform(space.low, space.high).astype(np.float32)
 
 
 def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
@@ -116,14 +144,25 @@ def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
     return np.array([0.0 if MESSAGE_FIELD.fullmatch(name) else 1.0 for name in names], np.float32)
 
 
-def team_file(experiment: Experiment, task_id: str, algorithm: str) -> bytes:
+def team_file(
+    experiment: Experiment,
+    task_id: str,
+    algorithm: str,
+    normalization: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+    **contract: Any,
+) -> bytes:
     """A mixed team's trained policies as one team file (`bbbench.policies.onnx.team`):
-    each robot group's actor, deterministic, written to ONNX with that group's spaces."""
+    each robot group's actor, deterministic, written to ONNX with that group's spaces
+    and its `normalization` (mean, std), if the models saw observations through one;
+    `contract`: `onnx_bytes`'s other fields (training_steps, training_seed)."""
     models = {}
     for group in experiment.group_map:
         actions = experiment.action_spec[group, "action"].shape[-1]
         actor = DeterministicAction(actor_network(experiment, group), actions)
-        models[group] = onnx_bytes(actor, task_id, algorithm=algorithm, group=group)
+        mean, std = (normalization or {}).get(group, (None, None))
+        models[group] = onnx_bytes(
+            actor, task_id, algorithm=algorithm, group=group, mean=mean, std=std, **contract
+        )
     return team_bytes(models)
 
 
@@ -161,14 +200,17 @@ class TrainingEvaluation(Callback):
     ):
         super().__init__()
         self.task_id, self.every = task_id, every
-        self.mean, self.std = normalization
+        self.normalization = normalization  # (mean, std) by agent group
+        self.mixed = bbbench.spec(task_id).mixed
         self.mask = mask  # `heard_mask`: what the exported policy hears
         self.began, self.on_progress, self.budget = began, on_progress, budget
         self.bots, self.algorithm, self.seed = bots, algorithm, seed
         self.next_at = every
         self.curve: list[dict[str, float]] = []
         self.last: bytes | None = None
-        self.player = LockstepPlayer(actors={}, action_mode=ACTION_MODE, sampled=False)
+        self.player = LockstepPlayer(
+            actors={}, action_mode=training_action_mode(task_id), sampled=False
+        )
 
     def __getstate__(self) -> dict[str, Any]:
         """BenchMARL pickles its callbacks beside a run (to restore it): without the
@@ -187,20 +229,30 @@ class TrainingEvaluation(Callback):
         frames = self.experiment.total_frames
         if self.curve and self.curve[-1]["steps"] == frames:
             return
-        network = actor_network(self.experiment)
-        candidate = onnx_bytes(
-            network,
-            self.task_id,
-            state_width=getattr(network, "state_width", None),
-            action_mode=ACTION_MODE,
-            mean=self.mean,
-            std=self.std,
-            mask=self.mask,
-            algorithm=self.algorithm.upper(),
-            training_steps=frames,  # world steps: the board's unit
-            training_seed=self.seed,
-        )
-        policy = OnnxPolicy(parse_onnx(candidate, "the candidate policy", "candidate.onnx"))
+        contract = {
+            "algorithm": self.algorithm.upper(),
+            "training_steps": frames,  # world steps: the board's unit
+            "training_seed": self.seed,
+        }
+        if self.mixed:
+            candidate = team_file(
+                self.experiment, self.task_id, **contract, normalization=self.normalization
+            )
+            policy = TeamFilePolicy.from_bytes(candidate, "candidate.zip")
+        else:
+            network = actor_network(self.experiment)
+            mean, std = self.normalization[GROUP]
+            candidate = onnx_bytes(
+                network,
+                self.task_id,
+                state_width=getattr(network, "state_width", None),
+                action_mode=ACTION_MODE,
+                mean=mean,
+                std=std,
+                mask=self.mask,
+                **contract,
+            )
+            policy = OnnxPolicy(parse_onnx(candidate, "the candidate policy", "candidate.onnx"))
         self.player.actors[self.task_id] = policy.actor(self.task_id)
         played = self.player.play(self.task_id, evaluation_seeds(self.task_id))
         point = curve_point(played, self.began, steps=frames, bot_steps=frames * self.bots)
@@ -287,7 +339,7 @@ def train_marl(
     results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
     record = {
         "tasks": [task_id],
-        "action_mode": ACTION_MODE,
+        "action_mode": training_action_mode(task_id),
         "seed": seed,
         "steps": frames,
         "bot_steps": frames * bots,
