@@ -143,6 +143,7 @@ def run(
     counts from the run's start (set-up off its clock too)."""
     from benchmarl.experiment import Experiment
 
+    from bbbench.training.benchmarl import recipes
     from bbbench.training.benchmarl.recipes import marl_recipe
     from bbbench.training.benchmarl.train import _quiet, observation_statistics
 
@@ -153,8 +154,9 @@ def run(
     batch = int(plan.experiment.get("on_policy_collected_frames_per_batch", 6000))
     frames = batch * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
-        # Built by hand, not `plan.build_experiment`: this runs on the code before it too.
-        experiment = Experiment(
+        # Built by hand, not `plan.build_experiment`: this runs on the code before it too
+        # (before the updates' own threads, `PhasedExperiment`, BenchMARL's `Experiment`).
+        experiment = getattr(recipes, "PhasedExperiment", Experiment)(
             task=task,
             algorithm_config=plan.algorithm_config(),
             model_config=plan.model_config(),
