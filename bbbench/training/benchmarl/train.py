@@ -53,7 +53,7 @@ from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
 from bbbench.policies.onnx.reader import parse_onnx
 from bbbench.policies.onnx.team import TeamFilePolicy, team_bytes
-from bbbench.policies.policy import TeamActor
+from bbbench.policies.policy import RandomActor, TeamActor
 from bbbench.tasks.channel import MESSAGE_FIELD
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
@@ -107,7 +107,7 @@ def observation_statistics(
             seen[group_of[index]].append(row)
         chosen = controller.team(rows, indices) if team else controller(np.stack(rows), None)
         actions = {
-            bot: _random_action(env.action_space(bot), rng)
+            bot: RandomActor(env.action_space(bot))(None, [rng])[0]
             if rng.random() < STATISTICS_EPSILON
             else chosen[i]
             for i, bot in enumerate(bots)
@@ -125,12 +125,6 @@ def observation_statistics(
             np.where(std < 0.01, 1.0, std).astype(np.float32),
         )
     return statistics
-
-
-def _random_action(space: Any, rng: np.random.Generator) -> Any:
-    if hasattr(space, "n"):
-        return int(rng.integers(space.n))
-    return rng.uniform(space.low, space.high).astype(np.float32)
 
 
 def heard_mask(task_id: str, config: dict[str, Any]) -> np.ndarray | None:
