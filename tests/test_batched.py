@@ -88,6 +88,74 @@ def test_world_k_plays_make_parallels_episode_from_seed_s_plus_k_bit_for_bit(tas
     assert ended == worlds
 
 
+def test_a_mixed_teams_worlds_play_make_parallels_episodes_in_a_group_per_robot():
+    """Each robot keeps its own spaces: observations and actions are dicts by group, each
+    group's bots in order, and world k is `make_parallel`'s episode from seed S + k, in
+    one process and in two."""
+    task_id, worlds, seed, steps = "bbbench/MixedBeamCarry-v0", 2, 5, 120
+    parallel = bbbench.make_parallel(task_id)
+    groups = parallel.task.robot_groups
+    rng = np.random.default_rng(2)
+    actions = [
+        {
+            g: rng.uniform(
+                -1, 1, (worlds, len(bots), parallel.action_space(f"bot_{bots[0]}").shape[0])
+            ).astype(np.float32)
+            for g, bots in groups.items()
+        }
+        for _ in range(steps)
+    ]
+    played = {}
+    for workers in (1, 2):
+        env = bbbench.make_batched(task_id, worlds=worlds, workers=workers)
+        assert set(env.single_observation_space) == set(groups)
+        assert env.action_space["two-wheel"].shape == (worlds, 1, 1)
+        assert env.observation_space["wheel-legged"].shape == (worlds, 2, 31)
+        first, _ = env.reset(seed=seed)
+        played[workers] = [first, *(env.step(chosen) for chosen in actions)]
+        env.close()
+    for one, two in zip(played[1][1:], played[2][1:], strict=True):
+        for a, b in zip(one[:4], two[:4], strict=True):
+            if isinstance(a, dict):
+                assert all(a[g].tobytes() == b[g].tobytes() for g in groups)
+            else:
+                assert a.tobytes() == b.tobytes()
+    for k in range(worlds):
+        observations, _ = parallel.reset(seed=seed + k)
+        for g, bots in groups.items():
+            assert np.array_equal(
+                played[1][0][g][k], np.stack([observations[f"bot_{i}"] for i in bots])
+            )
+        for t, chosen in enumerate(actions):
+            if not parallel.agents:
+                break
+            by_bot = {
+                f"bot_{i}": chosen[g][k, r]
+                for g, bots in groups.items()
+                for r, i in enumerate(bots)
+            }
+            observations, rewards, *_ = parallel.step({a: by_bot[a] for a in parallel.agents})
+            got_observations, got_rewards = played[1][t + 1][:2]
+            for g, bots in groups.items():
+                for r, i in enumerate(bots):
+                    want = observations.get(f"bot_{i}")
+                    want = np.zeros_like(got_observations[g][k, r]) if want is None else want
+                    assert np.array_equal(got_observations[g][k, r], want), (k, t, i)
+            assert np.array_equal(got_rewards[k], [rewards.get(f"bot_{i}", 0.0) for i in range(3)])
+    parallel.close()
+
+
+def test_a_mixed_teams_actions_must_be_a_dict_of_each_groups_array():
+    env = bbbench.make_batched("bbbench/MixedBeamCarry-v0", worlds=2)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"dict of actions by group.*two-wheel") as caught:
+        env.step(np.zeros((2, 3, 6), np.float32))
+    assert "\n" not in str(caught.value)
+    with pytest.raises(ValueError, match=r"shape \(2, 2, 6\)"):
+        env.step({"two-wheel": np.zeros((2, 1, 1)), "wheel-legged": np.zeros((2, 2, 5))})
+    env.close()
+
+
 def test_the_bytes_do_not_depend_on_the_number_of_worker_processes():
     def run(workers: int) -> list[np.ndarray]:
         env = bbbench.make_batched("bbbench/MultiBalance-v1", worlds=5, workers=workers)
@@ -151,6 +219,7 @@ def test_actions_of_the_wrong_shape_are_refused():
         ("bbbench/MultiBumps-v1", "continuous"),
         ("bbbench/Swap-v0", "discrete"),
         ("bbbench/ConvoyTurns-v0", "continuous"),
+        ("bbbench/MixedBeamCarry-v0", "continuous"),  # a group per robot, own spaces
     ],
 )
 def test_each_world_is_torchrls_own_pettingzoo_wrapper_bit_for_bit(task_id, mode):
@@ -166,8 +235,12 @@ def test_each_world_is_torchrls_own_pettingzoo_wrapper_bit_for_bit(task_id, mode
     batched = batched_env(task_id, worlds=worlds, action_mode=mode)
     batched.set_seed(seed)
     options = {"use_mask": True, "done_on_any": False, "categorical_actions": True}
-    singles = [
-        PettingZooWrapper(bbbench.make_parallel(task_id, action_mode=mode), **options)
+    singles = [  # a mixed team's wrapper groups its agents by robot, as the batch does
+        PettingZooWrapper(
+            bbbench.make_parallel(task_id, action_mode=mode),
+            group_map=batched.group_map,
+            **options,
+        )
         for k in range(worlds)
     ]
     state = batched.reset()
@@ -175,37 +248,48 @@ def test_each_world_is_torchrls_own_pettingzoo_wrapper_bit_for_bit(task_id, mode
     generator = torch.Generator().manual_seed(0)
     ended = fell = 0
     for _ in range(500):
-        spec = batched.full_action_spec["bot", "action"]
-        if mode == "discrete":
-            action = torch.randint(spec.space.n, spec.shape, generator=generator)
-        else:
-            action = torch.rand(spec.shape, generator=generator) * 2 - 1
-        step, state = batched.step_and_maybe_reset(state.set(("bot", "action"), action))
+        for group in batched.group_map:
+            spec = batched.full_action_spec[group, "action"]
+            if mode == "discrete":
+                action = torch.randint(spec.space.n, spec.shape, generator=generator)
+            else:
+                action = torch.rand(spec.shape, generator=generator) * 2 - 1
+            state.set((group, "action"), action)
+        step, next_state = batched.step_and_maybe_reset(state)
         for k, env in enumerate(singles):
-            expected = env.step(states[k].set(("bot", "action"), action[k].clone()))["next"]
+            for group in batched.group_map:
+                states[k].set((group, "action"), state[group, "action"][k].clone())
+            expected = env.step(states[k])["next"]
             got = step["next"][k]
+            assert set(expected.keys(True, True)) - set(got.keys(True, True)) <= {
+                (group, "info", "episode_seed") for group in batched.group_map
+            }
             for key in expected.keys(True, True):
                 if "episode_seed" in key:  # an info key the batched face leaves out
                     continue
                 assert expected[key].dtype == got[key].dtype, key
                 assert torch.equal(expected[key], got[key]), (key, k)
-            fell += int((~got["bot", "mask"]).any())
+            fell += int(any((~got[group, "mask"]).any() for group in batched.group_map))
             if expected["done"].all():
                 ended += 1
                 states[k] = env.reset()
-                assert torch.equal(states[k]["bot", "observation"], state[k]["bot", "observation"])
+                for group in batched.group_map:
+                    observed = next_state[group, "observation"][k]
+                    assert torch.equal(states[k][group, "observation"], observed)
             else:
-                states[k] = expected.exclude("reward")
+                states[k] = expected.exclude(*((g, "reward") for g in batched.group_map))
+        state = next_state
     batched.close()
     assert fell > 0
     assert ended >= worlds
 
 
-def test_the_torchrl_face_passes_torchrls_own_spec_check():
+@pytest.mark.parametrize("task_id", ["bbbench/Convoy-v0", "bbbench/MixedBeamCarry-v0"])
+def test_the_torchrl_face_passes_torchrls_own_spec_check(task_id):
     from torchrl.envs.utils import check_env_specs
 
     from bbbench.marl import batched_env
 
-    env = batched_env("bbbench/Convoy-v0", worlds=3, workers=2)
+    env = batched_env(task_id, worlds=3, workers=2)
     check_env_specs(env)
     env.close()

@@ -116,6 +116,7 @@ def test_a_mixed_teams_task_has_a_group_per_robot_in_its_own_spaces():
     task = BbbenchTask.MIXEDBEAMCARRY_V0.get_from_yaml()
     assert not task.supports_discrete_actions()  # the wheel-legged robot's is continuous
     env = task.get_env_fun(2, True, seed=0, device="cpu")()
+    assert env.batch_size == (2,)  # one batched env of both worlds: one policy call a step
     assert task.group_map(env) == {"wheel-legged": ["bot_0", "bot_2"], "two-wheel": ["bot_1"]}
     spec = task.observation_spec(env)
     assert spec["wheel-legged", "observation"].shape == (2, 31)
@@ -126,14 +127,14 @@ def test_a_mixed_teams_task_has_a_group_per_robot_in_its_own_spaces():
     rollout = env.rollout(5)
     assert rollout["next", "wheel-legged", "mask"].all()
     reward = rollout["next", "two-wheel", "reward"]
-    assert torch.equal(rollout["next", "wheel-legged", "reward"][:, :1], reward)  # the team's
+    assert torch.equal(rollout["next", "wheel-legged", "reward"][:, :, :1], reward)  # the team's
     env.close()
 
 
 @pytest.mark.slow
 def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     config = tiny_config(tmp_path, frames=400, batch=200)
-    config.on_policy_n_envs_per_worker = 2  # BenchMARL stacks the team's one-world envs
+    config.on_policy_n_envs_per_worker = 2  # two worlds of the batched env
     from tensordict.nn import InteractionType, set_interaction_type
 
     from bbbench.policies import load_policy
@@ -154,20 +155,25 @@ def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     path.write_bytes(team_file(experiment, "bbbench/MixedBeamCarry-v0", "IPPO", normalization))
     team = load_policy(path)
     assert team.mismatch("bbbench/MixedBeamCarry-v0") is None
-    batch = experiment.test_env.reset()
+    env = BbbenchTask.MIXEDBEAMCARRY_V0.get_from_yaml().get_env_fun(1, True, 3, "cpu")()
+    raw = env.reset()
+    env.close()
+    batch = raw.clone()  # what the models see: through each group's normalizer
+    for group, (mean, std) in normalization.items():
+        batch[group, "observation"] = (raw[group, "observation"] - torch.tensor(mean)) / std
     with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
         acted = experiment.algorithm.get_policy_for_collection()(batch)
+    # The one world's bots: bot_0 and bot_2 wheel-legged, bot_1 two-wheel.
     legged, wheels = (
-        batch[group, "observation"].numpy() * normalization[group][1] + normalization[group][0]
-        for group in ("wheel-legged", "two-wheel")
+        raw[group, "observation"][0].numpy() for group in ("wheel-legged", "two-wheel")
     )
     ours = team.actor("bbbench/MixedBeamCarry-v0").team(
         [legged[0], wheels[0], legged[1]], [0, 1, 2]
     )
     np.testing.assert_allclose(
-        np.stack([ours[0], ours[2]]), acted["wheel-legged", "action"].numpy(), atol=1e-5
+        np.stack([ours[0], ours[2]]), acted["wheel-legged", "action"][0].numpy(), atol=1e-5
     )
-    np.testing.assert_allclose(ours[1], acted["two-wheel", "action"].numpy()[0], atol=1e-5)
+    np.testing.assert_allclose(ours[1], acted["two-wheel", "action"][0, 0].numpy(), atol=1e-5)
     results = evaluate(team, ["bbbench/MixedBeamCarry-v0"], episodes=1, workers=1)
     assert results.document["tasks"][0]["episodes"][0]["length"] >= 1
 

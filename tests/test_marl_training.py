@@ -67,9 +67,8 @@ def test_every_shipped_marl_recipe_reads_and_builds_its_configs(algorithm):
         assert plan.n_timesteps == 3_000_000
         assert plan.batch() >= 6000
         assert plan.n_envs >= 10
-        # Worker processes step the batched env's worlds; BenchMARL stacks a mixed team's.
-        workers = 1 if bbbench.spec(task_id).mixed else 2
-        assert plan.task_config().config["workers"] == workers
+        # Worker processes step the batched env's worlds (a mixed team's too).
+        assert plan.task_config().config["workers"] == 2
 
 
 def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():

@@ -23,6 +23,11 @@ in `infos["live"]` whether it is still in the episode after the step. `infos` al
 carries each world's `episode_seed` (K,) and the reward's terms and the scenario's
 metrics as (K, bots) arrays (the keys of the PettingZoo env's per-agent infos).
 
+On a mixed team (`bbbench.spec(id).mixed`) each robot keeps its own spaces: the bots are
+in a group per robot (`agent_groups`), and observations, actions and their spaces are
+dicts by group, `{"wheel-legged": (K, 2, 31), "two-wheel": (K, 1, 19)}`, each group's
+bots in the order of their indices; rewards, ends and infos stay (K, bots).
+
 `workers=W` steps the worlds in W processes (this one and W - 1 others), each a
 contiguous share, over shared memory: the results are the same bytes for any W.
 """
@@ -32,8 +37,6 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
-import signal
-import traceback
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
@@ -41,8 +44,20 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
-from bbbench.children import die_with_parent
 from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.envs.worlds import (
+    GROUP,
+    LEAVE,
+    RESET,
+    STEP,
+    UNSEEDED,
+    Buffers,
+    GroupLayout,
+    WorldSlice,
+    agent_groups,
+    serve,
+    shared,
+)
 from bbbench.tasks.suite import list_tasks, spec
 
 # MiB a world takes, measured (docs/performance.md, "Several bots"): 29 for
@@ -53,154 +68,6 @@ WORLD_MEMORY_MIB = 40
 # How worker processes start: forked where the platform can (in milliseconds, and from any
 # `__main__`, a notebook's or stdin's too); they run numpy and pybullet only, never torch.
 START_METHOD = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-
-# What `advance` does to each world.
-LEAVE, STEP, RESET = 0, 1, 2
-_UNSEEDED = -1
-
-
-class Buffers:
-    """The arrays of a batch, one row per world, in (shared) memory."""
-
-    def __init__(
-        self,
-        worlds: int,
-        bots: int,
-        width: int,
-        action_shape,
-        action_dtype,
-        terms,
-        allocate=np.zeros,
-    ) -> None:
-        self.shapes = {
-            "actions": ((worlds, bots, *action_shape), action_dtype),
-            "observations": ((worlds, bots, width), np.float32),
-            "rewards": ((worlds, bots), np.float64),
-            "terminated": ((worlds, bots), np.bool_),
-            "truncated": ((worlds, bots), np.bool_),
-            "live": ((worlds, bots), np.bool_),
-            "terms": ((worlds, bots, len(terms)), np.float64),
-            "episode_seed": ((worlds,), np.int64),
-            "command": ((worlds,), np.int8),
-            "seeds": ((worlds,), np.int64),
-        }
-        self.term_names = tuple(terms)  # the per-bot info values in `terms`, in order
-        for name, (shape, dtype) in self.shapes.items():
-            setattr(self, name, allocate(shape, dtype))
-
-
-def _shared(context):
-    """An allocator of numpy arrays over `context`'s shared memory, and the raw blocks."""
-    blocks = {}
-
-    def allocate(shape, dtype):
-        size = int(np.prod(shape)) * np.dtype(dtype).itemsize
-        block = context.RawArray("b", max(size, 1))
-        blocks[len(blocks)] = (block, shape, dtype)
-        return np.frombuffer(block, dtype=dtype, count=int(np.prod(shape))).reshape(shape)
-
-    return allocate, blocks
-
-
-class WorldSlice:
-    """EnvCache `start` to `stop - 1` of a batch, played in one process: each a
-    `MultiBalanceEnv`, read from and written to its rows of `buffers`."""
-
-    def __init__(
-        self,
-        task_id: str,
-        env_kwargs: dict[str, Any],
-        start: int,
-        stop: int,
-        buffers: Buffers,
-        first: MultiBalanceEnv | None = None,
-    ) -> None:
-        self.start, self.stop = start, stop
-        self.buffers = buffers
-        self.envs = [
-            first if (k == start and first is not None) else MultiBalanceEnv(task_id, **env_kwargs)
-            for k in range(start, stop)
-        ]
-        self.agents = self.envs[0].possible_agents
-        self.index = {agent: j for j, agent in enumerate(self.agents)}
-
-    def advance(self) -> None:
-        """Reset or step each world of the slice as its `command` says."""
-        b = self.buffers
-        for k, env in enumerate(self.envs, self.start):
-            command = b.command[k]
-            if command == STEP:
-                self._step(k, env)
-            elif command == RESET:
-                seed = int(b.seeds[k])
-                observations, infos = env.reset(seed=None if seed == _UNSEEDED else seed)
-                self._write(k, env, observations, None, {}, {}, infos)
-
-    def _step(self, k: int, env: MultiBalanceEnv) -> None:
-        chosen = self.buffers.actions[k]
-        index = self.index
-        actions = {agent: chosen[index[agent]] for agent in env.agents}
-        observations, rewards, terminations, truncations, infos = env.step(actions)
-        self._write(k, env, observations, rewards, terminations, truncations, infos)
-
-    def _write(self, k, env, observations, rewards, terminations, truncations, infos) -> None:
-        b, index = self.buffers, self.index
-        b.observations[k] = 0.0
-        b.rewards[k] = 0.0
-        b.terminated[k] = b.truncated[k] = False
-        b.terms[k] = 0.0
-        terms, names = b.terms[k], b.term_names
-        for agent, observation in observations.items():
-            j = index[agent]
-            b.observations[k, j] = observation
-            if rewards is not None:
-                b.rewards[k, j] = rewards[agent]
-                b.terminated[k, j] = terminations[agent]
-                b.truncated[k, j] = truncations[agent]
-            info = infos[agent]
-            terms[j] = [info[name] for name in names]
-        live = env.agents
-        b.live[k] = [agent in live for agent in self.agents]
-        b.episode_seed[k] = env.episode_seed
-
-    def close(self) -> None:
-        for env in self.envs:
-            env.close()
-
-
-def _serve(connection, task_id, env_kwargs, start, stop, blocks, layout, parent) -> None:
-    """A worker process: its slice's worlds, advanced on each word from the batch. It dies
-    with the process that made the batch, however that one dies."""
-    die_with_parent(parent)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the script's own handler
-    views = iter(
-        np.frombuffer(block, dtype=dtype, count=int(np.prod(shape))).reshape(shape)
-        for block, shape, dtype in (blocks[i] for i in range(len(blocks)))
-    )
-    buffers = Buffers(*layout, allocate=lambda shape, dtype: next(views))
-    worlds_slice = None
-    try:
-        try:
-            worlds_slice = WorldSlice(task_id, env_kwargs, start, stop, buffers)
-        except Exception:  # the batch raises it, with the worker's traceback
-            connection.send(traceback.format_exc())
-            return
-        connection.send(None)
-        while True:
-            word = connection.recv()
-            if word == "close":
-                break
-            try:
-                worlds_slice.advance()
-                connection.send(None)
-            except Exception:  # the batch raises it, with the worker's traceback
-                connection.send(traceback.format_exc())
-    except (EOFError, KeyboardInterrupt):
-        pass
-    finally:
-        if worlds_slice is not None:
-            worlds_slice.close()
-        connection.close()
 
 
 class BatchedEnv:
@@ -243,37 +110,32 @@ class BatchedEnv:
         self.env_kwargs = dict(env_kwargs)
         self.possible_agents = list(first.possible_agents)
         self.n_bots = len(self.possible_agents)
-        agent = self.possible_agents[0]
-        self.single_observation_space = first.observation_space(agent)
-        self.single_action_space = first.action_space(agent)
-        width = self.single_observation_space.shape[0]
-        self.observation_space = spaces.Box(
-            np.broadcast_to(self.single_observation_space.low, (worlds, self.n_bots, width)),
-            np.broadcast_to(self.single_observation_space.high, (worlds, self.n_bots, width)),
-            dtype=np.float32,
-        )
-        if isinstance(self.single_action_space, spaces.Discrete):
-            action_shape, action_dtype = (), np.int64
-            self.action_space = spaces.MultiDiscrete(
-                np.full((worlds, self.n_bots), self.single_action_space.n)
-            )
+        self.groups = agent_groups(self.task)
+        layouts = [_group_layout(first, name, bots) for name, bots in self.groups.items()]
+        # Each group's spaces are its first bot's (one robot's), for every bot and world.
+        one_observed = {g.name: first.observation_space(f"bot_{g.bots[0]}") for g in layouts}
+        one_chosen = {g.name: first.action_space(f"bot_{g.bots[0]}") for g in layouts}
+        observed = {g.name: _batched(one_observed[g.name], worlds, g) for g in layouts}
+        chosen = {g.name: _batched(one_chosen[g.name], worlds, g) for g in layouts}
+        if self.task.mixed:  # a group per robot, each in its own spaces: dicts by group
+            self.single_observation_space = spaces.Dict(one_observed)
+            self.single_action_space = spaces.Dict(one_chosen)
+            self.observation_space, self.action_space = spaces.Dict(observed), spaces.Dict(chosen)
         else:
-            action_shape, action_dtype = self.single_action_space.shape, np.float32
-            box = self.single_action_space
-            shape = (worlds, self.n_bots, *box.shape)
-            self.action_space = spaces.Box(
-                np.broadcast_to(box.low, shape), np.broadcast_to(box.high, shape), dtype=box.dtype
-            )
+            self.single_observation_space = one_observed[GROUP]
+            self.single_action_space = one_chosen[GROUP]
+            self.observation_space, self.action_space = observed[GROUP], chosen[GROUP]
+        agent = self.possible_agents[0]
         _, probe = first.reset(seed=0)  # the info keys: the same from reset on
         terms = [key for key in probe[agent] if key != "episode_seed"]
-        self._layout = (worlds, self.n_bots, width, action_shape, action_dtype, terms)
+        self._layout = (worlds, self.n_bots, tuple(layouts), terms)
         shares = np.array_split(np.arange(worlds), workers)
         self._slices = [(int(share[0]), int(share[-1]) + 1) for share in shares]
         if workers == 1:
             self.buffers = Buffers(*self._layout)
         else:
             context = multiprocessing.get_context(START_METHOD)
-            allocate, self._blocks = _shared(context)
+            allocate, self._blocks = shared(context)
             self.buffers = Buffers(*self._layout, allocate=allocate)
             self._context = context
         self._local = WorldSlice(task_id, self.env_kwargs, *self._slices[0], self.buffers, first)
@@ -286,24 +148,27 @@ class BatchedEnv:
 
     def reset(
         self, seed: int | Sequence[int] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Every world's first observations, (K, bots, width); world k seeded `seed + k`
-        (or `seed[k]`; None: each draws its own)."""
+    ) -> tuple[Any, dict[str, np.ndarray]]:
+        """Every world's first observations, (K, bots, width) (a mixed team: a dict of
+        them by group); world k seeded `seed + k` (or `seed[k]`; None: each draws its
+        own)."""
         self.reset_worlds(np.ones(self.num_worlds, dtype=bool), seed)
         self._autoreset[:] = False
-        return self.buffers.observations.copy(), self._infos()
+        return self._observations(), self._infos()
 
-    def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+    def step(self, actions) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict]:
         """Step every world by its bots' `actions`, (K, bots) (continuous: (K, bots, 1)
-        also); a world that ended at the last step restarts instead."""
+        also; a mixed team: a dict of them by group, (K, bots of the group, width)); a
+        world that ended at the last step restarts instead. Rewards and ends are per bot,
+        (K, bots)."""
         b = self.buffers
-        b.actions[...] = self._check_actions(actions)
+        self._put_actions(actions)
         b.command[:] = np.where(self._autoreset, RESET, STEP)
-        b.seeds[:] = _UNSEEDED
+        b.seeds[:] = UNSEEDED
         self._advance()
         self._autoreset = ~b.live.any(axis=1)
         return (
-            b.observations.copy(),
+            self._observations(),
             b.rewards.copy(),
             b.terminated.copy(),
             b.truncated.copy(),
@@ -323,7 +188,7 @@ class BatchedEnv:
     def step_worlds(self, actions) -> None:
         """Step every world (none may have ended); results in `self.buffers`."""
         b = self.buffers
-        b.actions[...] = self._check_actions(actions)
+        self._put_actions(actions)
         b.command[:] = STEP
         self._advance()
 
@@ -351,7 +216,7 @@ class BatchedEnv:
         for start, stop in self._slices[1:]:
             mine, theirs = context.Pipe()
             process = context.Process(
-                target=_serve,
+                target=serve,
                 args=(
                     theirs,
                     self.task_id,
@@ -372,31 +237,28 @@ class BatchedEnv:
             if failure is not None:
                 raise RuntimeError(f"a worker of the batched env failed to start:\n{failure}")
 
-    def _check_actions(self, actions) -> np.ndarray:
-        array = np.asarray(actions)
-        want = self.action_space.shape
-        if array.shape != want and (*array.shape, 1) != want:
+    def _observations(self) -> Any:
+        observed = {group: rows.copy() for group, rows in self.buffers.observations.items()}
+        return observed if self.task.mixed else observed[GROUP]
+
+    def _put_actions(self, actions) -> None:
+        """Check every group's actions whole (no world sees a bad one), then write them."""
+        if not self.task.mixed:
+            actions = {GROUP: actions}
+        elif not (isinstance(actions, dict) and set(actions) == set(self.groups)):
+            given = sorted(actions) if isinstance(actions, dict) else type(actions).__name__
             raise ValueError(
-                f"actions of shape {array.shape}: a batched {self.task_id} takes one action "
-                f"per bot of each world, shape {want} (worlds, bots"
-                f"{', 1' if len(want) == 3 else ''})"
+                f"actions {given}: a batched {self.task_id} takes a dict of actions by "
+                f"group, one array for each of {sorted(self.groups)}"
             )
-        array = array.reshape(want)
-        space = self.single_action_space
-        if isinstance(space, spaces.Discrete):  # checked whole here: no world sees a bad one
-            if not np.issubdtype(array.dtype, np.number):
-                raise ValueError(f"actions of dtype {array.dtype}: {self.task_id} takes {space}")
-            last = space.start + space.n - 1
-            bad = (array < space.start) | (array > last)
-            if not np.issubdtype(array.dtype, np.integer):  # a policy's usual ints skip this
-                bad |= ~np.isfinite(array) | (array != np.round(array))
-            if bad.any():
-                first = array.flat[int(np.argmax(bad.flat))]
-                raise ValueError(
-                    f"action {first.item()!r}: {self.task_id}'s actions are {space}, whole numbers "
-                    f"from {space.start} to {last}; no world was stepped"
-                )
-        return array
+        checked = {}
+        for group, chosen in actions.items():
+            space = self.single_action_space
+            space = space[group] if self.task.mixed else space
+            want = self.buffers.actions[group].shape
+            checked[group] = _checked(np.asarray(chosen), want, space, self.task_id)
+        for group, array in checked.items():
+            self.buffers.actions[group][...] = array
 
     def _infos(self) -> dict[str, np.ndarray]:
         b = self.buffers
@@ -427,6 +289,50 @@ class BatchedEnv:
         return f"BatchedEnv({self.task_id!r}, worlds={self.num_worlds}, workers={self.workers})"
 
 
+def _checked(array: np.ndarray, want: tuple[int, ...], space: spaces.Space, task_id: str):
+    """`array` as actions of shape `want` from `space`, or a one-line ValueError."""
+    if array.shape != want and (*array.shape, 1) != want:
+        raise ValueError(
+            f"actions of shape {array.shape}: a batched {task_id} takes one action "
+            f"per bot of each world, shape {want} (worlds, bots"
+            f"{', 1' if len(want) == 3 and want[-1] == 1 else ''})"
+        )
+    array = array.reshape(want)
+    if isinstance(space, spaces.Discrete):
+        if not np.issubdtype(array.dtype, np.number):
+            raise ValueError(f"actions of dtype {array.dtype}: {task_id} takes {space}")
+        last = space.start + space.n - 1
+        bad = (array < space.start) | (array > last)
+        if not np.issubdtype(array.dtype, np.integer):  # a policy's usual ints skip this
+            bad |= ~np.isfinite(array) | (array != np.round(array))
+        if bad.any():
+            first = array.flat[int(np.argmax(bad.flat))]
+            raise ValueError(
+                f"action {first.item()!r}: {task_id}'s actions are {space}, whole numbers "
+                f"from {space.start} to {last}; no world was stepped"
+            )
+    return array
+
+
+def _group_layout(env: MultiBalanceEnv, name: str, bots: tuple[int, ...]) -> GroupLayout:
+    """A group's layout in the batch's buffers, from its first bot's spaces."""
+    agent = env.possible_agents[bots[0]]
+    action = env.action_space(agent)
+    discrete = isinstance(action, spaces.Discrete)
+    shape, dtype = ((), np.int64) if discrete else (action.shape, np.float32)
+    return GroupLayout(name, bots, env.observation_space(agent).shape[0], shape, dtype)
+
+
+def _batched(space: spaces.Space, worlds: int, group: GroupLayout) -> spaces.Space:
+    """One bot's observation or action `space` for every bot of `group` in `worlds` worlds."""
+    rows = (worlds, len(group.bots))
+    if isinstance(space, spaces.Discrete):
+        return spaces.MultiDiscrete(np.full(rows, space.n))
+    shape = (*rows, *space.shape)
+    low, high = np.broadcast_to(space.low, shape), np.broadcast_to(space.high, shape)
+    return spaces.Box(low, high, dtype=space.dtype)
+
+
 def _whole(value: Any, name: str, least: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
         raise ValueError(f"{name}={value!r}: expected a whole number of at least {least}")
@@ -435,7 +341,7 @@ def _whole(value: Any, name: str, least: int) -> int:
 
 def _seeds(seed: int | Sequence[int] | None, worlds: int) -> np.ndarray:
     if seed is None:
-        return np.full(worlds, _UNSEEDED, dtype=np.int64)
+        return np.full(worlds, UNSEEDED, dtype=np.int64)
     if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
         if seed < 0:
             raise ValueError(f"seed={seed}: expected a seed of at least 0")

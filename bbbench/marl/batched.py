@@ -7,8 +7,9 @@ once a step for every world.
 
 Over `bbbench.envs.batched.BatchedEnv` (the worlds, in `workers` processes), with the
 keys and specs of TorchRL's `PettingZooWrapper` over the task's parallel env (the one
-group `bot`; `("bot", "mask")`: the bots still in the episode; the root `done` when
-every bot is), so a world plays, bit for bit, what `bbbench.make_parallel` plays from
+group `bot`, or on a mixed team a group per robot, `bbbench.envs.worlds.agent_groups`,
+as the wrapper's `group_map`; `("bot", "mask")`: the bots still in the episode; the root
+`done` when every bot is), so a world plays, bit for bit, what `bbbench.make_parallel` plays from
 the same seed, and BenchMARL's models and losses see the same keys. A bot out of the
 episode reads zeros and reward 0, and its `done` stays set until its world resets
 (tests/test_batched.py).
@@ -31,8 +32,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from bbbench.envs.batched import BatchedEnv
-
-GROUP = "bot"
+from bbbench.envs.worlds import GROUP
 
 
 class BatchedTorchEnv(EnvBase):
@@ -44,53 +44,20 @@ class BatchedTorchEnv(EnvBase):
             batch_size=torch.Size([worlds]), device=device, allow_done_after_reset=True
         )
         self.env = env
-        self.group_map = {GROUP: list(env.possible_agents)}
+        agents = env.possible_agents
+        self.group_map = {group: [agents[i] for i in bots] for group, bots in env.groups.items()}
+        # Each group's bots, as an index into a (worlds, bots) array (all: a view, no copy).
+        self._bots = {
+            group: np.asarray(bots) if env.task.mixed else slice(None)
+            for group, bots in env.groups.items()
+        }
         self._seed: int | None = None
         self._live = np.ones((worlds, bots), dtype=bool)
-        self._make_specs(worlds, bots)
+        self._make_specs(worlds)
 
-    def _make_specs(self, worlds: int, bots: int) -> None:
-        env, device = self.env, self.device
-        group, root = (worlds, bots), (worlds,)
-        space = env.single_observation_space
-        shape = (*group, space.shape[0])
-        info = {
-            name: Unbounded(shape=group, dtype=torch.float32, device=device)
-            for name in env.buffers.term_names
-        }
-        self.observation_spec = Composite(
-            {
-                GROUP: Composite(
-                    observation=Bounded(
-                        torch.tensor(np.broadcast_to(space.low, shape)),
-                        torch.tensor(np.broadcast_to(space.high, shape)),
-                        shape=shape,
-                        dtype=torch.float32,
-                        device=device,
-                    ),
-                    mask=Categorical(2, shape=group, dtype=torch.bool, device=device),
-                    info=Composite(info, shape=group),
-                    shape=group,
-                )
-            },
-            shape=root,
-        )
-        action = env.single_action_space
-        if hasattr(action, "n"):
-            chosen = Categorical(int(action.n), shape=group, dtype=torch.int64, device=device)
-        else:
-            chosen = Bounded(
-                float(action.low.min()),
-                float(action.high.max()),
-                shape=(*group, *action.shape),
-                dtype=torch.float32,
-                device=device,
-            )
-        self.action_spec = Composite({GROUP: Composite(action=chosen, shape=group)}, shape=root)
-        self.reward_spec = Composite(
-            {GROUP: Composite(reward=Unbounded(shape=(*group, 1), device=device), shape=group)},
-            shape=root,
-        )
+    def _make_specs(self, worlds: int) -> None:
+        env, device, root = self.env, self.device, (worlds,)
+        observed, chosen, rewards, ends = {}, {}, {}, {}
 
         def flags(shape):
             return {
@@ -98,9 +65,45 @@ class BatchedTorchEnv(EnvBase):
                 for key in ("done", "terminated", "truncated")
             }
 
-        self.done_spec = Composite(
-            {**flags(root), GROUP: Composite(flags(group), shape=group)}, shape=root
-        )
+        for name, bots in env.groups.items():
+            group = (worlds, len(bots))
+            space = _one(env.single_observation_space, name, env.task.mixed)
+            shape = (*group, space.shape[0])
+            info = {
+                term: Unbounded(shape=group, dtype=torch.float32, device=device)
+                for term in env.buffers.term_names
+            }
+            observed[name] = Composite(
+                observation=Bounded(
+                    torch.tensor(np.broadcast_to(space.low, shape)),
+                    torch.tensor(np.broadcast_to(space.high, shape)),
+                    shape=shape,
+                    dtype=torch.float32,
+                    device=device,
+                ),
+                mask=Categorical(2, shape=group, dtype=torch.bool, device=device),
+                info=Composite(info, shape=group),
+                shape=group,
+            )
+            action = _one(env.single_action_space, name, env.task.mixed)
+            if hasattr(action, "n"):
+                spec = Categorical(int(action.n), shape=group, dtype=torch.int64, device=device)
+            else:
+                spec = Bounded(
+                    float(action.low.min()),
+                    float(action.high.max()),
+                    shape=(*group, *action.shape),
+                    dtype=torch.float32,
+                    device=device,
+                )
+            chosen[name] = Composite(action=spec, shape=group)
+            reward = Unbounded(shape=(*group, 1), device=device)
+            rewards[name] = Composite(reward=reward, shape=group)
+            ends[name] = Composite(flags(group), shape=group)
+        self.observation_spec = Composite(observed, shape=root)
+        self.action_spec = Composite(chosen, shape=root)
+        self.reward_spec = Composite(rewards, shape=root)
+        self.done_spec = Composite({**flags(root), **ends}, shape=root)
 
     # -- EnvBase ----------------------------------------------------------------------
 
@@ -120,9 +123,11 @@ class BatchedTorchEnv(EnvBase):
         return self._output(ended, ended, reward=False)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        actions = tensordict.get((GROUP, "action")).detach().cpu().numpy()
+        actions = {
+            group: tensordict.get((group, "action")).detach().cpu().numpy() for group in self._bots
+        }
         out_before = ~self._live
-        self.env.step_worlds(actions)
+        self.env.step_worlds(actions if self.env.task.mixed else actions[GROUP])
         b = self.env.buffers
         self._live = b.live.copy()
         # A bot out of the episode before this step stays done (as PettingZooWrapper).
@@ -134,18 +139,23 @@ class BatchedTorchEnv(EnvBase):
         much as the policy call at 16 worlds: docs/performance.md)."""
         b = self.env.buffers
         out = (self._step_template if reward else self._reset_template).clone()
-        bots = out.get(GROUP)
-        np.copyto(bots.get("observation").numpy(), b.observations)
-        np.copyto(bots.get("mask").numpy(), b.live)
-        info = bots.get("info")
-        for i, name in enumerate(b.term_names):
-            np.copyto(info.get(name).numpy(), b.terms[:, :, i], casting="same_kind")
         done = terminated | truncated
-        for key, value in (("done", done), ("terminated", terminated), ("truncated", truncated)):
-            np.copyto(bots.get(key).numpy()[..., 0], value)
+        ends = (("done", done), ("terminated", terminated), ("truncated", truncated))
+        for group, bots in self._bots.items():
+            rows = out.get(group)
+            np.copyto(rows.get("observation").numpy(), b.observations[group])
+            np.copyto(rows.get("mask").numpy(), b.live[:, bots])
+            info = rows.get("info")
+            for i, name in enumerate(b.term_names):
+                np.copyto(info.get(name).numpy(), b.terms[:, bots, i], casting="same_kind")
+            for key, value in ends:
+                np.copyto(rows.get(key).numpy()[..., 0], value[:, bots])
+            if reward:
+                np.copyto(
+                    rows.get("reward").numpy()[..., 0], b.rewards[:, bots], casting="same_kind"
+                )
+        for key, value in ends:
             np.copyto(out.get(key).numpy()[..., 0], value.all(axis=1))
-        if reward:
-            np.copyto(bots.get("reward").numpy()[..., 0], b.rewards, casting="same_kind")
         return out
 
     @functools.cached_property
@@ -163,6 +173,11 @@ class BatchedTorchEnv(EnvBase):
     def close(self, *, raise_if_closed: bool = True) -> None:
         self.env.close()
         super().close(raise_if_closed=raise_if_closed)
+
+
+def _one(space, group: str, mixed: bool):
+    """A group's one-bot space: the group's entry of a mixed team's dict of them."""
+    return space[group] if mixed else space
 
 
 def batched_env(

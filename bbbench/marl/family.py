@@ -4,11 +4,11 @@ One BenchMARL task per latest multi-bot task ID (`BbbenchTask`). BenchMARL asks 
 for an env of `num_envs` worlds; a bbbench task gives one batched env of that many
 worlds (`bbbench.marl.batched_env`, `batch_size=[num_envs]`, as VMAS's), so the
 collector calls the policy once a step for every world, and every bot is in one
-group, `bot`; a mixed team's bots are in a group per robot, one world per env, which
-BenchMARL stacks (`_team_env`). The task's configuration, made from its row
-(`task_config`), holds the
-env's own keywords (`n_bots`) and `workers`, the
-processes that step the worlds (the same results for any number). The action mode
+group, `bot`; a mixed team's bots are in a group per robot
+(`bbbench.envs.worlds.agent_groups`), each in its own spaces, one policy each. The
+task's configuration, made from its row (`task_config`), holds the env's own keywords
+(`n_bots`) and `workers`, the processes that step the worlds (the same results for any
+number). The action mode
 follows BenchMARL's `prefer_continuous_actions`: `Discrete(9)` or `Box(-1, 1, (1,))`
 per bot.
 
@@ -30,11 +30,9 @@ from benchmarl.environments.common import Task, TaskClass
 from benchmarl.utils import _read_yaml_config
 from torchrl.data import Composite
 from torchrl.envs import EnvBase, ObservationNorm, Transform
-from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
 import bbbench
-from bbbench.marl.batched import GROUP, batched_env
-from bbbench.tasks.spec import TaskSpec
+from bbbench.marl.batched import batched_env
 
 ENV_NAME = "bbbench"
 
@@ -62,15 +60,6 @@ def task_config(task_id: str) -> dict[str, Any]:
     return {**config, "workers": 1}
 
 
-def agent_groups(task: TaskSpec) -> dict[str, tuple[int, ...]]:
-    """BenchMARL's agent groups of a task's bots (at its `n_bots`): a group per robot on a
-    mixed team (`TaskSpec.robot_groups`), and otherwise every bot in the batched env's
-    one group, `bot`."""
-    if task.mixed:
-        return dict(task.robot_groups)
-    return {GROUP: tuple(range(task.group.n_bots))}
-
-
 def task_class(task_id: str, **changes: Any) -> BbbenchTaskClass:
     """The BenchMARL task of any multi-bot task of the suite (no member of `BbbenchTask`
     needed), its configuration from the suite with `changes`."""
@@ -90,10 +79,11 @@ def task_id(name: str) -> str:
 class BbbenchTaskClass(TaskClass):
     """A bbbench multi-bot task, as BenchMARL builds and reads it.
 
-    `observation_normalization`, if set to (mean, std) per observation value for each agent
-    group (`agent_groups`), puts a fixed `ObservationNorm` per group in front of the
-    models ((observation - mean) / std), in training and evaluation alike: what `bbbench
-    train` sets from its classical controller's play (`bbbench.training.benchmarl`).
+    `observation_normalization`, if set to (mean, std) per observation value for each
+    agent group (`bbbench.envs.worlds.agent_groups`), puts a fixed `ObservationNorm` per
+    group in front of the models ((observation - mean) / std), in training and evaluation
+    alike: what `bbbench train` sets from its classical controller's play
+    (`bbbench.training.benchmarl`).
     """
 
     observation_normalization: dict[str, tuple[Any, Any]] | None = None
@@ -122,12 +112,7 @@ class BbbenchTaskClass(TaskClass):
             env.set_seed(seed)
             return env
 
-        return _team_env(task, mode, seed, device, config) if self.mixed else make
-
-    @property
-    def mixed(self) -> bool:
-        """A mixed team's task: one group of agents per robot, in its own spaces."""
-        return bbbench.spec(self.task_id).mixed
+        return make
 
     def supports_continuous_actions(self) -> bool:
         return True
@@ -185,30 +170,6 @@ class BbbenchTaskClass(TaskClass):
     @staticmethod
     def env_name() -> str:
         return ENV_NAME
-
-
-def _team_env(task: str, mode: str, seed: int | None, device: Any, config: dict[str, Any]):
-    """A mixed team's env maker: one world, TorchRL's own `PettingZooWrapper` over the
-    task's parallel env with a group per robot (`TaskSpec.robot_groups`), so that
-    BenchMARL trains a policy per group; BenchMARL stacks `num_envs` of them (its
-    `SerialEnv`, or `ParallelEnv` with `parallel_collection`)."""
-
-    def make() -> EnvBase:
-        env = bbbench.make_parallel(task, action_mode=mode, **config)
-        agents = env.possible_agents
-        groups = {name: [agents[i] for i in bots] for name, bots in env.task.robot_groups.items()}
-        wrapped = PettingZooWrapper(
-            env,
-            use_mask=True,
-            done_on_any=False,
-            categorical_actions=True,
-            group_map=groups,
-            device=device,
-        )
-        wrapped.set_seed(seed)
-        return wrapped
-
-    return make
 
 
 class _Family(Task):

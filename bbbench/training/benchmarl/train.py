@@ -43,11 +43,10 @@ from benchmarl.experiment.callback import Callback
 from benchmarl.models import Gru
 
 import bbbench
+from bbbench.envs.worlds import GROUP, agent_groups
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
-from bbbench.marl.batched import GROUP
-from bbbench.marl.family import agent_groups
 from bbbench.marl.models import DeterministicAction, NeighbourEncoderModel, RecurrentActor
 from bbbench.policies import classical_controller, load_policy, onnx_bytes
 from bbbench.policies.onnx.policy import OnnxPolicy
@@ -85,7 +84,7 @@ def observation_statistics(
     """Mean and standard deviation of each observation value over `STATISTICS_STEPS`
     world steps of the task's classical controller (`STATISTICS_EPSILON` of its actions
     random; seeded), pooled over the bots still playing of each agent group (`bot`; on a
-    mixed team, each robot's: `bbbench.marl.family.agent_groups`): the fixed normalizer
+    mixed team, each robot's: `bbbench.envs.worlds.agent_groups`): the fixed normalizer
     the models see observations through (a value that varies by less than 0.01 there is
     left unscaled). These are the states a standing bot visits. Under random play the
     bots are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
