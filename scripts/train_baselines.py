@@ -76,6 +76,16 @@ SEEDS = (0, 1, 2)
 MARL = ("mappo", "ippo")
 # The MARL baselines at the field's budget (issue 50): each cell's seeds as Ray tasks.
 CAMPAIGN_BUDGET = "3m"
+# Issue 67's run with the messages muted: MAPPO's shipped Rendezvous-v0 recipe with the
+# channel's values zeroed in what every bot hears (`mute_messages`), the one change.
+MUTED = {
+    "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
+    "algo": "mappo",
+    "tasks": ["bbbench/Rendezvous-v0"],
+    "seeds": SEEDS,
+    "recipe": "baselines/recipes/mappo-muted-rendezvous.yml",
+    "name": "MAPPO Rendezvous-v0, messages muted",
+}
 
 
 def runs() -> list[dict]:
@@ -122,8 +132,9 @@ def runs() -> list[dict]:
 
 
 def campaign() -> list[dict]:
-    """The MARL cells at the field's budget, IPPO first: (algorithm, task), its seeds."""
-    return [
+    """The MARL cells at the field's budget, IPPO first: (algorithm, task), its seeds;
+    then the run with the messages muted (its own recipe file and method name)."""
+    cells = [
         {
             "cell": f"{algo}-{_short(task)}-{CAMPAIGN_BUDGET}",
             "algo": algo,
@@ -133,6 +144,7 @@ def campaign() -> list[dict]:
         for algo in ("ippo", "mappo")
         for task in (*LATEST_MULTI, *TEAMS, *STEERING_MULTI)
     ]
+    return [*cells, MUTED]
 
 
 def _short(task_id: str) -> str:
@@ -168,7 +180,8 @@ def _add(
     names = "a mix of the single-bot tasks" if run.get("generalist") else run["tasks"][0]
     policy = folder / policy_name(run)
     method = method_slug(run)
-    recipe = f"bbbench/training/recipes/{run['algo']}.yml"
+    recipe = run.get("recipe") or f"bbbench/training/recipes/{run['algo']}.yml"
+    shipped = "the shipped" if "recipe" not in run else "the"
     add = [
         "bbbench", "leaderboard", "add", str(policy), "--root", str(board), "--slug", method,
         "--seed", str(run["seed"]),
@@ -179,18 +192,18 @@ def _add(
         + (described(record.get("trainings_beside")) or _asked(side_by_side))
         + (f", beside {beside}" if beside else ""),
         "--command", " ".join([*argv[:-2], "--out", policy.name]),
-        "--run-notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}): "
+        "--run-notes", f"Trained on {names} with {shipped} {run['algo']} recipe ({recipe}): "
         + (f"the last of {points} evaluations" if run["algo"] in MARL_TRAINABLE
            else f"the best of {points} evaluations")
         + f" on training seeds. Curve and logs: baselines/{run['slug']}/.",
     ]  # fmt: skip
     if not (board / "submissions" / method).exists():  # a new method: its own fields
         add += [
-            "--name", f"{run['algo'].upper()} {_display(run)}",
+            "--name", run.get("name") or f"{run['algo'].upper()} {_display(run)}",
             "--algorithm", run["algo"].upper(), "--author", "bbbench maintainers",
             "--licence", "MIT",
             "--track", track_of(spec(record["tasks"][0])).name,
-            "--notes", f"Trained on {names} with the shipped {run['algo']} recipe ({recipe}). "
+            "--notes", f"Trained on {names} with {shipped} {run['algo']} recipe ({recipe}). "
             f"Curves and logs: baselines/{method}-s<seed>/.",
         ]  # fmt: skip
     # A recipe with `normalize` writes statistics where rl-zoo3 does; eval finds them so.
@@ -414,6 +427,8 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         "--seeds", ",".join(map(str, seeds)), "--backend", "ray", "--workers", "1",
         "--out", str(folder / "policy.onnx"),
     ]  # fmt: skip
+    if "recipe" in cell:
+        argv[argv.index("--seeds") : argv.index("--seeds")] = ["--recipe", cell["recipe"]]
     began = time.perf_counter()
     with open(folder / "train.log", "w") as log:
         done = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT)
@@ -425,6 +440,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         target = args.root / slug
         (folder / f"policy-s{seed}").rename(target)
         run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
+        run.update({key: cell[key] for key in ("recipe", "name") if key in cell})
         record = json.loads((target / "train.json").read_text())
         # The seed's own command: `_add` records all of it but its last two (the --out).
         one = ["--seed", str(seed), "--workers", "1", "--out", "-"]

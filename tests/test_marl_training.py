@@ -18,7 +18,7 @@ from bbbench.policies import classical_controller, load_policy
 from bbbench.training import MARL_TRAINABLE, recipe, trainable
 from bbbench.training.recipe_files import recipe_file
 from bbbench.training.sb3.recipes import recipes
-from conftest import one_line_exit_2
+from conftest import load_script, one_line_exit_2
 
 TASK = "bbbench/BeamCarry-v0"
 MIXED = "bbbench/MixedBeamCarry-v0"
@@ -360,3 +360,16 @@ def test_a_training_command_ends_without_warnings_of_leaked_semaphores(tmp_path)
     assert done.returncode == 0, done.stderr
     assert "leaked" not in done.stderr, done.stderr
     assert out.exists()
+
+
+def test_the_muted_runs_recipe_is_mappos_shipped_one_with_the_messages_muted():
+    """The campaign's run with the messages muted changes one thing against MAPPO's
+    shipped Rendezvous-v0 recipe (scripts/train_baselines.py, `MUTED`)."""
+    from bbbench.training.benchmarl.recipes import marl_recipe
+
+    root = Path(__file__).resolve().parents[1]
+    muted = load_script("train_baselines").MUTED
+    shipped = marl_recipe("mappo", "bbbench/Rendezvous-v0").record()
+    changed = marl_recipe("mappo", "bbbench/Rendezvous-v0", root / muted["recipe"]).record()
+    assert changed.pop("task") == {**shipped.pop("task"), "mute_messages": True}
+    assert changed == shipped

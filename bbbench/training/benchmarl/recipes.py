@@ -113,7 +113,7 @@ class MarlRecipe:
 
     @property
     def n_envs(self) -> int:
-        """EnvCache collected at once (one batched env of them)."""
+        """Worlds collected at once (one batched env of them)."""
         return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
 
     def batch(self) -> int:
