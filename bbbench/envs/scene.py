@@ -102,10 +102,9 @@ class Scene:
         self.action_mode = action_mode = action_mode or task.default_action_mode
         task.check_action_mode(action_mode)
         self.decode_action = self.robot.action_decoder(action_mode)
-        # A mixed team's bots decode each with its own robot's decoder (None: one robot).
-        self._decoders = (
-            [model.action_decoder(action_mode) for model in scenario.roster] if task.mixed else None
-        )
+        # Each bot decodes its action with its own robot's decoder (on a mixed team, each
+        # robot's; else the one robot's for every bot).
+        self._decoders = [model.action_decoder(action_mode) for model in scenario.roster]
         # The channel's messages (`bbbench.tasks.channel`): what each bot sent with its
         # last action (zeros after reset), and the function that parts an action.
         self.channel = channel = task.channel
@@ -241,7 +240,7 @@ class Scene:
 
     def act_live(self, actions) -> None:
         """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
-        decode, split = self.decode_action, self._split
+        split = self._split
         if split is not None:  # each bot's action parted: the robot's, and its message
             parted = []
             for k, action in enumerate(actions):
@@ -252,12 +251,10 @@ class Scene:
             actions = [action for action, _ in parted]
             for i, (_, message) in zip(self.live, parted, strict=True):
                 self.sent[i] = message
-        decoders = self._decoders
+        decoders, live = self._decoders, self.live
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
-            if decoders is not None:
-                decode = decoders[self.live[k]]
             try:
-                bot.act(decode(action))
+                bot.act(decoders[live[k]](action))
             except ValueError as error:
                 raise ActionError(k, error) from None
 

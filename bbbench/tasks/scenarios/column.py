@@ -76,6 +76,10 @@ class Column(Scenario):
         # Each robot's fields on a mixed team (`mixes`): its own values, then the team's.
         self._layouts = {model.name: model.layout() + team for model in self.roster}
         self._layouts[self.robot.name] = self.layout
+        # Each bot's robot's values, in order (a team ends whole: the i-th live bot is bot i),
+        # and its rows as one array, or one array each where robots' widths differ.
+        self._values = [model.values for model in self.roster]
+        self._stack = _apart if task.mixed else _together
         self._bodies: tuple[int, ...] = ()
         self._client_id = -1
 
@@ -133,22 +137,16 @@ class Column(Scenario):
         """Each bot's row: its robot's values (the front bot's target; 0 for the others),
         what it observes of the coupling, and its neighbours ahead and behind."""
         self.read(states)
-        values = self.robot.values
-        mixed = self.task.mixed
         n = len(states)
         rows = []
-        for i, state in enumerate(states):
-            if mixed:  # every bot its robot's values (a team ends whole: bot i is live i)
-                values = self.roster[i].values
+        for i, (state, values) in enumerate(zip(states, self._values, strict=True)):
             reading = (state.pitch, state.pitch_rate, state.wheel_speed)
             row = [*values(reading, commands[i], targets[i] if i == 0 else 0.0, state)]
             row += self.coupling_terms(i)
             row += _neighbour(state, states[i - 1]) if i > 0 else _ABSENT
             row += _neighbour(state, states[i + 1]) if i + 1 < n else _ABSENT
             rows.append(row)
-        if mixed:  # rows of each robot's width
-            return [np.array(row, dtype=OBSERVATION_DTYPE) for row in rows]
-        return np.array(rows, dtype=OBSERVATION_DTYPE)
+        return self._stack(rows)
 
     def read(self, states: list[Any]) -> None:
         """Read the coupling once, after each reset and step (before `outcome`)."""
@@ -262,3 +260,13 @@ baseline is `pd` (a follower holds the 0 it observes); the classical team contro
 def team_description(description: str, shared: str = _TEAM_WHY) -> str:
     """A team task's description, then what the team tasks of its robot share."""
     return f"{description}\n\n{shared}"
+
+
+def _together(rows: list[list[float]]) -> np.ndarray:
+    """One robot's rows, all of its width: one array."""
+    return np.array(rows, dtype=OBSERVATION_DTYPE)
+
+
+def _apart(rows: list[list[float]]) -> list[np.ndarray]:
+    """A mixed team's rows, each of its robot's width: one array each."""
+    return [np.array(row, dtype=OBSERVATION_DTYPE) for row in rows]
