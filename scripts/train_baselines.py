@@ -45,6 +45,7 @@ from bbbench.tasks.suite import scored_version, spec
 from bbbench.tasks.tracks import track_of
 from bbbench.training import MARL_TRAINABLE
 from bbbench.training.beside import described
+from bbbench.training.checks import policy_suffix
 
 LATEST_SINGLE = (
     "bbbench/FlatBalance-v1",
@@ -70,6 +71,8 @@ TEAMS = ("bbbench/BeamCarry-v0", "bbbench/BeamCarryBumps-v0", "bbbench/Convoy-v0
 # IPPO and MAPPO on the multi-bot and team ones, at the field's budget (the campaign).
 STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/WaypointsBumps-v0")
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0", "bbbench/Rendezvous-v0")
+# The mixed team (issue 67): IPPO and MAPPO, a policy per robot, into one team file.
+MIXED_TEAMS = ("bbbench/MixedBeamCarry-v0", "bbbench/MixedBeamCarryBumps-v0")
 SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
@@ -142,7 +145,7 @@ def campaign() -> list[dict]:
             "seeds": SEEDS,
         }
         for algo in ("ippo", "mappo")
-        for task in (*LATEST_MULTI, *TEAMS, *STEERING_MULTI)
+        for task in (*LATEST_MULTI, *TEAMS, *STEERING_MULTI, *MIXED_TEAMS)
     ]
     return [*cells, MUTED]
 
@@ -152,8 +155,9 @@ def _short(task_id: str) -> str:
 
 
 def policy_name(run: dict) -> str:
-    """The policy file a run writes: a zip (stable-baselines3), ONNX (BenchMARL)."""
-    return "policy.onnx" if run["algo"] in MARL_TRAINABLE else "policy.zip"
+    """The policy file a run writes: a zip (stable-baselines3), ONNX (BenchMARL), a team
+    file, a zip, on a mixed team (`policy_suffix`)."""
+    return f"policy{policy_suffix(run['algo'], run['tasks'])}"
 
 
 def command(run: dict, folder: Path) -> list[str]:
@@ -287,6 +291,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
     rows += [f"{task} sac" for task in (*LATEST_SINGLE, *ADDED_SINGLE)]
     rows += [f"{task} {algo}" for algo in MARL for task in (*LATEST_MULTI, *TEAMS)]
     rows += [*STEERING_SINGLE, *(f"{task} {algo}" for algo in MARL for task in STEERING_MULTI)]
+    rows += [f"{task} {algo}" for algo in MARL for task in MIXED_TEAMS]
     if which == "legged":
         rows = legged
     for row in rows:
@@ -425,7 +430,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     argv = [
         "bbbench", "train", *cell["tasks"], "--algo", cell["algo"],
         "--seeds", ",".join(map(str, seeds)), "--backend", "ray", "--workers", "1",
-        "--out", str(folder / "policy.onnx"),
+        "--out", str(folder / policy_name(cell)),
     ]  # fmt: skip
     if "recipe" in cell:
         argv[argv.index("--seeds") : argv.index("--seeds")] = ["--recipe", cell["recipe"]]
