@@ -36,7 +36,11 @@ class FilePolicy(Policy):
         task = spec(task_id)
         if task.mixed or self.action_mode not in task.robot_model.action_modes:
             return False
-        observation_space, action_space = agent_spaces(task_id, self.action_mode, self.height_scan)
+        return self.reads(*agent_spaces(task_id, self.action_mode, self.height_scan))
+
+    def reads(self, observation_space: spaces.Box, action_space: spaces.Space) -> bool:
+        """Whether the file's policy observes `observation_space` and acts in
+        `action_space` (a bot's, or a mixed team's group's)."""
         return observation_space.shape == self.observation_shape and (
             describe_space(action_space) == describe_space(self.action_space)
         )

@@ -119,9 +119,7 @@ class TeamFilePolicy(Policy):
         observed = group_spaces(task_id)
         for group, policy in self.groups.items():
             observation, action = observed[group]
-            if policy.observation_shape != observation.shape or describe_space(
-                policy.action_space
-            ) != describe_space(action):
+            if not policy.reads(observation, action):
                 return (
                     f"{task_id}'s {group} bots observe {describe_space(observation)} and act in "
                     f"{describe_space(action)}; the file's {group} policy reads "
