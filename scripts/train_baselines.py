@@ -79,9 +79,7 @@ SEEDS = (0, 1, 2)
 MARL = ("mappo", "ippo")
 # The MARL baselines at the field's budget (issue 50): each cell's seeds as Ray tasks.
 CAMPAIGN_BUDGET = "3m"
-# Issue 67's run with the messages muted: MAPPO's shipped Rendezvous-v0 recipe with the
-# channel's values zeroed in what every bot hears (`mute_messages`), the one change.
-MUTED = {
+MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added
     "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
     "algo": "mappo",
     "tasks": ["bbbench/Rendezvous-v0"],
@@ -419,7 +417,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     seeds = [
         s
         for s in (args.seeds or cell["seeds"])
-        if not on_board(args.board, {"slug": _slug(cell, s), "seed": s})
+        if not on_board(args.board, {"slug": f"{cell['cell']}-s{s}", "seed": s})
     ]
     if not seeds:
         return
@@ -441,7 +439,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         print(f"{cell['cell']}: training failed (exit {done.returncode}), see {folder}/train.log")
         return
     for seed in seeds:
-        slug = _slug(cell, seed)
+        slug = f"{cell['cell']}-s{seed}"
         target = args.root / slug
         (folder / f"policy-s{seed}").rename(target)
         run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
@@ -459,10 +457,6 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     (folder / "train.log").unlink()
     folder.rmdir()
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
-
-
-def _slug(cell: dict, seed: int) -> str:
-    return f"{cell['cell']}-s{seed}"
 
 
 _BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
