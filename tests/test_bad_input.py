@@ -179,7 +179,7 @@ def test_a_perturbation_a_team_task_cannot_take_names_the_task_and_what_it_takes
     err = one_line_exit_2(capsys, "sweep", "team", "--axis", "com_offset", "--task", BEAM)
     assert f"com_offset does not apply to {BEAM}: it takes payload_mass, friction" in err
     err = one_line_exit_2(capsys, "sweep", "team", "--axis", "sensor_noise", "--task", BEAM)
-    assert "multi-bot tasks observe through perfect sensors only" in err
+    assert "sensor perturbations apply to single-bot tasks only" in err
 
 
 def test_a_policy_for_another_robot_or_task_kind_on_a_team_task_exits_2(capsys, monkeypatch):

@@ -62,7 +62,13 @@ def episodes_digest(task_id: str, seeds, steps: int = 60, **kwargs) -> str:
 
 
 def test_the_multi_bot_tasks_are_in_the_suite_and_made_by_make_parallel():
-    assert MULTI_TASKS == [MULTI, "bbbench/MultiBalance-v1", BUMPS, "bbbench/MultiBumps-v1"]
+    assert MULTI_TASKS == [
+        MULTI,
+        "bbbench/MultiBalance-v1",
+        BUMPS,
+        "bbbench/MultiBumps-v1",
+        "bbbench/MultiNoisySensors-v0",
+    ]
     for task_id in MULTI_TASKS:
         spec = bbbench.spec(task_id)
         assert spec.multi_agent

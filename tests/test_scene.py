@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ import bbbench
 from bbbench.cli import main
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.policies import PDController
+from bbbench.tasks.sensors import NoisySensors
 
 FLAT, NOISY, BUMPS = "bbbench/FlatBalance-v0", "bbbench/NoisySensors-v0", "bbbench/Bumps-v1"
 MULTI = "bbbench/MultiBumps-v0"
@@ -112,3 +115,37 @@ def test_dev_golden_reports_every_task_ok(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == len(bbbench.list_tasks())
     assert all(line.endswith("  ok") for line in lines), lines
+
+
+MULTI_NOISY = "bbbench/MultiNoisySensors-v0"
+
+
+def test_each_bot_of_a_noisy_group_reads_through_its_own_sensors():
+    """MultiNoisySensors-v0: each bot's three readings are its true state plus its own
+    errors at that step, drawn per bot; the rest of its row is MultiBalance-v1's."""
+    noisy = bbbench.make_parallel(MULTI_NOISY)
+    exact = bbbench.make_parallel("bbbench/MultiBalance-v1")
+    observations, _ = noisy.reset(seed=5)
+    truths, _ = exact.reset(seed=5)
+    errors = noisy.scene.episode.sensor_errors
+    assert errors.shape == (4, noisy.task.max_episode_steps + 1, 3)
+    biases = {round(float(errors[i, :, 0].mean()), 2) for i in range(4)}
+    assert len(biases) > 1  # each bot its own bias, not one for the group
+    actions = dict.fromkeys(noisy.agents, 6)
+    for step in range(40):
+        if step:
+            observations, *_ = noisy.step(actions)
+            truths, *_ = exact.step(actions)
+        for i, agent in enumerate(noisy.agents):
+            state = noisy.scene.bots[i].read()
+            true = (state.pitch, state.pitch_rate, state.wheel_speed)
+            assert np.array_equal(observations[agent][:3], np.float32(np.add(true, errors[i, step])))
+            # The same world as MultiBalance-v1's: the rest of the row is its, bit for bit.
+            assert np.array_equal(observations[agent][3:], truths[agent][3:])
+
+
+def test_a_scenario_that_reads_the_true_state_refuses_noisy_or_delayed_sensors():
+    with pytest.raises(ValueError, match="'swap' scenario observes through perfect sensors only"):
+        dataclasses.replace(bbbench.spec("bbbench/Swap-v0"), sensors=NoisySensors())
+    with pytest.raises(ValueError, match="a group's sensors are not delayed"):
+        dataclasses.replace(bbbench.spec(MULTI_NOISY), sensors=NoisySensors(delay_steps=1))

@@ -53,7 +53,7 @@ class EpisodeDraw:
         self,
         seed: int,
         targets: list[list[float]],
-        sensor_errors: list[tuple[float, float, float]] | None,
+        sensor_errors: list | None,  # per step (one bot), or per bot and step
         heightmap: Heightmap | None,
         poses: list[tuple[tuple[float, float], float]],
         pitches,
@@ -75,7 +75,8 @@ class EpisodeDraw:
     @functools.cached_property
     def sensor_errors(self) -> np.ndarray | None:
         """(max_episode_steps + 1, 3): the error added to (pitch, pitch rate, wheel speed)
-        at each step, bias included; None for perfect sensors."""
+        at each step, bias included; (bots, max_episode_steps + 1, 3) for several bots;
+        None for perfect sensors."""
         return None if self._errors is None else _read_only(np.array(self._errors))
 
 
@@ -196,7 +197,10 @@ class Scene:
         ground.reset(streams.terrain)
         poses, pitches = self.scenario.starts(streams.start)
         rows = self.scenario.targets(streams.command)
-        self._errors = task.sensors.episode_errors(streams.sensors, task.max_episode_steps)
+        # Each bot draws its own sensor errors, in order (a group's first draws one bot's).
+        limit = task.max_episode_steps
+        draws = [task.sensors.episode_errors(streams.sensors, limit) for _ in range(n)]
+        self._errors, self._bot_errors = draws[0], draws
         self._targets = rows[0]  # floats, for the hot path
         # [bot][step], for several bots (read as they are: a transposed copy of 1,501
         # lists costs a reset more than the rest of it, in a training's large heap)
@@ -209,8 +213,9 @@ class Scene:
             for step in sorted(self._pushes)
             for bot, impulse in self._pushes[step]
         )
+        errors = self._errors if n == 1 or self._errors is None else draws
         self._episode = EpisodeDraw(
-            seed, rows, self._errors, getattr(ground, "heightmap", None), poses, pitches, pushes
+            seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches, pushes
         )
         # Bullet keeps contact points from step to step and warm-starts its solver from
         # them: drop the last episode's, with every bot clear of everything at once
@@ -317,6 +322,19 @@ class Scene:
             reading = (reading[0] + error[0], reading[1] + error[1], reading[2] + error[2])
         return reading
 
+    def live_readings(self, states: list[BotState], step: int) -> list[tuple] | None:
+        """The live bots' pitch, pitch rate and wheel speed as the task's sensors read them
+        at `step`, each with its own errors (a group's are never delayed); None for
+        perfect sensors (read the states)."""
+        if self.perfect_sensors:
+            return None
+        rows = self._bot_errors
+        step = min(step, len(rows[0]) - 1)
+        return [
+            (s.pitch + e[0], s.pitch_rate + e[1], s.wheel_speed + e[2])
+            for s, e in zip(states, (rows[i][step] for i in self.live), strict=True)
+        ]
+
     # -- what perturbations set (`bbbench.tasks.perturbations`) ---------------------
 
     @property
@@ -419,7 +437,7 @@ def requested_task(
     task with a channel, `unknown` may hold `message_width`, `comm_range` and
     `mute_messages` (`TaskSpec.with_channel`).
     `unknown` holds the keywords the env does not take. `several_bots`: the env is the
-    multi-bot one, which plays `Group` tasks through perfect sensors only.
+    multi-bot one, which plays `Group` tasks.
     """
     if several_bots and task.group is None:
         raise ValueError(
@@ -460,8 +478,6 @@ def requested_task(
     task.check_action_mode(action_mode)
     if render_mode is not None and render_mode not in render_modes:
         raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
-    if several_bots and (not isinstance(task.sensors, PerfectSensors) or task.sensors.delay_steps):
-        raise ValueError(f"{task.id}: multi-bot tasks observe through perfect sensors only")
     refused = [refusal(keyword, task) for keyword in perturbations]
     if any(refused):
         raise ValueError(next(reason for reason in refused if reason))

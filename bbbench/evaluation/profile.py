@@ -66,7 +66,7 @@ class Protocol:
 
     def applying(self, task_id: str) -> list[str]:
         """The axes that apply to the task: all, but those that change what the sensors
-        read on a multi-bot task (it observes through perfect sensors only)."""
+        read on a multi-bot task (its sensors are its own)."""
         task = spec(task_id)
         return [axis for axis in self.axes if refusal(axis, task) is None]
 

@@ -45,6 +45,7 @@ def group_observations(
     extras: list[tuple[float, ...]] | None = None,
     after: list[list[float]] | None = None,
     nearest: list[list[int]] | None = None,
+    readings: list[tuple[float, float, float]] | None = None,
 ) -> np.ndarray:
     """The observations of a group's live bots, one row of `size` values each: the robot's
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
@@ -54,6 +55,8 @@ def group_observations(
     then the bot's values `after` them if given (a channel's message block, a list per bot).
     `nearest`: each bot's others, nearest first (`nearest_others`), where the caller has
     them already (at least `group.neighbours` each where there are as many).
+    `readings`: each bot's (pitch, pitch rate, wheel speed) as its sensors read them
+    (`Scene.live_readings`); None, the true state's.
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
@@ -68,7 +71,9 @@ def group_observations(
     rows = []
     values = robot.values
     for i, state in enumerate(states):
-        reading = (state.pitch, state.pitch_rate, state.wheel_speed)
+        reading = (
+            (state.pitch, state.pitch_rate, state.wheel_speed) if readings is None else readings[i]
+        )
         row = [*values(reading, commands[i], targets[i], state)]
         if extras is not None:
             row += extras[i]

@@ -54,8 +54,9 @@ class Perturbation:
     # The values `bbbench sweep` and the board's robustness profile play, and why.
     grid: ClassVar[tuple[float, ...]]
     reason: ClassVar[str]
-    # It changes what the sensors read: not on multi-bot tasks, whose bots observe through
-    # perfect sensors only.
+    # It changes what the sensors read: single-bot tasks only. A multi-bot task's sensors
+    # are its own (MultiNoisySensors-v0's), and the board's multi-bot profiles have no
+    # sensor axis.
     observed: ClassVar[bool] = False
 
     @property
@@ -266,8 +267,8 @@ def refusal(keyword: str, task: Any) -> str | None:
     """Why the perturbation `keyword` does not apply to `task`, or None if it does."""
     if PERTURBATIONS[keyword].observed and task.multi_agent:
         return (
-            f"{keyword} does not apply to {task.id}: multi-bot tasks observe through perfect "
-            "sensors only"
+            f"{keyword} does not apply to {task.id}: a multi-bot task's sensors are its own "
+            "(sensor perturbations apply to single-bot tasks only)"
         )
     takes = task.scenario_class.perturbations
     if takes is not None and keyword not in takes:

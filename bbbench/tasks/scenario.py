@@ -48,6 +48,7 @@ from bbbench.robots.layout import ObservationField, box
 from bbbench.tasks.commands import PiecewiseConstantTwist
 from bbbench.tasks.group import MIN_BOTS
 from bbbench.tasks.reward import TwistReward
+from bbbench.tasks.sensors import PerfectSensors
 
 # The spec imports the scenarios, not the other way round: a task is typed `Task` here.
 Task = Any  # a `bbbench.tasks.spec.TaskSpec`
@@ -156,6 +157,9 @@ class Scenario(abc.ABC):
             perturbation says (BeamCarry's payload is the beam's).
         steers: its targets are (velocity, yaw rate) pairs (`PiecewiseConstantTwist`),
             scored by `TwistReward`; else forward velocities, scored by the others.
+        senses: it observes its bots through the task's sensors (`scene.reading`; a
+            group's `scene.live_readings`, each bot's own errors, never delayed); else
+            through perfect sensors, and a task with others is refused.
         scans_ground: it observes the ground's heights ahead when the task asks
             (`height_scan=True`); else `height_scan` is refused.
         controller: the built-in policy that is its tasks' classical controller (the one
@@ -179,6 +183,7 @@ class Scenario(abc.ABC):
     units: ClassVar[dict[str, str]] = {}
     steers: ClassVar[bool] = False
     scans_ground: ClassVar[bool] = False
+    senses: ClassVar[bool] = False
     controller: ClassVar[str | None] = None
     heads_for: ClassVar[str | None] = None
     reward_type: ClassVar[type | None] = None
@@ -220,6 +225,11 @@ class Scenario(abc.ABC):
             return f"{task.id}: the {cls.name!r} scenario scores {wants}"
         if cls.reward_type is not None and not isinstance(task.reward, cls.reward_type):
             return f"{task.id}: the {cls.name!r} scenario scores {cls.reward_type.__name__}"
+        sensors = task.sensors
+        if not cls.senses and not isinstance(sensors, PerfectSensors):
+            return f"{task.id}: the {cls.name!r} scenario observes through perfect sensors only"
+        if cls.multi_agent and sensors.delay_steps:
+            return f"{task.id}: a group's sensors are not delayed (delay_steps 0), got 1"
         if cls.most_bots is not None and task.group.n_bots > cls.most_bots:
             return (
                 f"{task.id}: n_bots must be from {MIN_BOTS} to {cls.most_bots} for the "

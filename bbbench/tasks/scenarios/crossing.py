@@ -1,5 +1,5 @@
 """`Crossing`: several bots in one world whose paths cross, each on its own target; and
-the tasks it plays, a row each (`TASKS`): MultiBalance and MultiBumps."""
+the tasks it plays, a row each (`TASKS`): MultiBalance, MultiBumps and MultiNoisySensors."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from bbbench.tasks.group import Group, spawn_poses
 from bbbench.tasks.observation import group_observations, neighbour_layout
 from bbbench.tasks.reward import StayUpReward, stay_up_history, step_outcome
 from bbbench.tasks.scenario import Outcome, Pose, Scenario, Slots, fell_cause, register_scenario
+from bbbench.tasks.sensors import NoisySensors
 from bbbench.tasks.spec import TaskSpec
 from bbbench.terrain import Bumps, HeightfieldTerrain
 
@@ -27,6 +28,7 @@ class Crossing(Scenario):
     name = "crossing"
     summary = "bots whose paths cross, each on its own target; a fallen bot leaves the world"
     multi_agent = True
+    senses = True
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -47,8 +49,12 @@ class Crossing(Scenario):
     def observe(
         self, scene: Any, states: list[Any], commands: list[float], targets: list[float], step: int
     ) -> np.ndarray:
-        """The live bots' observations, one row each (`group_observations`)."""
-        return group_observations(self.robot, states, commands, targets, self.group, self._size)
+        """The live bots' observations, one row each (`group_observations`), each bot's
+        robot values through its own sensors (`Scene.live_readings`)."""
+        readings = scene.live_readings(states, step)
+        return group_observations(
+            self.robot, states, commands, targets, self.group, self._size, readings=readings
+        )
 
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
@@ -132,5 +138,24 @@ TASKS = (
         group=Group(),
         reward=StayUpReward(),
         version_history=stay_up_history(("v0: initial release.",), 1),
+    ),
+    TaskSpec(
+        id="bbbench/MultiNoisySensors-v0",
+        summary="MultiBalance's crossing bots, each through its own biased, noisy sensors",
+        description=(
+            "MultiBalance-v1's bots, ground, targets and reward, each bot observing its own "
+            "state through a biased, noisy IMU and noisy encoders of its own: "
+            "NoisySensors-v1's model (the tutorial's noisy variant; a pitch bias of N(0, "
+            "0.1) rad for the episode, per-step noise of 0.05 rad, 0.01 rad/s and 0.05 rad/s "
+            "on pitch, pitch rate and wheel speed), drawn for each bot in turn from the "
+            "episode's sensor stream. What the bots see of each other (the neighbour slots) "
+            "is exact. A bot's bias is constant over its episode: a policy that remembers "
+            "(a recurrent one) can estimate it, one that does not cannot."
+        ),
+        random_return=1.72400817656264,
+        command=FORWARD_TARGETS,
+        group=Group(),
+        sensors=NoisySensors(),
+        reward=StayUpReward(),
     ),
 )

@@ -25,6 +25,7 @@ class Solo(Scenario):
 
     name = "solo"
     summary = "one bot alone, at the origin heading along +y"
+    senses = True
     scans_ground: ClassVar[bool] = True  # observes the height scan when the task asks
 
     @classmethod
