@@ -138,8 +138,8 @@ def test_each_bot_of_a_noisy_group_reads_through_its_own_sensors():
             truths, *_ = exact.step(actions)
         for i, agent in enumerate(noisy.agents):
             state = noisy.scene.bots[i].read()
-            true = (state.pitch, state.pitch_rate, state.wheel_speed)
-            assert np.array_equal(observations[agent][:3], np.float32(np.add(true, errors[i, step])))
+            read = np.add((state.pitch, state.pitch_rate, state.wheel_speed), errors[i, step])
+            assert np.array_equal(observations[agent][:3], np.float32(read))
             # The same world as MultiBalance-v1's: the rest of the row is its, bit for bit.
             assert np.array_equal(observations[agent][3:], truths[agent][3:])
 
