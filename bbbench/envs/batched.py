@@ -78,6 +78,9 @@ class BatchedEnv:
         worlds: K, a whole number of at least 1.
         workers: processes that step the worlds (this one included), 1 to K.
         **env_kwargs: the task's keywords, as `bbbench.make_parallel` takes them.
+
+    `groups` maps each agent group to its bots' indices, and `group_spaces` to its one-bot
+    (observation, action) spaces: one group, `bot`, but on a mixed team.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -111,10 +114,18 @@ class BatchedEnv:
         self.possible_agents = list(first.possible_agents)
         self.n_bots = len(self.possible_agents)
         self.groups = agent_groups(self.task)
-        layouts = [_group_layout(first, name, bots) for name, bots in self.groups.items()]
-        # Each group's spaces are its first bot's (one robot's), for every bot and world.
-        one_observed = {g.name: first.observation_space(f"bot_{g.bots[0]}") for g in layouts}
-        one_chosen = {g.name: first.action_space(f"bot_{g.bots[0]}") for g in layouts}
+        # Each group's one-bot (observation, action) spaces: its first bot's (one robot's),
+        # for every bot and world; the one group `bot` but on a mixed team.
+        self.group_spaces = {
+            name: (first.observation_space(f"bot_{bots[0]}"), first.action_space(f"bot_{bots[0]}"))
+            for name, bots in self.groups.items()
+        }
+        layouts = [
+            _group_layout(name, bots, *self.group_spaces[name])
+            for name, bots in self.groups.items()
+        ]
+        one_observed = {name: pair[0] for name, pair in self.group_spaces.items()}
+        one_chosen = {name: pair[1] for name, pair in self.group_spaces.items()}
         observed = {g.name: _batched(one_observed[g.name], worlds, g) for g in layouts}
         chosen = {g.name: _batched(one_chosen[g.name], worlds, g) for g in layouts}
         if self.task.mixed:  # a group per robot, each in its own spaces: dicts by group
@@ -253,8 +264,7 @@ class BatchedEnv:
             )
         checked = {}
         for group, chosen in actions.items():
-            space = self.single_action_space
-            space = space[group] if self.task.mixed else space
+            space = self.group_spaces[group][1]
             want = self.buffers.actions[group].shape
             checked[group] = _checked(np.asarray(chosen), want, space, self.task_id)
         for group, array in checked.items():
@@ -314,13 +324,13 @@ def _checked(array: np.ndarray, want: tuple[int, ...], space: spaces.Space, task
     return array
 
 
-def _group_layout(env: MultiBalanceEnv, name: str, bots: tuple[int, ...]) -> GroupLayout:
-    """A group's layout in the batch's buffers, from its first bot's spaces."""
-    agent = env.possible_agents[bots[0]]
-    action = env.action_space(agent)
+def _group_layout(
+    name: str, bots: tuple[int, ...], observed: spaces.Box, action: spaces.Space
+) -> GroupLayout:
+    """A group's layout in the batch's buffers, from its one-bot spaces."""
     discrete = isinstance(action, spaces.Discrete)
     shape, dtype = ((), np.int64) if discrete else (action.shape, np.float32)
-    return GroupLayout(name, bots, env.observation_space(agent).shape[0], shape, dtype)
+    return GroupLayout(name, bots, observed.shape[0], shape, dtype)
 
 
 def _batched(space: spaces.Space, worlds: int, group: GroupLayout) -> spaces.Space:

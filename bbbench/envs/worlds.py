@@ -57,6 +57,7 @@ class Buffers:
         self.term_names = tuple(terms)  # the per-bot info values in `terms`, in order
         for name, (shape, dtype) in self.shapes.items():
             setattr(self, name, allocate(shape, dtype))
+        self.groups: tuple[GroupLayout, ...] = tuple(groups)
         self.observations: dict[str, np.ndarray] = {}
         self.actions: dict[str, np.ndarray] = {}
         for group in groups:  # after the others: a worker's views come in this order
@@ -112,9 +113,9 @@ class WorldSlice:
         self.index = {agent: j for j, agent in enumerate(self.agents)}
         # Each agent's observation and action rows: (its group's arrays, its row there).
         self.rows = {}
-        for group in buffers.observations:
-            observed, chosen = buffers.observations[group], buffers.actions[group]
-            for row, j in enumerate(agent_groups(self.envs[0].task)[group]):
+        for group in buffers.groups:
+            observed, chosen = buffers.observations[group.name], buffers.actions[group.name]
+            for row, j in enumerate(group.bots):
                 self.rows[self.agents[j]] = (observed, chosen, row)
 
     def advance(self) -> None:

@@ -67,7 +67,7 @@ class BatchedTorchEnv(EnvBase):
 
         for name, bots in env.groups.items():
             group = (worlds, len(bots))
-            space = _one(env.single_observation_space, name, env.task.mixed)
+            space, action = env.group_spaces[name]
             shape = (*group, space.shape[0])
             info = {
                 term: Unbounded(shape=group, dtype=torch.float32, device=device)
@@ -85,7 +85,6 @@ class BatchedTorchEnv(EnvBase):
                 info=Composite(info, shape=group),
                 shape=group,
             )
-            action = _one(env.single_action_space, name, env.task.mixed)
             if hasattr(action, "n"):
                 spec = Categorical(int(action.n), shape=group, dtype=torch.int64, device=device)
             else:
@@ -173,11 +172,6 @@ class BatchedTorchEnv(EnvBase):
     def close(self, *, raise_if_closed: bool = True) -> None:
         self.env.close()
         super().close(raise_if_closed=raise_if_closed)
-
-
-def _one(space, group: str, mixed: bool):
-    """A group's one-bot space: the group's entry of a mixed team's dict of them."""
-    return space[group] if mixed else space
 
 
 def batched_env(
