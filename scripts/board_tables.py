@@ -35,6 +35,7 @@ REWARD_TASKS = (
     "bbbench/VelocityTracking-v1",
     "bbbench/MultiBalance-v1",
     "bbbench/MultiBumps-v1",
+    "bbbench/MultiNoisySensors-v0",
 )
 STEERING_TASKS = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v1", "bbbench/WaypointsBumps-v1")
 

@@ -42,6 +42,7 @@ def play_parallel(task_id: str, seed: int, actions: np.ndarray, **kwargs):
     ("task_id", "kwargs"),
     [
         ("bbbench/MultiBalance-v1", {}),  # bots fall one by one, the others play on
+        ("bbbench/MultiNoisySensors-v0", {}),  # each bot's own sensor errors, per episode
         ("bbbench/Convoy-v0", {"n_bots": 2}),  # a team: one fall ends every bot
         ("bbbench/MultiBumps-v1", {"action_mode": "continuous"}),
         ("bbbench/Swap-v0", {}),  # the steering robot: 27 actions, its own observation

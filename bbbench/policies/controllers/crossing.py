@@ -1,5 +1,6 @@
-"""The classical controller of the crossing tasks (MultiBalance, MultiBumps): PD, plus
-yielding and passing, from what each bot observes of its neighbours.
+"""The classical controller of the crossing tasks (MultiBalance, MultiBumps,
+MultiNoisySensors): PD, plus yielding and passing, from what each bot observes of its
+neighbours.
 
 The bots cannot steer: a bot avoids another only by when it reaches the point where
 their paths cross. Each step, for each neighbour in its observation, a bot predicts
