@@ -59,7 +59,7 @@ def test_the_latest_version_of_every_task_plays_the_new_reward():
     for task_id in sorted(SUITE, key=lambda task_id: bbbench.spec(task_id).version):
         latest[bbbench.spec(task_id).name] = task_id
     # The successors of the published tasks, and the tasks first published on it.
-    first_on_it = {"bbbench/PushRecovery-v0"}
+    first_on_it = {"bbbench/PushRecovery-v0", "bbbench/MultiNoisySensors-v0"}
     first_on_it |= {t for t in SUITE if bbbench.spec(t).robot == "wheel-legged"}
     first_on_it |= {t for t in SUITE if bbbench.spec(t).coupling is not None}  # the teams
     first_on_it |= {t for t in latest.values() if bbbench.spec(t).robot == "two-wheel-steer"}
