@@ -147,5 +147,6 @@ def test_each_bot_of_a_noisy_group_reads_through_its_own_sensors():
 def test_a_scenario_that_reads_the_true_state_refuses_noisy_or_delayed_sensors():
     with pytest.raises(ValueError, match="'swap' scenario observes through perfect sensors only"):
         dataclasses.replace(bbbench.spec("bbbench/Swap-v0"), sensors=NoisySensors())
-    with pytest.raises(ValueError, match="a group's sensors are not delayed"):
+    delayed = "a group's sensors are not delayed: give delay_steps=0, got 1"
+    with pytest.raises(ValueError, match=delayed):
         dataclasses.replace(bbbench.spec(MULTI_NOISY), sensors=NoisySensors(delay_steps=1))

@@ -229,7 +229,10 @@ class Scenario(abc.ABC):
         if not cls.senses and not isinstance(sensors, PerfectSensors):
             return f"{task.id}: the {cls.name!r} scenario observes through perfect sensors only"
         if cls.multi_agent and sensors.delay_steps:
-            return f"{task.id}: a group's sensors are not delayed (delay_steps 0), got 1"
+            return (
+                f"{task.id}: a group's sensors are not delayed: give delay_steps=0, got "
+                f"{sensors.delay_steps}"
+            )
         if cls.most_bots is not None and task.group.n_bots > cls.most_bots:
             return (
                 f"{task.id}: n_bots must be from {MIN_BOTS} to {cls.most_bots} for the "
