@@ -144,6 +144,25 @@ def test_each_bot_of_a_noisy_group_reads_through_its_own_sensors():
             assert np.array_equal(observations[agent][3:], truths[agent][3:])
 
 
+def test_the_first_bots_errors_are_one_store_for_reading_and_live_readings():
+    """`scene.sensor_errors` (what a perturbation replaces) is the first bot's errors as
+    both `reading` and `live_readings` read them: one store, never a stale copy."""
+    scene = bbbench.make_parallel(MULTI_NOISY).scene
+    scene.reset(seed=3)
+    states = [bot.read() for bot in scene.bots]
+    scene.sensor_errors = [(1.0, 2.0, 3.0)] * len(scene.sensor_errors)
+    state = states[0]
+    shifted = (state.pitch + 1.0, state.pitch_rate + 2.0, state.wheel_speed + 3.0)
+    assert scene.reading(state, 7) == shifted
+    first, second = scene.live_readings(states, 7)[:2]
+    assert first == shifted
+    assert second != (
+        states[1].pitch + 1.0,
+        states[1].pitch_rate + 2.0,
+        states[1].wheel_speed + 3.0,
+    )
+
+
 def test_a_scenario_that_reads_the_true_state_refuses_noisy_or_delayed_sensors():
     with pytest.raises(ValueError, match="'swap' scenario observes through perfect sensors only"):
         dataclasses.replace(bbbench.spec("bbbench/Swap-v0"), sensors=NoisySensors())

@@ -21,8 +21,8 @@ import numpy as np
 from gymnasium import spaces
 
 from bbbench.envs.balance import BalanceEnv
+from bbbench.envs.episode import EpisodeDraw
 from bbbench.envs.multi import MultiBalanceEnv
-from bbbench.envs.scene import EpisodeDraw
 from bbbench.evaluation.play import Lockstep, MultiEpisode
 from bbbench.files import write_atomic
 from bbbench.robots import TWO_WHEEL, Robot

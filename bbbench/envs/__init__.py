@@ -5,9 +5,10 @@ a class per single-bot task in `bbbench.envs.task_envs`) and the PettingZoo API
 
 from bbbench.envs.balance import BalanceEnv
 from bbbench.envs.batched import BatchedEnv
+from bbbench.envs.episode import EpisodeDraw
 from bbbench.envs.factory import make, make_batched, make_parallel
 from bbbench.envs.multi import MultiBalanceEnv
-from bbbench.envs.scene import EpisodeDraw, Scene
+from bbbench.envs.scene import Scene
 
 __all__ = [
     "BalanceEnv",

@@ -124,18 +124,10 @@ class BatchedEnv:
             _group_layout(name, bots, *self.group_spaces[name])
             for name, bots in self.groups.items()
         ]
-        one_observed = {name: pair[0] for name, pair in self.group_spaces.items()}
-        one_chosen = {name: pair[1] for name, pair in self.group_spaces.items()}
-        observed = {g.name: _batched(one_observed[g.name], worlds, g) for g in layouts}
-        chosen = {g.name: _batched(one_chosen[g.name], worlds, g) for g in layouts}
-        if self.task.mixed:  # a group per robot, each in its own spaces: dicts by group
-            self.single_observation_space = spaces.Dict(one_observed)
-            self.single_action_space = spaces.Dict(one_chosen)
-            self.observation_space, self.action_space = spaces.Dict(observed), spaces.Dict(chosen)
-        else:
-            self.single_observation_space = one_observed[GROUP]
-            self.single_action_space = one_chosen[GROUP]
-            self.observation_space, self.action_space = observed[GROUP], chosen[GROUP]
+        mixed = self.task.mixed  # a group per robot, each in its own spaces: dicts by group
+        faces = (self.group_spaces, layouts, worlds, mixed)
+        self.single_observation_space, self.observation_space = _faces(*faces, column=0)
+        self.single_action_space, self.action_space = _faces(*faces, column=1)
         agent = self.possible_agents[0]
         _, probe = first.reset(seed=0)  # the info keys: the same from reset on
         terms = [key for key in probe[agent] if key != "episode_seed"]
@@ -331,6 +323,16 @@ def _group_layout(
     discrete = isinstance(action, spaces.Discrete)
     shape, dtype = ((), np.int64) if discrete else (action.shape, np.float32)
     return GroupLayout(name, bots, observed.shape[0], shape, dtype)
+
+
+def _faces(
+    group_spaces: dict, layouts: list[GroupLayout], worlds: int, mixed: bool, column: int
+) -> tuple[spaces.Space, spaces.Space]:
+    """One bot's space and every world's, from column `column` (0: observation, 1: action)
+    of each group's one-bot spaces: dicts by group on a mixed team, the one group's else."""
+    one = {g.name: group_spaces[g.name][column] for g in layouts}
+    many = {g.name: _batched(one[g.name], worlds, g) for g in layouts}
+    return (spaces.Dict(one), spaces.Dict(many)) if mixed else (one[GROUP], many[GROUP])
 
 
 def _batched(space: spaces.Space, worlds: int, group: GroupLayout) -> spaces.Space:

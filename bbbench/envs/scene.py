@@ -17,19 +17,18 @@ constructors (`requested_task`) and the start of their `render()`.
 from __future__ import annotations
 
 import difflib
-import functools
 from typing import Any
 
-import numpy as np
 from gymnasium import logger
 
+from bbbench.envs.episode import EpisodeDraw
 from bbbench.robots import Body, BotState
 from bbbench.sim import World
 from bbbench.tasks.perturbations import PERTURBATIONS, refusal
 from bbbench.tasks.scenarios import Scenario
 from bbbench.tasks.sensors import PerfectSensors
 from bbbench.tasks.spec import TaskSpec, seed_streams
-from bbbench.terrain import Heightmap, load_ground
+from bbbench.terrain import load_ground
 
 # m: where a bot taken out of the episode is set aside, far beyond anything an episode
 # reaches; bot i at (SET_ASIDE_X + 10 i, 0, 10).
@@ -37,47 +36,9 @@ SET_ASIDE_X = 1000.0
 _NEVER = -1  # the step of the next push when there is none: `steps` never equals it
 
 
-def _read_only(array: np.ndarray) -> np.ndarray:
-    array.flags.writeable = False
-    return array
-
-
-class EpisodeDraw:
-    """What an episode's seed drew, read-only (`scene.episode`).
-
-    The arrays are built on first use: a reset on the hot path of training pays for the
-    values it draws, not for their copies.
-    """
-
-    def __init__(
-        self,
-        seed: int,
-        targets: list[list[float]],
-        sensor_errors: list | None,  # per step (one bot), or per bot and step
-        heightmap: Heightmap | None,
-        poses: list[tuple[tuple[float, float], float]],
-        pitches,
-        pushes: tuple[tuple[int, int, float], ...] = (),
-    ) -> None:
-        self.seed = seed
-        self.heightmap = heightmap  # the terrain; None for flat ground
-        self.poses = tuple(poses)  # per bot: (x, y) m, yaw rad
-        self.pitches = tuple(float(p) for p in pitches)  # per bot: the initial lean, rad
-        self.pushes = pushes  # (step, bot, N s along its heading), in order: `push`'s shoves
-        self._rows, self._errors = targets, sensor_errors
-
-    @functools.cached_property
-    def targets(self) -> np.ndarray:
-        """(bots, max_episode_steps + 1): bot i's target forward velocity (m/s) after reset
-        (column 0) and after each step."""
-        return _read_only(np.array(self._rows, dtype=np.float64))
-
-    @functools.cached_property
-    def sensor_errors(self) -> np.ndarray | None:
-        """(max_episode_steps + 1, 3): the error added to (pitch, pitch rate, wheel speed)
-        at each step, bias included; (bots, max_episode_steps + 1, 3) for several bots;
-        None for perfect sensors."""
-        return None if self._errors is None else _read_only(np.array(self._errors))
+def _sensed(reading: tuple, error: tuple) -> tuple[float, float, float]:
+    """A (pitch, pitch rate, wheel speed) reading as sensors with that step's `error` give it."""
+    return (reading[0] + error[0], reading[1] + error[1], reading[2] + error[2])
 
 
 class Scene:
@@ -199,8 +160,7 @@ class Scene:
         rows = self.scenario.targets(streams.command)
         # Each bot draws its own sensor errors, in order (a group's first draws one bot's).
         limit = task.max_episode_steps
-        draws = [task.sensors.episode_errors(streams.sensors, limit) for _ in range(n)]
-        self._errors, self._bot_errors = draws[0], draws
+        self._bot_errors = [task.sensors.episode_errors(streams.sensors, limit) for _ in range(n)]
         self._targets = rows[0]  # floats, for the hot path
         # [bot][step], for several bots (read as they are: a transposed copy of 1,501
         # lists costs a reset more than the rest of it, in a training's large heap)
@@ -213,7 +173,8 @@ class Scene:
             for step in sorted(self._pushes)
             for bot, impulse in self._pushes[step]
         )
-        errors = self._errors if n == 1 or self._errors is None else draws
+        errors = self._bot_errors[0]
+        errors = errors if n == 1 or errors is None else self._bot_errors
         self._episode = EpisodeDraw(
             seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches, pushes
         )
@@ -316,10 +277,9 @@ class Scene:
             return reading
         if self._delay:
             reading, self._last_reading = self._last_reading, reading
-        errors = self._errors
+        errors = self._bot_errors[0]
         if errors is not None:
-            error = errors[min(step, len(errors) - 1)]
-            reading = (reading[0] + error[0], reading[1] + error[1], reading[2] + error[2])
+            reading = _sensed(reading, errors[min(step, len(errors) - 1)])
         return reading
 
     def live_readings(self, states: list[BotState], step: int) -> list[tuple] | None:
@@ -331,21 +291,22 @@ class Scene:
         rows = self._bot_errors
         step = min(step, len(rows[0]) - 1)
         return [
-            (s.pitch + e[0], s.pitch_rate + e[1], s.wheel_speed + e[2])
-            for s, e in zip(states, (rows[i][step] for i in self.live), strict=True)
+            _sensed((s.pitch, s.pitch_rate, s.wheel_speed), rows[i][step])
+            for s, i in zip(states, self.live, strict=True)
         ]
 
     # -- what perturbations set (`bbbench.tasks.perturbations`) ---------------------
 
     @property
     def sensor_errors(self) -> list[tuple[float, float, float]] | None:
-        """This episode's (pitch, pitch rate, wheel speed) sensor error at each step, bias
-        included (None: perfect sensors); a perturbation may replace it at reset."""
-        return self._errors
+        """This episode's (pitch, pitch rate, wheel speed) sensor error of the first bot at
+        each step, bias included (None: perfect sensors); a perturbation may replace it at
+        reset."""
+        return self._bot_errors[0]
 
     @sensor_errors.setter
     def sensor_errors(self, errors: list[tuple[float, float, float]] | None) -> None:
-        self._errors = errors
+        self._bot_errors[0] = errors
 
     def schedule_push(self, step: int, bot: int, impulse: float) -> None:
         """Push bot `bot` with `impulse` N s along its heading just before world step
@@ -397,7 +358,7 @@ class Scene:
         state.update(_ground=None, _bots=(), _first=None, _world_step=None, _episode=None)
         state.update(_follow=None, live=[], live_bots=[])
         state.update(_pushes={}, _next_push=_NEVER)
-        for key in ("_targets", "_target_rows", "_errors", "_last_reading"):
+        for key in ("_targets", "_target_rows", "_bot_errors", "_last_reading"):
             state.pop(key, None)
         return state
 
