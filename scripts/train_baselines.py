@@ -14,24 +14,21 @@ time and the machine. Runs already on the board are skipped. Training takes most
 machine for hours: run it in the background.
 
 `--campaign` trains the MARL baselines at the field's budget (the shipped IPPO and MAPPO
-recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds as Ray
-tasks (`bbbench train ... --seeds 0,1,2 --backend ray --workers 1`: one CPU each, the
-same bytes as a local run); each seed goes on the board as a run of the method
-`<algo>-<task>-3m`.
+recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds side by
+side (`bbbench train ... --seed S --workers 1` each: one CPU each, the same bytes as any
+run of the seed); each seed goes on the board as a run of the method `<algo>-<task>-3m`.
+A seed stopped in a recipe with segments resumes where it was when its cell is asked
+for again with the same seeds.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import fcntl
-import hashlib
 import json
 import os
 import platform
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -46,6 +43,9 @@ from bbbench.tasks.tracks import track_of
 from bbbench.training import MARL_TRAINABLE
 from bbbench.training.beside import described
 from bbbench.training.checks import policy_suffix
+
+sys.path.insert(0, str(Path(__file__).parent))
+from board_runs import board_lock, drop_repeated_results, method_slug, on_board, world_steps
 
 LATEST_SINGLE = (
     "bbbench/FlatBalance-v1",
@@ -222,45 +222,6 @@ def _add(
     return f"{run['slug']}: {minutes:.1f} min, on the board"
 
 
-def drop_repeated_results(folder: Path, board: Path) -> bool:
-    """Remove the run's results.json when the board's results of the run hold the same
-    episodes of every task it played (the board keeps them; `run_episodes` reads them
-    there). A record made before teams recorded what ended them lacks `cause` and is the
-    same without it. True if removed."""
-    own, theirs = folder / "results.json", board / "results" / f"{folder.name}.json"
-    if not (own.is_file() and theirs.is_file()):
-        return False
-    boards = {block["task"]: block for block in read(theirs)["tasks"]}
-    for block in read(own)["tasks"]:
-        other = boards.get(block["task"])
-        if other is None or len(other["episodes"]) != len(block["episodes"]):
-            return False
-        for mine, kept in zip(block["episodes"], other["episodes"], strict=True):
-            if mine != kept and ("cause" in mine or {**mine, "cause": kept.get("cause")} != kept):
-                return False
-    own.unlink()
-    return True
-
-
-def method_slug(run: dict) -> str:
-    """The method a run belongs to: its slug without the seed."""
-    return run["slug"].rsplit("-s", 1)[0]
-
-
-def on_board(board: Path, run: dict) -> bool:
-    return (board / "submissions" / method_slug(run) / "runs" / f"s{run['seed']}").exists()
-
-
-def world_steps(record: dict) -> int:
-    """A training's budget in world steps: BenchMARL counts them (and records bot-steps
-    beside); stable-baselines3 counts bot-steps on a multi-bot task (a world step is
-    n_bots samples)."""
-    task = spec(record["tasks"][0])
-    if "bot_steps" in record or not task.multi_agent:
-        return record["steps"]
-    return record["steps"] // task.group.n_bots
-
-
 def _asked(side_by_side: int | str) -> str:
     """Trainings side by side as the script ran them, for records made before trainings
     counted their neighbours (`trainings_beside` in train.json)."""
@@ -413,8 +374,10 @@ def main() -> None:
 
 
 def _train_cell(cell: dict, args: argparse.Namespace) -> None:
-    """A campaign cell: its missing seeds as Ray tasks, then each on the board in place
-    of its 300k entry."""
+    """A campaign cell: its missing seeds side by side, each its own `bbbench train --seed`
+    process in a folder kept until it ends (a recipe in segments resumes there when the
+    cell is asked for again: `bbbench.training.benchmarl.segments`), then each on the
+    board in place of its 300k entry."""
     seeds = [
         s
         for s in (args.seeds or cell["seeds"])
@@ -422,22 +385,17 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     ]
     if not seeds:
         return
-    # A working folder of its own per process: two processes may train seeds of one cell
+    # A working folder of its own per seed set: two processes may train seeds of one cell
     # side by side (each moves its seeds' folders out and removes its own when done).
     folder = args.root / f"{cell['cell']}-training-s{'-'.join(map(str, seeds))}"
-    folder.mkdir(parents=True, exist_ok=True)
-    argv = [
-        "bbbench", "train", *cell["tasks"], "--algo", cell["algo"],
-        "--seeds", ",".join(map(str, seeds)), "--backend", "ray", "--workers", "1",
-        "--out", str(folder / policy_name(cell)),
-    ]  # fmt: skip
+    argv = ["bbbench", "train", *cell["tasks"], "--algo", cell["algo"]]
     if "recipe" in cell:
-        argv[argv.index("--seeds") : argv.index("--seeds")] = ["--recipe", cell["recipe"]]
+        argv += ["--recipe", cell["recipe"]]
     began = time.perf_counter()
-    with open(folder / "train.log", "w") as log:
-        done = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT)
-    if done.returncode:
-        print(f"{cell['cell']}: training failed (exit {done.returncode}), see {folder}/train.log")
+    with ThreadPoolExecutor(len(seeds)) as pool:
+        codes = list(pool.map(lambda seed: _seed(argv, folder, cell, seed), seeds))
+    if any(codes):
+        print(f"{cell['cell']}: exits {codes} (seeds {seeds}), see {folder}/train-s*.log")
         return
     for seed in seeds:
         slug = f"{cell['cell']}-s{seed}"
@@ -447,33 +405,29 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         run.update({key: cell[key] for key in ("recipe", "name") if key in cell})
         record = json.loads((target / "train.json").read_text())
         # The seed's own command: `_add` records all of it but its last two (the --out).
-        one = ["--seed", str(seed), "--workers", "1", "--out", "-"]
-        seeded = [*argv[: argv.index("--seeds")], *one]
+        seeded = [*argv, "--seed", str(seed), "--workers", "1", "--out", "-"]
         minutes = record["wall_time_s"] / 60
         with board_lock(args.board):
             print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
-    # The cell's log keeps every run of it (seeds trained in several goes).
-    with open(args.root / f"{cell['cell']}.log", "a") as whole:
-        whole.write((folder / "train.log").read_text())
-    (folder / "train.log").unlink()
+        # The cell's log keeps every run of it (seeds trained in several goes).
+        with open(args.root / f"{cell['cell']}.log", "a") as whole:
+            whole.write((folder / f"train-s{seed}.log").read_text())
+        (folder / f"train-s{seed}.log").unlink()
     folder.rmdir()
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
 
 
+def _seed(argv: list[str], folder: Path, cell: dict, seed: int) -> int:
+    """Seed `seed` of a campaign cell trained (or resumed) in `folder/policy-s<seed>/` on
+    one process; its exit code, its output appended to `folder/train-s<seed>.log`."""
+    out = folder / f"policy-s{seed}" / policy_name(cell)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    one = [*argv, "--seed", str(seed), "--workers", "1", "--out", str(out)]
+    with open(folder / f"train-s{seed}.log", "a") as log:
+        return subprocess.run(one, stdout=log, stderr=subprocess.STDOUT).returncode
+
+
 _BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
-
-
-@contextlib.contextmanager
-def board_lock(board: Path):
-    """The board to this process alone while it adds (campaign cells may run as two
-    processes side by side; `add` rebuilds the board and `git rm` takes git's index)."""
-    key = hashlib.sha256(str(board.resolve()).encode()).hexdigest()[:16]
-    with open(Path(tempfile.gettempdir()) / f"bbbench-adding-{key}.lock", "w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def _train_and_add(run: dict, args: argparse.Namespace) -> str:

@@ -167,20 +167,23 @@ def run(args: argparse.Namespace) -> int:
         progress.update(bar, completed=min(steps, total), total=total, **fields)
 
     with progress:
-        trained = training.train(
-            tasks,
-            args.algo,
-            out=args.out,
-            action_mode=args.action_mode,
-            steps=args.steps,
-            seed=args.seed,
-            n_envs=args.n_envs,
-            log_dir=args.log,
-            final_episodes=args.eval_episodes,
-            on_progress=on_progress,
-            recipe_file=args.recipe,
-            workers=args.workers,
-        )
+        try:
+            trained = training.train(
+                tasks,
+                args.algo,
+                out=args.out,
+                action_mode=args.action_mode,
+                steps=args.steps,
+                seed=args.seed,
+                n_envs=args.n_envs,
+                log_dir=args.log,
+                final_episodes=args.eval_episodes,
+                on_progress=on_progress,
+                recipe_file=args.recipe,
+                workers=args.workers,
+            )
+        except training.StoppedTrainingError as error:  # said before anything is trained
+            raise UsageError(str(error)) from None
     args.written.append(args.out)
     if trained.statistics is not None:
         args.written.append(str(trained.statistics))

@@ -13,6 +13,7 @@ beside (`beside`) and the fan-out of seeds (`fanout`).
 
 from bbbench.training.algorithms import ALGORITHMS, MARL_TRAINABLE, TRAINABLE, trainable
 from bbbench.training.checks import (
+    StoppedTrainingError,
     check_collection,
     check_fresh,
     check_policy_path,
@@ -30,6 +31,7 @@ __all__ = [
     "MIX",
     "TRAINABLE",
     "Recipe",
+    "StoppedTrainingError",
     "Trained",
     "check_collection",
     "check_fresh",

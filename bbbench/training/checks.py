@@ -42,6 +42,11 @@ def check_policy_path(algorithm: str, out: str | Path, tasks: Sequence[str] = ()
 TRAINING_RECORDS = ("train.json", "curve.json", "results.json")  # written beside a policy
 
 
+class StoppedTrainingError(ValueError):
+    """A training's folder holds a stopped training (`bbbench.training.benchmarl.segments`)
+    of another kind than the one asked for: said before anything is trained."""
+
+
 def check_fresh(out: str | Path, log_dir: str | Path | None = None) -> None:
     """`ValueError` if a training to `out` (its logs in `log_dir`, default `out`'s folder)
     would overwrite a policy or another training's records: a training never does."""

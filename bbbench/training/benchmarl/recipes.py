@@ -2,16 +2,19 @@
 per task ID, beside the stable-baselines3 recipes.
 
 An entry's sections override BenchMARL's own YAML of each config group: `task` (the
-task's configuration, from its row: `bbbench.marl.family.task_config`), `algorithm` (BenchMARL's
-`conf/algorithm/<algo>.yaml`, here its masked version: `bbbench.marl.algorithms`),
-`model` and `critic_model` (`name: mlp`, BenchMARL's `conf/model/layers/mlp.yaml`, or
-`name: neighbour_encoder`, `bbbench.marl.models`; the actor of a recurrent method,
-`ippo-gru` or `mappo-gru`, `name: gru`, BenchMARL's `conf/model/layers/gru.yaml`, one
-layer, exported with its state: `bbbench.marl.models.RecurrentActor`) and `experiment` (BenchMARL's
-`conf/experiment/base_experiment.yaml`). Every key is checked against the fields of
-BenchMARL's config classes; what `bbbench train` owns (devices, action type, evaluation,
-loggers, checkpoints) is refused, as is an entropy bonus (it would reach the policy
-through a fallen bot's rows).
+task's configuration, from its row: `bbbench.marl.family.task_config`), `algorithm`
+(BenchMARL's `conf/algorithm/<algo>.yaml`, here its masked version:
+`bbbench.marl.algorithms`), `model` and `critic_model` (`name: mlp`, BenchMARL's
+`conf/model/layers/mlp.yaml`, or `name: neighbour_encoder`, `bbbench.marl.models`; the
+actor of a recurrent method, `ippo-gru` or `mappo-gru`, `name: gru`, BenchMARL's
+`conf/model/layers/gru.yaml`, one layer, exported with its state:
+`bbbench.marl.models.RecurrentActor`) and `experiment` (BenchMARL's
+`conf/experiment/base_experiment.yaml`). One section is bbbench's own: `segments`
+(`frames`: train in segments of that many world steps, a training that resumes where it
+was stopped: `bbbench.training.benchmarl.segments`; without it, one segment). Every key
+is checked against the fields of BenchMARL's config classes; what `bbbench train` owns
+(devices, action type, evaluation, loggers, checkpoints) is refused, as is an entropy
+bonus (it would reach the policy through a fallen bot's rows).
 """
 
 from __future__ import annotations
@@ -33,13 +36,14 @@ from bbbench.marl.models import NeighbourEncoderConfig
 from bbbench.policies.sb3.algorithms import unknown
 from bbbench.tasks.suite import latest_version
 from bbbench.training.algorithms import MARL_TRAINABLE, trainable
+from bbbench.training.benchmarl.segments import check_segments
 from bbbench.training.recipe_files import read_recipe_file
 
 MODELS = ("mlp", "neighbour_encoder", "gru")
 # What of BenchMARL's GRU model a recipe may set: one layer, no dropout, uncompiled (the
 # board's recurrent contract carries one GRU cell; `torch.compile` changes no result).
 _GRU_FIELDS = ("hidden_size", "bias", "mlp_num_cells", "mlp_activation_class")
-SECTIONS = ("task", "algorithm", "model", "critic_model", "experiment")
+SECTIONS = ("task", "algorithm", "model", "critic_model", "experiment", "segments")
 # What bbbench train sets itself (the key, and why).
 OWNED = {
     "sampling_device": "training runs on the CPU",
@@ -58,8 +62,8 @@ OWNED = {
     "wandb_extra_kwargs": "bbbench train writes its own curve",
     "create_json": "bbbench train writes its own curve",
     "save_folder": "bbbench train writes where --out says",
-    "restore_file": "a training starts from its seed",
-    "restore_map_location": "a training starts from its seed",
+    "restore_file": "bbbench train resumes a training itself (a recipe's segments)",
+    "restore_map_location": "bbbench train resumes a training itself (a recipe's segments)",
     "checkpoint_interval": "bbbench train keeps the policy itself (the last one)",
     "checkpoint_at_end": "bbbench train keeps the policy itself (the last one)",
     "keep_checkpoints_num": "bbbench train keeps the policy itself (the last one)",
@@ -102,6 +106,7 @@ class MarlRecipe:
     model: dict[str, Any]
     critic_model: dict[str, Any]
     experiment: dict[str, Any]
+    segments: dict[str, Any] = dataclasses.field(default_factory=dict)
     normalize = None  # no VecNormalize: the BenchMARL route fixes a normalizer first
 
     @functools.cached_property
@@ -115,6 +120,11 @@ class MarlRecipe:
     def n_envs(self) -> int:
         """Worlds collected at once (one batched env of them)."""
         return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
+
+    @property
+    def segment_frames(self) -> int | None:
+        """World steps of a segment of the training (None: one segment, the budget)."""
+        return self.segments.get("frames")
 
     def batch(self) -> int:
         """World steps collected before each update (BenchMARL's frames per batch)."""
@@ -155,6 +165,7 @@ class MarlRecipe:
             "model": self.model,
             "critic_model": self.critic_model,
             "experiment": self.experiment,
+            **({"segments": self.segments} if self.segments else {}),
         }
 
     def task_config(self):
@@ -277,8 +288,10 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         model=sections["model"],
         critic_model=sections["critic_model"],
         experiment=sections["experiment"],
+        segments=sections["segments"],
     )
     plan.check_worlds(plan.n_envs)
+    check_segments(sections["segments"], plan.batch(), where)
     return plan
 
 

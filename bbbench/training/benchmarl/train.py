@@ -56,6 +56,7 @@ from bbbench.policies.policy import RandomActor, TeamActor
 from bbbench.tasks.channel import MESSAGE_FIELD
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.recipes import MarlRecipe, marl_recipe
+from bbbench.training.benchmarl.segments import Segments, segment_seed
 from bbbench.training.beside import trainings_beside
 from bbbench.training.checks import schedule
 from bbbench.training.logs import Trained, curve_point, write_logs
@@ -254,6 +255,21 @@ class TrainingEvaluation(Callback):
         if self.on_progress is not None:
             self.on_progress(frames, self.budget, point)
 
+    def state(self) -> dict[str, Any]:
+        """What a resumed training needs of this callback (`bbbench.training.benchmarl.
+        segments`): the curve, the next evaluation, the last policy and the time so far."""
+        return {
+            "curve": self.curve,
+            "next_at": self.next_at,
+            "last": self.last,
+            "elapsed_s": time.perf_counter() - self.began,
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """This callback as `state()` left it, its clock going on from there."""
+        self.curve, self.next_at, self.last = list(state["curve"]), state["next_at"], state["last"]
+        self.began = time.perf_counter() - state["elapsed_s"]
+
     def close(self) -> None:
         self.player.close()
 
@@ -295,6 +311,18 @@ def train_marl(
 
     torch.set_num_threads(1)  # the same bytes on every run, and no oversubscription
     began = time.perf_counter()
+    fingerprint = {
+        "task": task_id,
+        "algorithm": algorithm,
+        "seed": seed,
+        "steps": budget,
+        "n_envs": n_envs,
+        "eval_freq": eval_freq,
+        "recipe": plan.record(),
+        "versions": {name: str(version) for name, version in _versions().items()},
+    }
+    segments = Segments(plan.segment_frames, budget, log_dir, fingerprint)
+    saved = segments.restore()  # before any work: a folder of another training is refused
     task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed)
     with (
         _quiet(),
@@ -313,12 +341,25 @@ def train_marl(
             seed,
             heard_mask(task_id, task.env_kwargs),
         )
-        experiment = plan.build_experiment(task, seed, budget, n_envs, Path(scratch), [callback])
+        if saved is not None:
+            callback.load_state(saved["callback"])
+            began = callback.began
         try:
-            _run(experiment)
-            callback.evaluate_now()  # the end of the budget is a point of the curve
-            frames = experiment.total_frames
-            experiment.close()
+            for index, start, frames in segments.remaining(saved):
+                experiment = plan.build_experiment(
+                    task, segment_seed(seed, index), frames, n_envs, Path(scratch), [callback]
+                )
+                if saved is not None:
+                    segments.load(experiment, saved)
+                _run(experiment)
+                if start + frames < budget:  # the segment's end: saved, and read back
+                    segments.save(experiment, start + frames, callback.state())
+                    saved = segments.read_back()
+                else:
+                    callback.evaluate_now()  # the end of the budget is a point of the curve
+                frames = experiment.total_frames
+                experiment.close()
+                experiment = None
         finally:  # at the end, or interrupted (Ctrl-C, SIGTERM)
             callback.close()
             # TorchRL's replay buffers hold multiprocessing locks, unlinked when they are
@@ -328,6 +369,7 @@ def train_marl(
             gc.collect()
     seconds = time.perf_counter() - began
     write_atomic(out, callback.last)
+    segments.finish()
 
     results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
     record = {
@@ -348,6 +390,7 @@ def train_marl(
         },
         "kept": callback.curve[-1],
         "wall_time_s": round(seconds, 1),
+        **({"resumed_at": segments.resumed_at} if segments.resumed_at else {}),
         "trainings_beside": beside.record(),
         "machine": f"{platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor()}",
         "recipe": plan.record(),

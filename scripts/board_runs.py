@@ -1,0 +1,67 @@
+"""What adding a trained run to the board takes, for scripts/train_baselines.py: the
+method a run belongs to, whether it is on the board, its budget in world steps, the
+board to one process while it adds, and its results.json dropped once the board holds
+the same episodes."""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import tempfile
+from pathlib import Path
+
+from bbbench.evaluation.results import read
+from bbbench.tasks.suite import spec
+
+
+def method_slug(run: dict) -> str:
+    """The method a run belongs to: its slug without the seed."""
+    return run["slug"].rsplit("-s", 1)[0]
+
+
+def on_board(board: Path, run: dict) -> bool:
+    return (board / "submissions" / method_slug(run) / "runs" / f"s{run['seed']}").exists()
+
+
+def world_steps(record: dict) -> int:
+    """A training's budget in world steps: BenchMARL counts them (and records bot-steps
+    beside); stable-baselines3 counts bot-steps on a multi-bot task (a world step is
+    n_bots samples)."""
+    task = spec(record["tasks"][0])
+    if "bot_steps" in record or not task.multi_agent:
+        return record["steps"]
+    return record["steps"] // task.group.n_bots
+
+
+def drop_repeated_results(folder: Path, board: Path) -> bool:
+    """Remove the run's results.json when the board's results of the run hold the same
+    episodes of every task it played (the board keeps them; `run_episodes` reads them
+    there). A record made before teams recorded what ended them lacks `cause` and is the
+    same without it. True if removed."""
+    own, theirs = folder / "results.json", board / "results" / f"{folder.name}.json"
+    if not (own.is_file() and theirs.is_file()):
+        return False
+    boards = {block["task"]: block for block in read(theirs)["tasks"]}
+    for block in read(own)["tasks"]:
+        other = boards.get(block["task"])
+        if other is None or len(other["episodes"]) != len(block["episodes"]):
+            return False
+        for mine, kept in zip(block["episodes"], other["episodes"], strict=True):
+            if mine != kept and ("cause" in mine or {**mine, "cause": kept.get("cause")} != kept):
+                return False
+    own.unlink()
+    return True
+
+
+@contextlib.contextmanager
+def board_lock(board: Path):
+    """The board to this process alone while it adds (campaign cells may run as two
+    processes side by side; `add` rebuilds the board and `git rm` takes git's index)."""
+    key = hashlib.sha256(str(board.resolve()).encode()).hexdigest()[:16]
+    with open(Path(tempfile.gettempdir()) / f"bbbench-adding-{key}.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
