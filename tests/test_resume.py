@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 import torch
 from test_marl_training import SMALL, TASK, bbbench_cli, small_recipe, untimed
+from test_recurrent_training import SMALL as GRU_SMALL
+from test_recurrent_training import TASK as GRU_TASK
 
 from bbbench.cli import main
 from bbbench.training.benchmarl.recipes import marl_recipe
@@ -18,6 +20,8 @@ from bbbench.training.benchmarl.train import actor_network, observation_statisti
 from conftest import one_line_exit_2
 
 SEGMENTED = SMALL + "  segments: {frames: 400}\n"
+# A recurrent training resumes too: each segment starts every world and bot's state anew.
+GRU_SEGMENTED = GRU_SMALL + "  segments: {frames: 400}\n"
 STEPS = ["--steps", "800", "--eval-episodes", "2"]
 
 
@@ -25,11 +29,21 @@ class Stop(KeyboardInterrupt):
     """Ctrl-C, at a chosen world step."""
 
 
-def test_a_stopped_training_resumes_to_the_bytes_of_one_never_stopped(tmp_path, capsys):
-    plan = small_recipe(tmp_path, SEGMENTED)
+@pytest.mark.parametrize(
+    ("algorithm", "task", "text"),
+    [
+        ("ippo", TASK, SEGMENTED),
+        pytest.param("ippo-gru", GRU_TASK, GRU_SEGMENTED, marks=pytest.mark.slow),
+    ],
+)
+def test_a_stopped_training_resumes_to_the_bytes_of_one_never_stopped(
+    tmp_path, capsys, algorithm, task, text
+):
+    plan = small_recipe(tmp_path, text)
     whole = tmp_path / "whole" / "policy.onnx"
     whole.parent.mkdir()
-    bbbench_cli("train", TASK, "--algo", "ippo", "--recipe", plan, "--out", str(whole), *STEPS)
+    argv = ["train", task, "--algo", algorithm, "--recipe", plan, "--out", str(whole), *STEPS]
+    bbbench_cli(*argv)
     assert not (whole.parent / RESUME_FILE).exists()  # removed when the training ends
     curve = untimed(whole.parent / "curve.json")
     assert [point["steps"] for point in curve] == [200, 400, 600, 800]
@@ -43,16 +57,17 @@ def test_a_stopped_training_resumes_to_the_bytes_of_one_never_stopped(tmp_path, 
             raise Stop
 
     with pytest.raises(Stop):
-        train_marl(TASK, "ippo", stopped, steps=800, seed=0, final_episodes=2,
+        train_marl(task, algorithm, stopped, steps=800, seed=0, final_episodes=2,
                    on_progress=stop_at_600, recipe_file=plan)  # fmt: skip
     assert (stopped.parent / RESUME_FILE).exists()
     assert not stopped.exists()
     assert not (stopped.parent / "curve.json").exists()
 
-    assert_segment_loads_what_was_saved(plan, stopped.parent)
+    if algorithm == "ippo":
+        assert_segment_loads_what_was_saved(plan, stopped.parent)
 
     # Another training asked for in its folder is refused; the stopped one is kept.
-    argv = ["train", TASK, "--algo", "ippo", "--recipe", plan, "--out", str(stopped), *STEPS]
+    argv = ["train", task, "--algo", algorithm, "--recipe", plan, "--out", str(stopped), *STEPS]
     refused = one_line_exit_2(capsys, *argv, "--seed", "1")
     assert "a stopped training of another seed (0, asked for 1)" in refused
     assert "remove the file to start this one afresh" in refused
