@@ -93,11 +93,11 @@ class Segments:
         self.resumed_at.append(saved["frames"])
         return saved
 
-    def remaining(self, saved: dict[str, Any] | None) -> Iterator[tuple[int, int, int]]:
-        """(index, first world step, world steps) of each segment still to train."""
+    def remaining(self, saved: dict[str, Any] | None) -> Iterator[tuple[int, int]]:
+        """(index, world steps) of each segment still to train, after `saved`'s."""
         start = 0 if saved is None else saved["frames"]
         while start < self.budget:
-            yield start // self.frames, start, min(self.frames, self.budget - start)
+            yield start // self.frames, min(self.frames, self.budget - start)
             start += self.frames
 
     def save(self, experiment, frames: int, callback_state: dict[str, Any]) -> None:

@@ -344,22 +344,22 @@ def train_marl(
         if saved is not None:
             callback.load_state(saved["callback"])
             began = callback.began
+        experiment = None
         try:
-            for index, start, frames in segments.remaining(saved):
+            for index, length in segments.remaining(saved):
                 experiment = plan.build_experiment(
-                    task, segment_seed(seed, index), frames, n_envs, Path(scratch), [callback]
+                    task, segment_seed(seed, index), length, n_envs, Path(scratch), [callback]
                 )
                 if saved is not None:
                     segments.load(experiment, saved)
                 _run(experiment)
-                if start + frames < budget:  # the segment's end: saved, and read back
-                    segments.save(experiment, start + frames, callback.state())
+                frames = experiment.total_frames  # to this segment's end
+                if frames < budget:  # a segment's end: saved, and read back as a resume reads it
+                    segments.save(experiment, frames, callback.state())
                     saved = segments.read_back()
                 else:
                     callback.evaluate_now()  # the end of the budget is a point of the curve
-                frames = experiment.total_frames
                 experiment.close()
-                experiment = None
         finally:  # at the end, or interrupted (Ctrl-C, SIGTERM)
             callback.close()
             # TorchRL's replay buffers hold multiprocessing locks, unlinked when they are
