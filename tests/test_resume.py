@@ -126,6 +126,16 @@ def test_each_segment_after_the_first_is_seeded_anew_from_the_training_seed():
     assert segment_seed(8, 1) != segment_seed(7, 1)
 
 
+def test_a_resume_file_bbbench_did_not_write_exits_2_with_one_line(tmp_path, capsys):
+    plan = small_recipe(tmp_path, SEGMENTED)
+    out = tmp_path / "policy.onnx"
+    (tmp_path / RESUME_FILE).write_bytes(b"not a training")
+    argv = ["train", TASK, "--algo", "ippo", "--recipe", plan, "--out", str(out), *STEPS]
+    assert "not a stopped training bbbench can resume" in one_line_exit_2(capsys, *argv)
+    assert not out.exists()
+    assert (tmp_path / RESUME_FILE).read_bytes() == b"not a training"
+
+
 @pytest.mark.parametrize(
     ("segments", "expected"),
     [

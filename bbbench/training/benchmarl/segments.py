@@ -81,14 +81,24 @@ class Segments:
         `StoppedTrainingError` if it holds another training's."""
         if not self.path.exists():
             return None
-        saved = self.read_back()
-        theirs = saved.get("fingerprint", {})
+        try:
+            saved = self.read_back()
+            theirs, saved["frames"] = saved["fingerprint"], int(saved["frames"])
+        except Exception as error:  # not a file `save` wrote: said, not resumed from
+            raise StoppedTrainingError(
+                f"{self.path}: not a stopped training bbbench can resume "
+                f"({type(error).__name__}); remove it to start afresh"
+            ) from None
         for key, value in self.fingerprint.items():
             if theirs.get(key) != value:
+                shown = (
+                    ""
+                    if isinstance(value, dict)
+                    else f" ({theirs.get(key)!r}, asked for {value!r})"
+                )
                 raise StoppedTrainingError(
-                    f"{self.path}: a stopped training of another {key} ({theirs.get(key)!r}, "
-                    f"asked for {value!r}); give its command again to resume it, or remove "
-                    f"the file to start this one afresh"
+                    f"{self.path}: a stopped training of another {key}{shown}; give its "
+                    f"command again to resume it, or remove the file to start this one afresh"
                 )
         self.resumed_at.append(saved["frames"])
         return saved
