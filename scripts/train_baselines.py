@@ -15,10 +15,10 @@ machine for hours: run it in the background.
 
 `--campaign` trains the MARL baselines at the field's budget (the shipped IPPO and MAPPO
 recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds side by
-side (`bbbench train ... --seed S --workers 1` each: one CPU each, the same bytes as any
-run of the seed); each seed goes on the board as a run of the method `<algo>-<task>-3m`.
-A seed stopped in a recipe with segments resumes where it was when its cell is asked
-for again with the same seeds.
+side (`bbbench train ... --seed S --workers 1` each: one CPU each; a seed alone steps its
+worlds in the recipe's processes; the same bytes as any run of the seed); each seed
+goes on the board as a run of the method `<algo>-<task>-3m`. A seed stopped in a recipe
+with segments resumes where it was when it is asked for again.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import threading
@@ -375,9 +376,9 @@ def main() -> None:
 
 def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     """A campaign cell: its missing seeds side by side, each its own `bbbench train --seed`
-    process in a folder kept until it ends (a recipe in segments resumes there when the
-    cell is asked for again: `bbbench.training.benchmarl.segments`), then each on the
-    board in place of its 300k entry."""
+    process in a folder of its own, kept until it ends (a recipe in segments resumes there
+    when the seed is asked for again: `bbbench.training.benchmarl.segments`), then each on
+    the board in place of its 300k entry."""
     seeds = [
         s
         for s in (args.seeds or cell["seeds"])
@@ -385,45 +386,48 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     ]
     if not seeds:
         return
-    # A working folder of its own per seed set: two processes may train seeds of one cell
-    # side by side (each moves its seeds' folders out and removes its own when done).
-    folder = args.root / f"{cell['cell']}-training-s{'-'.join(map(str, seeds))}"
     argv = ["bbbench", "train", *cell["tasks"], "--algo", cell["algo"]]
     if "recipe" in cell:
         argv += ["--recipe", cell["recipe"]]
+    # Side by side, each seed steps its worlds in its own process (a core each); alone, in
+    # the recipe's worker processes. The same bytes either way.
+    if len(seeds) > 1:
+        argv += ["--workers", "1"]
     began = time.perf_counter()
     with ThreadPoolExecutor(len(seeds)) as pool:
-        codes = list(pool.map(lambda seed: _seed(argv, folder, cell, seed), seeds))
-    if any(codes):
-        print(f"{cell['cell']}: exits {codes} (seeds {seeds}), see {folder}/train-s*.log")
-        return
-    for seed in seeds:
+        codes = list(pool.map(lambda seed: _seed(argv, args.root, cell, seed), seeds))
+    for seed, code in zip(seeds, codes, strict=True):
         slug = f"{cell['cell']}-s{seed}"
+        folder = args.root / f"{cell['cell']}-training-s{seed}"
+        if code:
+            print(f"{slug}: exit {code} (resumes if asked for again), see {folder}/train.log")
+            continue
+        # The cell's log keeps every run of it (seeds trained in several goes).
+        with open(args.root / f"{cell['cell']}.log", "a") as whole:
+            whole.write((folder / "train.log").read_text())
+        (folder / "train.log").unlink()
+        for scratch in folder.glob(".training-*"):  # left by a run that was stopped
+            shutil.rmtree(scratch)
         target = args.root / slug
-        (folder / f"policy-s{seed}").rename(target)
+        folder.rename(target)
         run = {"tasks": cell["tasks"], "algo": cell["algo"], "seed": seed, "slug": slug}
         run.update({key: cell[key] for key in ("recipe", "name") if key in cell})
         record = json.loads((target / "train.json").read_text())
         # The seed's own command: `_add` records all of it but its last two (the --out).
-        seeded = [*argv, "--seed", str(seed), "--workers", "1", "--out", "-"]
+        seeded = [*argv, "--seed", str(seed), "--out", "-"]
         minutes = record["wall_time_s"] / 60
         with board_lock(args.board):
             print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
-        # The cell's log keeps every run of it (seeds trained in several goes).
-        with open(args.root / f"{cell['cell']}.log", "a") as whole:
-            whole.write((folder / f"train-s{seed}.log").read_text())
-        (folder / f"train-s{seed}.log").unlink()
-    folder.rmdir()
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
 
 
-def _seed(argv: list[str], folder: Path, cell: dict, seed: int) -> int:
-    """Seed `seed` of a campaign cell trained (or resumed) in `folder/policy-s<seed>/` on
-    one process; its exit code, its output appended to `folder/train-s<seed>.log`."""
-    out = folder / f"policy-s{seed}" / policy_name(cell)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    one = [*argv, "--seed", str(seed), "--workers", "1", "--out", str(out)]
-    with open(folder / f"train-s{seed}.log", "a") as log:
+def _seed(argv: list[str], root: Path, cell: dict, seed: int) -> int:
+    """Seed `seed` of a campaign cell trained (or resumed) in
+    `root/<cell>-training-s<seed>/`; its exit code, its output appended to train.log there."""
+    folder = root / f"{cell['cell']}-training-s{seed}"
+    folder.mkdir(parents=True, exist_ok=True)
+    one = [*argv, "--seed", str(seed), "--out", str(folder / policy_name(cell))]
+    with open(folder / "train.log", "a") as log:
         return subprocess.run(one, stdout=log, stderr=subprocess.STDOUT).returncode
 
 
