@@ -14,11 +14,11 @@ time and the machine. Runs already on the board are skipped. Training takes most
 machine for hours: run it in the background.
 
 `--campaign` trains the MARL baselines at the field's budget (the shipped IPPO and MAPPO
-recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds side by
-side (`bbbench train ... --seed S --workers 1` each: one CPU each; a seed alone steps its
-worlds in the recipe's processes; the same bytes as any run of the seed); each seed
-goes on the board as a run of the method `<algo>-<task>-3m`. A seed stopped in a recipe
-with segments resumes where it was when it is asked for again.
+recipes: 3M world steps), one cell (algorithm, task) at a time, its missing seeds one
+after another (`bbbench train ... --seed S`, its worlds in the recipe's worker processes,
+the same bytes as any run of the seed); each seed goes on the board as a run of the
+method `<algo>-<task>-3m`. A seed stopped in a recipe with segments resumes where it was
+when it is asked for again.
 """
 
 from __future__ import annotations
@@ -375,10 +375,10 @@ def main() -> None:
 
 
 def _train_cell(cell: dict, args: argparse.Namespace) -> None:
-    """A campaign cell: its missing seeds side by side, each its own `bbbench train --seed`
-    process in a folder of its own, kept until it ends (a recipe in segments resumes there
-    when the seed is asked for again: `bbbench.training.benchmarl.segments`), then each on
-    the board in place of its 300k entry."""
+    """A campaign cell: its missing seeds one after another, each its own `bbbench train
+    --seed` process in a folder of its own, kept until it ends (a recipe in segments
+    resumes there when the seed is asked for again: `bbbench.training.benchmarl.segments`),
+    then on the board in place of its 300k entry."""
     seeds = [
         s
         for s in (args.seeds or cell["seeds"])
@@ -389,14 +389,12 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
     argv = ["bbbench", "train", *cell["tasks"], "--algo", cell["algo"]]
     if "recipe" in cell:
         argv += ["--recipe", cell["recipe"]]
-    # Side by side, each seed steps its worlds in its own process (a core each); alone, in
-    # the recipe's worker processes. The same bytes either way.
-    if len(seeds) > 1:
-        argv += ["--workers", "1"]
     began = time.perf_counter()
-    with ThreadPoolExecutor(len(seeds)) as pool:
-        codes = list(pool.map(lambda seed: _seed(argv, args.root, cell, seed), seeds))
-    for seed, code in zip(seeds, codes, strict=True):
+    # One seed at a time, its worlds in the recipe's worker processes: two MAPPO seeds side
+    # by side (one process each) took 1,425 s to 300k world steps where one alone took
+    # 221 s, their updates' torch threads (two each) fighting for two cores (the notebook).
+    for seed in seeds:
+        code = _seed(argv, args.root, cell, seed)
         slug = f"{cell['cell']}-s{seed}"
         folder = args.root / f"{cell['cell']}-training-s{seed}"
         if code:
@@ -417,7 +415,7 @@ def _train_cell(cell: dict, args: argparse.Namespace) -> None:
         seeded = [*argv, "--seed", str(seed), "--out", "-"]
         minutes = record["wall_time_s"] / 60
         with board_lock(args.board):
-            print(_add(run, target, args.board, minutes, min(2, len(seeds)), seeded), flush=True)
+            print(_add(run, target, args.board, minutes, 1, seeded), flush=True)
     print(f"{cell['cell']}: {(time.perf_counter() - began) / 60:.0f} min", flush=True)
 
 
