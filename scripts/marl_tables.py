@@ -95,11 +95,21 @@ STEERING_ROWS = (
         for task_id in STEERING_MULTI
         for algo in ("ippo", "mappo")
     ),
+    # issue 67's run with the messages muted: what the channel is worth to the recipe
+    ("bbbench/Rendezvous-v0", "MAPPO, 3M, messages muted", "mappo-muted-rendezvous-v0-3m"),
 )
-STEERING_VERSUS = tuple(
-    (task_id, "MAPPO against IPPO, 3M", f"mappo-{short}-3m", f"ippo-{short}-3m")
-    for task_id in STEERING_MULTI
-    for short in [task_id.removeprefix("bbbench/").lower()]
+STEERING_VERSUS = (
+    *(
+        (task_id, "MAPPO against IPPO, 3M", f"mappo-{short}-3m", f"ippo-{short}-3m")
+        for task_id in STEERING_MULTI
+        for short in [task_id.removeprefix("bbbench/").lower()]
+    ),
+    (
+        "bbbench/Rendezvous-v0",
+        "MAPPO heard against muted, 3M",
+        "mappo-rendezvous-v0-3m",
+        "mappo-muted-rendezvous-v0-3m",
+    ),
 )
 # The crossing tasks' own controller, which the learned methods are also set against.
 CROSSING = {"bbbench/MultiBalance-v1": "crossing", "bbbench/MultiBumps-v1": "crossing"}
