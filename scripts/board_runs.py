@@ -1,7 +1,8 @@
 """What adding a trained run to the board takes, for scripts/train_baselines.py: the
 method a run belongs to, whether it is on the board, its budget in world steps, the
 board to one process while it adds, and its results.json dropped once the board holds
-the same episodes."""
+the same episodes; and the campaign's budget and its muted cell, which
+scripts/marl_tables.py names too."""
 
 from __future__ import annotations
 
@@ -13,6 +14,17 @@ from pathlib import Path
 
 from bbbench.evaluation.results import read
 from bbbench.tasks.suite import spec
+
+# The MARL baselines at the field's budget (issue 50): each cell's seeds one after another.
+CAMPAIGN_BUDGET = "3m"
+MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added
+    "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
+    "algo": "mappo",
+    "tasks": ["bbbench/Rendezvous-v0"],
+    "seeds": (0, 1, 2),
+    "recipe": "baselines/recipes/mappo-muted-rendezvous.yml",
+    "name": "MAPPO Rendezvous-v0, messages muted",
+}
 
 
 def method_slug(run: dict) -> str:
@@ -56,8 +68,10 @@ def drop_repeated_results(folder: Path, board: Path) -> bool:
 
 @contextlib.contextmanager
 def board_lock(board: Path):
-    """The board to this process alone while it adds (campaign cells may run as two
-    processes side by side; `add` rebuilds the board and `git rm` takes git's index)."""
+    """The board to this caller alone while it adds (campaign cells may run as two
+    processes side by side, `--parallel` runs as threads: each call opens the lock file
+    anew, so threads exclude each other too; `add` rebuilds the board and `git rm` takes
+    git's index)."""
     key = hashlib.sha256(str(board.resolve()).encode()).hexdigest()[:16]
     with open(Path(tempfile.gettempdir()) / f"bbbench-adding-{key}.lock", "w") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,9 @@ from bbbench.evaluation.results import normalized, read
 from bbbench.policies import classical_controller
 from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
+
+sys.path.insert(0, str(Path(__file__).parent))
+from board_runs import MUTED
 
 SEEDS = (0, 1, 2)
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
@@ -96,7 +100,7 @@ STEERING_ROWS = (
         for algo in ("ippo", "mappo")
     ),
     # issue 67's run with the messages muted: what the channel is worth to the recipe
-    ("bbbench/Rendezvous-v0", "MAPPO, 3M, messages muted", "mappo-muted-rendezvous-v0-3m"),
+    ("bbbench/Rendezvous-v0", "MAPPO, 3M, messages muted", MUTED["cell"]),
 )
 STEERING_VERSUS = (
     *(
@@ -108,7 +112,7 @@ STEERING_VERSUS = (
         "bbbench/Rendezvous-v0",
         "MAPPO heard against muted, 3M",
         "mappo-rendezvous-v0-3m",
-        "mappo-muted-rendezvous-v0-3m",
+        MUTED["cell"],
     ),
 )
 # The crossing tasks' own controller, which the learned methods are also set against.

@@ -30,7 +30,6 @@ import platform
 import shutil
 import subprocess
 import sys
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -46,7 +45,15 @@ from bbbench.training.beside import described
 from bbbench.training.checks import policy_suffix
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import board_lock, drop_repeated_results, method_slug, on_board, world_steps
+from board_runs import (
+    CAMPAIGN_BUDGET,
+    MUTED,
+    board_lock,
+    drop_repeated_results,
+    method_slug,
+    on_board,
+    world_steps,
+)
 
 LATEST_SINGLE = (
     "bbbench/FlatBalance-v1",
@@ -79,16 +86,6 @@ SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
 MARL = ("mappo", "ippo")
-# The MARL baselines at the field's budget (issue 50): each cell's seeds as Ray tasks.
-CAMPAIGN_BUDGET = "3m"
-MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added
-    "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
-    "algo": "mappo",
-    "tasks": ["bbbench/Rendezvous-v0"],
-    "seeds": SEEDS,
-    "recipe": "baselines/recipes/mappo-muted-rendezvous.yml",
-    "name": "MAPPO Rendezvous-v0, messages muted",
-}
 
 
 def runs() -> list[dict]:
@@ -429,9 +426,6 @@ def _seed(argv: list[str], root: Path, cell: dict, seed: int) -> int:
         return subprocess.run(one, stdout=log, stderr=subprocess.STDOUT).returncode
 
 
-_BOARD = threading.Lock()  # `add` rebuilds the board: one at a time
-
-
 def _train_and_add(run: dict, args: argparse.Namespace) -> str:
     folder = args.root / run["slug"]
     folder.mkdir(parents=True, exist_ok=True)
@@ -446,7 +440,7 @@ def _train_and_add(run: dict, args: argparse.Namespace) -> str:
         record["side_by_side"] = side_by_side
         (folder / "train.json").write_text(json.dumps(record, indent=2) + "\n")
         return f"{run['slug']}: trained in {(time.perf_counter() - began) / 60:.1f} min"
-    with _BOARD:
+    with board_lock(args.board):  # `add` rebuilds the board: one run at a time
         minutes = (time.perf_counter() - began) / 60
         return _add(run, folder, args.board, minutes, side_by_side)
 

@@ -173,8 +173,8 @@ class Scene:
             for step in sorted(self._pushes)
             for bot, impulse in self._pushes[step]
         )
-        errors = self._bot_errors[0]
-        errors = errors if n == 1 or errors is None else self._bot_errors
+        first = self._bot_errors[0]
+        errors = self._bot_errors if n > 1 and first is not None else first
         self._episode = EpisodeDraw(
             seed, rows, errors, getattr(ground, "heightmap", None), poses, pitches, pushes
         )
