@@ -208,15 +208,19 @@ class Scene:
         """Apply `actions[k]` to the k-th live bot; `ActionError` names the k of a bad one."""
         split = self._split
         if split is not None:  # each bot's action parted: the robot's, and its message
-            parted = []
-            for k, action in enumerate(actions):
-                try:
-                    parted.append(split(action))
-                except ValueError as error:
-                    raise ActionError(k, error) from None
-            actions = [action for action, _ in parted]
-            for i, (_, message) in zip(self.live, parted, strict=True):
-                self.sent[i] = message
+            try:
+                parted = [split(action) for action in actions]
+            except ValueError:
+                for k, action in enumerate(actions):  # which one, for the error
+                    try:
+                        split(action)
+                    except ValueError as error:
+                        raise ActionError(k, error) from None
+                raise
+            sent, actions = self.sent, []
+            for i, (action, message) in zip(self.live, parted, strict=True):
+                sent[i] = message
+                actions.append(action)
         decoders, live = self._decoders, self.live
         for k, (bot, action) in enumerate(zip(self.live_bots, actions, strict=True)):
             try:

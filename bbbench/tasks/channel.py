@@ -165,15 +165,17 @@ class Channel:
         states: list[Any],
         sent: list[tuple[float, ...]],
         nearest: list[list[int]] | None = None,
+        positions: list[complex] | None = None,
     ) -> list[list[float]]:
         """The live bots' message blocks, one list of values each: from their `states`
         (in order) and the messages each `sent` with its last action (in the same
         order); `nearest`, each bot's others nearest first where the caller has them
-        (`nearest_others`, at least `slots` each where there are as many). Plain floats,
-        as `group_observations`."""
+        (`nearest_others`, at least `slots` each where there are as many), and
+        `positions`, each bot's x + iy. Plain floats, as `group_observations`."""
         size = self.slots * (self.width + 3)
         silent = (0.0,) * self.width if self.muted else None
-        positions = [complex(state.position[0], state.position[1]) for state in states]
+        if positions is None:
+            positions = [complex(state.position[0], state.position[1]) for state in states]
         slots = self.slots
         if nearest is None:
             nearest = nearest_others(positions, slots) if len(states) > 1 else [[]]
@@ -181,9 +183,9 @@ class Channel:
         for i, state in enumerate(states):
             forward_x, forward_y = state.heading
             turn = complex(forward_y, forward_x)  # world -> right + i ahead, as neighbours
-            row: list[float] = []
+            here, row = positions[i], []
             for j in nearest[i][:slots]:
-                offset = (positions[j] - positions[i]) * turn
+                offset = (positions[j] - here) * turn
                 if abs(offset) > reach:
                     break  # the rest are farther
                 row += (offset.real, offset.imag, *(silent or sent[j]), 1.0)

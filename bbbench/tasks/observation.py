@@ -46,6 +46,7 @@ def group_observations(
     after: list[list[float]] | None = None,
     nearest: list[list[int]] | None = None,
     readings: list[tuple[float, float, float]] | None = None,
+    positions: list[complex] | None = None,
 ) -> np.ndarray:
     """The observations of a group's live bots, one row of `size` values each: the robot's
     single-bot layout (`Robot.values`, from each bot's state, wheel command and target),
@@ -56,7 +57,8 @@ def group_observations(
     `nearest`: each bot's others, nearest first (`nearest_others`), where the caller has
     them already (at least `group.neighbours` each where there are as many).
     `readings`: each bot's (pitch, pitch rate, wheel speed) as its sensors read them
-    (`Scene.live_readings`); None, the true state's.
+    (`Scene.live_readings`); None, the true state's. `positions`: each bot's x + iy,
+    where the caller has them.
 
     Plain Python floats and one numpy sort: at 2-16 bots, numpy's per-call cost would
     outweigh its arithmetic (benchmarks/bench_multi.py).
@@ -64,7 +66,8 @@ def group_observations(
     k, reach, top = group.neighbours, group.neighbour_range, NEIGHBOUR_SPEED_RANGE
     fill = [0.0] * size
     end = size - (len(after[0]) if after else 0)  # where the neighbour block ends
-    positions = [complex(state.position[0], state.position[1]) for state in states]
+    if positions is None:
+        positions = [complex(state.position[0], state.position[1]) for state in states]
     velocities = [complex(*state.velocity) for state in states]
     if nearest is None:
         nearest = nearest_others(positions, k)

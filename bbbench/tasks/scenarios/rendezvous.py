@@ -189,18 +189,19 @@ class Rendezvous(Scenario):
         if self._next < len(schedule) and step >= schedule[self._next][0]:
             self.goal = schedule[self._next][1]  # the goal moves on
             self._next += 1
-        goal, scout, seen = self.goal, self.scout, SEEN_DISTANCE
+        goal, scout, seen, sqrt = self.goal, self.scout, SEEN_DISTANCE, math.sqrt
         told = tuple(1.0 if k == goal else 0.0 for k in range(LANDMARKS))
         untold = (0.0,) * LANDMARKS
+        landmarks = self.landmarks
+        goal_x, goal_y = landmarks[goal]
         extras, limited, distances, towards = [], [], [], []
         for i, state, speed in zip(live, states, targets, strict=True):
             x, y, _ = state.axle
             hx, hy = state.heading
-            vx, vy = state.velocity
             row: list[float] = []
-            for k, (lx, ly) in enumerate(self.landmarks):
+            for lx, ly in landmarks:
                 dx, dy = lx - x, ly - y
-                distance = math.sqrt(dx * dx + dy * dy)  # correctly rounded: any CPU
+                distance = sqrt(dx * dx + dy * dy)  # correctly rounded: any CPU
                 if distance > 0.0:
                     cos, sin = (hx * dx + hy * dy) / distance, (hx * dy - hy * dx) / distance
                     cos = 1.0 if cos > 1.0 else -1.0 if cos < -1.0 else cos  # rounding aside
@@ -208,21 +209,26 @@ class Rendezvous(Scenario):
                 else:
                     cos, sin = 1.0, 0.0
                 row += (distance if distance < seen else seen, cos, sin)
-                if k == goal:
-                    distances.append(distance)
-                    towards.append((vx * dx + vy * dy) / distance if distance > 0.0 else 0.0)
-                    near = ARRIVAL_RATE * max(distance - GATHERED, 0.0)
-                    limited.append(near if near < speed else speed)
             row += told if i == scout else untold
             extras.append(row)
+            # The goal's landmark again, outside the loop (the same arithmetic, the same bits).
+            dx, dy = goal_x - x, goal_y - y
+            distance = sqrt(dx * dx + dy * dy)
+            vx, vy = state.velocity
+            distances.append(distance)
+            towards.append((vx * dx + vy * dy) / distance if distance > 0.0 else 0.0)
+            near = ARRIVAL_RATE * max(distance - GATHERED, 0.0)
+            limited.append(near if near < speed else speed)
         self._seen = distances, limited, towards
-        # Each bot's others, nearest first, once for both blocks.
+        # Each bot's others, nearest first, once for both blocks; their positions once.
         positions = [complex(state.position[0], state.position[1]) for state in states]
         nearest = nearest_others(positions, self._heard)
-        blocks = self.channel.blocks(states, [scene.sent[i] for i in live], nearest)
+        sent = scene.sent
+        blocks = self.channel.blocks(states, [sent[i] for i in live], nearest, positions)
         return group_observations(
-            self.robot, states, commands, targets, self.group, self._size, extras, blocks, nearest
-        )
+            self.robot, states, commands, targets, self.group, self._size, extras, blocks,
+            nearest, positions=positions,
+        )  # fmt: skip
 
     def outcome(
         self, agents: list[str], states: list[Any], targets: list[float], seed: int
