@@ -1,8 +1,8 @@
 """What adding a trained run to the board takes, for scripts/train_baselines.py: the
 method a run belongs to, whether it is on the board, its budget in world steps, the
 board to one process while it adds, and its results.json dropped once the board holds
-the same episodes; and the campaign's budget and its muted cell, which
-scripts/marl_tables.py names too."""
+the same episodes; and the seeds, the campaign's budget and its muted cell, which
+scripts/marl_tables.py and marl_curves.py name too."""
 
 from __future__ import annotations
 
@@ -15,13 +15,15 @@ from pathlib import Path
 from bbbench.evaluation.results import read
 from bbbench.tasks.suite import spec
 
-# The MARL baselines at the field's budget (issue 50): each cell's seeds one after another.
+# The seeds a method trains (and scripts/marl_tables.py and marl_curves.py read), and
+# the MARL baselines at the field's budget (issue 50): each cell's seeds one after another.
+SEEDS = (0, 1, 2)
 CAMPAIGN_BUDGET = "3m"
 MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added
     "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
     "algo": "mappo",
     "tasks": ["bbbench/Rendezvous-v0"],
-    "seeds": (0, 1, 2),
+    "seeds": SEEDS,
     "recipe": "baselines/recipes/mappo-muted-rendezvous.yml",
     "name": "MAPPO Rendezvous-v0, messages muted",
 }

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,9 @@ from bbbench.tasks.suite import spec
 from bbbench.training import evaluation_seeds
 from bbbench.training.logs import run_episodes
 
+sys.path.insert(0, str(Path(__file__).parent))
+from board_runs import CAMPAIGN_BUDGET, SEEDS
+
 TASKS = (
     "bbbench/MultiBalance-v1",
     "bbbench/MultiBumps-v1",
@@ -45,9 +49,7 @@ TASKS = (
     "bbbench/Convoy-v0",
 )
 METHODS = ("ippo", "mappo")
-SEEDS = (0, 1, 2)
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
-BUDGET = "3m"
 MILESTONE = 1_000_000  # world steps: the curve's points the end-of-curve table quotes
 
 
@@ -198,7 +200,7 @@ def main() -> None:
     if not args.out.is_dir():
         parser.error(f"--out {args.out}: no such directory; give an existing one")
     cells = {
-        (task, method): f"{method}-{task.removeprefix('bbbench/').lower()}-{BUDGET}"
+        (task, method): f"{method}-{task.removeprefix('bbbench/').lower()}-{CAMPAIGN_BUDGET}"
         for task in TASKS
         for method in METHODS
     }

@@ -37,9 +37,8 @@ from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import MUTED
+from board_runs import MUTED, SEEDS
 
-SEEDS = (0, 1, 2)
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 # (task, method as the table names it, the slug of its runs without the seed suffix)
 ROWS = (

@@ -48,6 +48,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from board_runs import (
     CAMPAIGN_BUDGET,
     MUTED,
+    SEEDS,
     board_lock,
     drop_repeated_results,
     method_slug,
@@ -82,7 +83,6 @@ STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0", "bbbench/Rendezvous-v0")
 # The mixed team (issue 67): IPPO and MAPPO, a policy per robot, into one team file.
 MIXED_TEAMS = ("bbbench/MixedBeamCarry-v0", "bbbench/MixedBeamCarryBumps-v0")
-SEEDS = (0, 1, 2)
 # The MARL baselines: BenchMARL's MAPPO and IPPO (fallen bots masked, the neighbour
 # encoder as actor), three seeds each, on every multi-bot and team task; ONNX policies.
 MARL = ("mappo", "ippo")
