@@ -93,7 +93,7 @@ def test_the_sb3_recipe_table_does_not_take_a_marl_algorithm():
         (["bbbench/BeamCarry-v0", "--algo", "ippo", "--out", "p.zip"], "ending in .onnx"),
         (
             ["bbbench/BeamCarry-v0", "--algo", "ippo", "--action-mode", "continuous"],
-            "discrete actions (Discrete(9) on bbbench/BeamCarry-v0)",
+            "discrete actions (Discrete(9) on bbbench/BeamCarry-v0): drop --action-mode, or give a",
         ),
         (
             ["bbbench/Swap-v0", "--algo", "ippo", "--action-mode", "continuous"],
@@ -128,6 +128,7 @@ def test_a_marl_request_that_cannot_train_exits_2(tmp_path, capsys, monkeypatch,
         (("frames_per_batch: 200", "frames_per_batch: 1"), "less than one step per world"),
         (("algorithm:", "task: {workers: 0}\n  algorithm:"), "workers 0"),
         (("algorithm:", "task: {workers: two}\n  algorithm:"), "whole number"),
+        (("lr: 0.001", "prefer_continuous_actions: 1"), "must be true or false, got 1"),
     ],
 )
 def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expected):
@@ -137,6 +138,31 @@ def test_a_bad_marl_recipe_exits_2_with_one_line(tmp_path, capsys, change, expec
     argv = ["train", TASK, "--algo", "ippo", "--recipe", small_recipe(tmp_path, text)]
     assert expected in one_line_exit_2(capsys, *argv, "--out", str(out))
     assert not out.exists()
+
+
+def test_a_recipe_chooses_the_action_mode_the_task_and_the_export_allow(tmp_path):
+    """BenchMARL's `prefer_continuous_actions` is the recipe's choice: continuous on a
+    robot that takes both modes; refused where the task or the export cannot follow it."""
+    import yaml
+
+    from bbbench.training.benchmarl.recipes import marl_recipe
+
+    continuous = SMALL.replace("lr: 0.001", "lr: 0.001\n    prefer_continuous_actions: true")
+    plan = marl_recipe("ippo", TASK, small_recipe(tmp_path, continuous))
+    assert plan.action_mode == "continuous"
+    assert plan.experiment_config(400, 2, tmp_path).prefer_continuous_actions is True
+    assert marl_recipe("ippo", TASK, small_recipe(tmp_path)).action_mode == "discrete"
+    assert recipe("ippo", MIXED).action_mode == "continuous"
+    refused = SMALL.replace(TASK, MIXED).replace(
+        "lr: 0.001", "lr: 0.001\n    prefer_continuous_actions: false"
+    )
+    with pytest.raises(ValueError, match="is a mixed team, whose robots share continuous"):
+        marl_recipe("ippo", MIXED, small_recipe(tmp_path, refused))
+    table = yaml.safe_load(recipe_file("ippo-gru").read_text())
+    table["bbbench/Swap-v0"]["experiment"]["prefer_continuous_actions"] = True
+    (tmp_path / "gru.yml").write_text(yaml.safe_dump(table))
+    with pytest.raises(ValueError, match="exports discrete actions only"):
+        marl_recipe("ippo-gru", "bbbench/Swap-v0", tmp_path / "gru.yml")
 
 
 @pytest.mark.parametrize(
@@ -244,6 +270,31 @@ def test_a_mixed_team_trains_a_policy_per_robot_into_one_team_file(tmp_path):
     played = player.play(MIXED, evaluation_seeds(MIXED))
     player.close()
     assert curve_point(played, 0.0, steps=400, bot_steps=1200)["mean"] == last["mean"]
+
+
+@pytest.mark.slow
+def test_a_recipe_that_prefers_continuous_actions_trains_and_exports_them(tmp_path):
+    """IPPO on the steering robot's Rendezvous-v0 in continuous actions (its two and the
+    two message values): the file is continuous, and the curve's last point is its play."""
+    from bbbench.evaluation.episodes import LockstepPlayer
+    from bbbench.training.logs import curve_point
+    from bbbench.training.seeds import evaluation_seeds
+
+    task = "bbbench/Rendezvous-v0"
+    text = SMALL.replace(TASK, task).replace(
+        "lr: 0.001", "lr: 0.001\n    prefer_continuous_actions: true"
+    )
+    out = tmp_path / "policy.onnx"
+    argv = ["train", task, "--algo", "ippo", "--recipe", small_recipe(tmp_path, text)]
+    assert main([*argv, "--out", str(out), *TRAIN]) == 0
+    policy = load_policy(out)
+    assert policy.action_mode == "continuous"
+    assert json.loads((tmp_path / "train.json").read_text())["action_mode"] == "continuous"
+    last = json.loads((tmp_path / "curve.json").read_text())["points"][-1]
+    player = LockstepPlayer({task: policy.actor(task)}, "continuous", sampled=False)
+    played = player.play(task, evaluation_seeds(task))
+    player.close()
+    assert curve_point(played, 0.0, steps=400, bot_steps=1600)["mean"] == last["mean"]
 
 
 @pytest.mark.slow

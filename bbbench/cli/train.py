@@ -39,7 +39,8 @@ def add_parser(commands) -> None:
         "--action-mode",
         choices=("discrete", "continuous"),
         help="default: the first the algorithm learns that the task's robot takes (PPO: "
-        "discrete on the two-wheel bot, continuous on the wheel-legged robot)",
+        "discrete on the two-wheel bot, continuous on the wheel-legged robot; IPPO and "
+        "MAPPO: their recipe's)",
     )
     trainer.add_argument(
         "--steps",

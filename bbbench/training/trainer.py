@@ -112,11 +112,15 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
             )
         recipe(algorithm, task, recipe_file)
         return tasks, task, "continuous"
-    if action_mode not in (None, "discrete"):
-        space = agent_spaces(task, "discrete")[1]
-        raise ValueError(f"{name} trains discrete actions ({space} on {task}): drop --action-mode")
-    recipe(algorithm, task, recipe_file)
-    return tasks, task, "discrete"
+    mode = recipe(algorithm, task, recipe_file).action_mode
+    if action_mode not in (None, mode):
+        space = agent_spaces(task, mode)[1]
+        raise ValueError(
+            f"{name}'s recipe for {task} trains {mode} actions ({space} on {task}): drop "
+            f"--action-mode, or give a --recipe whose experiment sets "
+            f"prefer_continuous_actions: {str(action_mode == 'continuous').lower()}"
+        )
+    return tasks, task, mode
 
 
 def train(

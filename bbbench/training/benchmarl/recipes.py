@@ -49,7 +49,6 @@ OWNED = {
     "sampling_device": "training runs on the CPU",
     "train_device": "training runs on the CPU",
     "buffer_device": "training runs on the CPU",
-    "prefer_continuous_actions": "bbbench trains discrete actions (Discrete(9))",
     "share_policy_params": "one policy is shared by every bot (the board scores one)",
     "evaluation": "bbbench evaluates on training seeds itself",
     "evaluation_interval": "bbbench evaluates on training seeds itself",
@@ -120,6 +119,15 @@ class MarlRecipe:
     def n_envs(self) -> int:
         """Worlds collected at once (one batched env of them)."""
         return int(self.experiment.get("on_policy_n_envs_per_worker", 1))
+
+    @property
+    def action_mode(self) -> str:
+        """The actions the bots learn: continuous where the recipe's experiment prefers
+        them (BenchMARL's `prefer_continuous_actions`) and on a mixed team, whose robots
+        share no other mode; discrete otherwise."""
+        if bbbench.spec(self.key).mixed or self.experiment.get("prefer_continuous_actions"):
+            return "continuous"
+        return "discrete"
 
     @property
     def segment_frames(self) -> int | None:
@@ -212,8 +220,7 @@ class MarlRecipe:
         for key, value in self.experiment.items():
             setattr(config, key, value)
         config.sampling_device = config.train_device = config.buffer_device = "cpu"
-        # Discrete actions, but on a mixed team, whose robots share continuous ones only.
-        config.prefer_continuous_actions = bbbench.spec(self.key).mixed
+        config.prefer_continuous_actions = self.action_mode == "continuous"
         config.share_policy_params = True
         config.max_n_frames = frames
         config.max_n_iters = None
@@ -280,6 +287,7 @@ def marl_recipe(algorithm: str, key: str, file: str | Path | None = None) -> Mar
         if field in OWNED:
             raise ValueError(f"{where}, experiment: {field} is bbbench train's: {OWNED[field]}")
     _check_fields(f"{where}, experiment", sections["experiment"], ExperimentConfig)
+    _check_action_mode(where, algorithm, key, sections["experiment"])
     plan = MarlRecipe(
         algorithm=algorithm,
         key=key,
@@ -312,6 +320,36 @@ def _check_fields(where: str, given: dict[str, Any], config_class) -> None:
     for field in given:
         if field not in known:
             raise ValueError(f"{where}: {unknown('key', field, tuple(known))}")
+
+
+def _check_action_mode(where: str, algorithm: str, key: str, experiment: dict) -> None:
+    """`ValueError` unless the recipe's `prefer_continuous_actions` is a mode the task's
+    robots take and the algorithm exports: continuous on a mixed team (its robots share no
+    other mode), discrete for a recurrent actor (the board's recurrent contract)."""
+    if "prefer_continuous_actions" not in experiment:
+        return
+    prefer = experiment["prefer_continuous_actions"]
+    if prefer is not True and prefer is not False:
+        raise ValueError(
+            f"{where}, experiment: prefer_continuous_actions must be true or false, got {prefer!r}"
+        )
+    task = bbbench.spec(key)
+    if task.mixed and not prefer:
+        raise ValueError(
+            f"{where}, experiment: prefer_continuous_actions false, but {key} is a mixed team, "
+            f"whose robots share continuous actions only: drop the key"
+        )
+    mode = "continuous" if prefer else "discrete"
+    if mode not in task.action_modes:
+        raise ValueError(
+            f"{where}, experiment: {key} takes {' or '.join(task.action_modes)} actions, not "
+            f"{mode}: set prefer_continuous_actions to {str(not prefer).lower()}"
+        )
+    if prefer and trainable(algorithm).recurrent:
+        raise ValueError(
+            f"{where}, experiment: {algorithm} exports discrete actions only (the board's "
+            f"recurrent contract): drop prefer_continuous_actions"
+        )
 
 
 def _like(task_id: str, table: dict[str, Any]) -> str | None:

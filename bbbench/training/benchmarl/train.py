@@ -62,7 +62,6 @@ from bbbench.training.checks import schedule
 from bbbench.training.logs import Trained, curve_point, write_logs
 from bbbench.training.seeds import evaluation_seeds
 
-ACTION_MODE = "discrete"
 CHECKPOINT_RULE = "last"  # the policy written: the last one, never a lucky best
 
 
@@ -73,27 +72,30 @@ STATISTICS_EPSILON = 0.2
 
 
 def training_action_mode(task_id: str) -> str:
-    """The actions IPPO and MAPPO learn on a task: discrete (`ACTION_MODE`), but on a mixed
-    team, whose robots share continuous actions only (`TaskSpec.action_modes`)."""
+    """The actions IPPO and MAPPO learn on a task unless a recipe prefers continuous ones
+    (`MarlRecipe.action_mode`): discrete, but on a mixed team, whose robots share
+    continuous actions only (`TaskSpec.action_modes`)."""
     modes = bbbench.spec(task_id).action_modes
-    return ACTION_MODE if ACTION_MODE in modes else modes[0]
+    return "discrete" if "discrete" in modes else modes[0]
 
 
 def observation_statistics(
-    task_id: str, config: dict[str, Any], seed: int
+    task_id: str, config: dict[str, Any], seed: int, action_mode: str | None = None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Mean and standard deviation of each observation value over `STATISTICS_STEPS`
-    world steps of the task's classical controller (`STATISTICS_EPSILON` of its actions
-    random; seeded), pooled over the bots still playing of each agent group (`bot`; on a
-    mixed team, each robot's: `bbbench.envs.worlds.agent_groups`): the fixed normalizer
-    the models see observations through (a value that varies by less than 0.01 there is
+    world steps of the task's classical controller in `action_mode` (default
+    `training_action_mode`; `STATISTICS_EPSILON` of its actions random; seeded), pooled
+    over the bots still playing of each agent group (`bot`; on a mixed team, each
+    robot's: `bbbench.envs.worlds.agent_groups`): the fixed normalizer the models see
+    observations through (a value that varies by less than 0.01 there is
     left unscaled). These are the states a standing bot visits. Under random play the
     bots are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
     0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
     random play, or raw observations, IPPO and MAPPO fell more as they trained
     (docs/notebook.md, "BenchMARL: IPPO and MAPPO")."""
-    env = bbbench.make_parallel(task_id, action_mode=training_action_mode(task_id), **config)
-    controller = load_policy(classical_controller(task_id)).actor(task_id)
+    mode = action_mode or training_action_mode(task_id)
+    env = bbbench.make_parallel(task_id, action_mode=mode, **config)
+    controller = load_policy(classical_controller(task_id), action_mode=mode).actor(task_id)
     team = isinstance(controller, TeamActor)
     group_of = {bot: group for group, bots in agent_groups(env.task).items() for bot in bots}
     seen: dict[str, list[np.ndarray]] = {group: [] for group in dict.fromkeys(group_of.values())}
@@ -191,20 +193,20 @@ class TrainingEvaluation(Callback):
         normalization,
         seed,
         mask=None,
+        action_mode=None,
     ):
         super().__init__()
         self.task_id, self.every = task_id, every
         self.normalization = normalization  # (mean, std) by agent group
         self.mixed = bbbench.spec(task_id).mixed
         self.mask = mask  # `heard_mask`: what the exported policy hears
+        self.action_mode = action_mode or training_action_mode(task_id)
         self.began, self.on_progress, self.budget = began, on_progress, budget
         self.bots, self.algorithm, self.seed = bots, algorithm, seed
         self.next_at = every
         self.curve: list[dict[str, float]] = []
         self.last: bytes | None = None
-        self.player = LockstepPlayer(
-            actors={}, action_mode=training_action_mode(task_id), sampled=False
-        )
+        self.player = LockstepPlayer(actors={}, action_mode=self.action_mode, sampled=False)
 
     def __getstate__(self) -> dict[str, Any]:
         """BenchMARL pickles its callbacks beside a run (to restore it): without the
@@ -235,12 +237,15 @@ class TrainingEvaluation(Callback):
             policy = TeamFilePolicy.from_bytes(candidate, "candidate.zip")
         else:
             network = actor_network(self.experiment)
+            if self.action_mode == "continuous":
+                actions = self.experiment.action_spec[GROUP, "action"].shape[-1]
+                network = DeterministicAction(network, actions)
             mean, std = self.normalization[GROUP]
             candidate = onnx_bytes(
                 network,
                 self.task_id,
                 state_width=getattr(network, "state_width", None),
-                action_mode=ACTION_MODE,
+                action_mode=self.action_mode,
                 mean=mean,
                 std=std,
                 mask=self.mask,
@@ -323,7 +328,9 @@ def train_marl(
     }
     segments = Segments(plan.segment_frames, budget, log_dir, fingerprint)
     saved = segments.restore()  # before any work: a folder of another training is refused
-    task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed)
+    task.observation_normalization = observation_statistics(
+        task_id, task.env_kwargs, seed, plan.action_mode
+    )
     with (
         _quiet(),
         trainings_beside() as beside,
@@ -340,6 +347,7 @@ def train_marl(
             task.observation_normalization,
             seed,
             heard_mask(task_id, task.env_kwargs),
+            plan.action_mode,
         )
         if saved is not None:
             callback.load_state(saved["callback"])
@@ -374,7 +382,7 @@ def train_marl(
     results = evaluate(load_policy(out), [task_id], episodes=final_episodes).document
     record = {
         "tasks": [task_id],
-        "action_mode": training_action_mode(task_id),
+        "action_mode": plan.action_mode,
         "seed": seed,
         "steps": frames,
         "bot_steps": frames * bots,
