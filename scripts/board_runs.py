@@ -1,8 +1,9 @@
 """What adding a trained run to the board takes, for scripts/train_baselines.py: the
 method a run belongs to, whether it is on the board, its budget in world steps, the
 board to one process while it adds, and its results.json dropped once the board holds
-the same episodes; and the seeds, the campaign's budget and its muted cell, which
-scripts/marl_tables.py and marl_curves.py name too."""
+the same episodes; and the seeds, the campaign's budget and its cells of their own
+recipes (messages muted, continuous actions), which scripts/marl_tables.py and
+marl_curves.py name too."""
 
 from __future__ import annotations
 
@@ -27,6 +28,17 @@ MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messa
     "recipe": "baselines/recipes/mappo-muted-rendezvous.yml",
     "name": "MAPPO Rendezvous-v0, messages muted",
 }
+CONTINUOUS = {  # issue 67's IPPO in continuous actions: IPPO's recipe, the action mode changed
+    "cell": f"ippo-continuous-rendezvous-v0-{CAMPAIGN_BUDGET}",
+    "algo": "ippo",
+    "tasks": ["bbbench/Rendezvous-v0"],
+    "seeds": SEEDS,
+    "recipe": "baselines/recipes/ippo-continuous-rendezvous.yml",
+    "name": "IPPO Rendezvous-v0, continuous actions",
+}
+# The campaign's cells of a recipe of their own (its file and method name), after the
+# shipped recipes' cells.
+VARIANTS = (MUTED, CONTINUOUS)
 
 
 def method_slug(run: dict) -> str:

@@ -37,7 +37,7 @@ from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import MUTED, SEEDS
+from board_runs import CONTINUOUS, MUTED, SEEDS
 
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 # (task, method as the table names it, the slug of its runs without the seed suffix)
@@ -111,6 +111,8 @@ STEERING_ROWS = (
     ),
     # issue 67's run with the messages muted: what the channel is worth to the recipe
     ("bbbench/Rendezvous-v0", "MAPPO, 3M, messages muted", MUTED["cell"]),
+    # and IPPO in continuous actions: whether the 243 discrete actions keep it from talking
+    ("bbbench/Rendezvous-v0", "IPPO, 3M, continuous actions", CONTINUOUS["cell"]),
 )
 STEERING_VERSUS = (
     *(
@@ -123,6 +125,12 @@ STEERING_VERSUS = (
         "MAPPO heard against muted, 3M",
         "mappo-rendezvous-v0-3m",
         MUTED["cell"],
+    ),
+    (
+        "bbbench/Rendezvous-v0",
+        "IPPO continuous against discrete, 3M",
+        CONTINUOUS["cell"],
+        "ippo-rendezvous-v0-3m",
     ),
 )
 # The crossing tasks' own controller, which the learned methods are also set against.

@@ -47,8 +47,8 @@ from bbbench.training.checks import policy_suffix
 sys.path.insert(0, str(Path(__file__).parent))
 from board_runs import (
     CAMPAIGN_BUDGET,
-    MUTED,
     SEEDS,
+    VARIANTS,
     board_lock,
     drop_repeated_results,
     method_slug,
@@ -133,7 +133,8 @@ def runs() -> list[dict]:
 
 def campaign() -> list[dict]:
     """The MARL cells at the field's budget, IPPO first: (algorithm, task), its seeds;
-    then the run with the messages muted (its own recipe file and method name)."""
+    then the cells of a recipe of their own (`VARIANTS`: the messages muted, continuous
+    actions), each its own recipe file and method name."""
     cells = [
         {
             "cell": f"{algo}-{_short(task)}-{CAMPAIGN_BUDGET}",
@@ -144,7 +145,7 @@ def campaign() -> list[dict]:
         for algo in ("ippo", "mappo")
         for task in (*LATEST_MULTI, *NOISY_MULTI, *TEAMS, *STEERING_MULTI, *MIXED_TEAMS)
     ]
-    return [*cells, MUTED]
+    return [*cells, *VARIANTS]
 
 
 def _short(task_id: str) -> str:

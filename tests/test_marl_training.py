@@ -415,12 +415,27 @@ def test_a_training_command_ends_without_warnings_of_leaked_semaphores(tmp_path)
 
 def test_the_muted_runs_recipe_is_mappos_shipped_one_with_the_messages_muted():
     """The campaign's run with the messages muted changes one thing against MAPPO's
-    shipped Rendezvous-v0 recipe (scripts/train_baselines.py, `MUTED`)."""
+    shipped Rendezvous-v0 recipe (scripts/board_runs.py, `MUTED`)."""
     from bbbench.training.benchmarl.recipes import marl_recipe
 
     root = Path(__file__).resolve().parents[1]
-    muted = load_script("train_baselines").MUTED
+    muted = load_script("board_runs").MUTED
     shipped = marl_recipe("mappo", "bbbench/Rendezvous-v0").record()
     changed = marl_recipe("mappo", "bbbench/Rendezvous-v0", root / muted["recipe"]).record()
     assert changed.pop("task") == {**shipped.pop("task"), "mute_messages": True}
     assert changed == shipped
+
+
+def test_the_continuous_runs_recipe_is_ippos_shipped_one_in_continuous_actions():
+    """The campaign's IPPO in continuous actions changes one thing against IPPO's shipped
+    Rendezvous-v0 recipe (scripts/board_runs.py, `CONTINUOUS`)."""
+    from bbbench.training.benchmarl.recipes import marl_recipe
+
+    root = Path(__file__).resolve().parents[1]
+    continuous = load_script("board_runs").CONTINUOUS
+    shipped = marl_recipe("ippo", "bbbench/Rendezvous-v0")
+    changed = marl_recipe("ippo", "bbbench/Rendezvous-v0", root / continuous["recipe"])
+    assert (shipped.action_mode, changed.action_mode) == ("discrete", "continuous")
+    experiment = dict(changed.record()["experiment"])
+    assert experiment.pop("prefer_continuous_actions") is True
+    assert {**changed.record(), "experiment": experiment} == shipped.record()
