@@ -44,8 +44,11 @@ def episode(job: tuple[str, int, bool, int, tuple[float, float] | None]) -> tupl
     policy, bots, muted, seed, hold = job
     if hold is not None:
         rendezvous.HOLD = hold  # this worker's candidate
-    env = bbbench.make_parallel(TASK, n_bots=bots, mute_messages=muted)
-    act = load_policy(policy).actor(TASK)
+    loaded = load_policy(policy)  # the env in its actions (a file's own mode)
+    env = bbbench.make_parallel(
+        TASK, n_bots=bots, mute_messages=muted, action_mode=loaded.action_mode
+    )
+    act = loaded.actor(TASK)
     observations, _ = env.reset(seed=seed)
     returns = dict.fromkeys(env.possible_agents, 0.0)
     falls = 0
