@@ -20,8 +20,16 @@ from bbbench.tasks.suite import spec
 # the MARL baselines at the field's budget (issue 50): each cell's seeds one after another.
 SEEDS = (0, 1, 2)
 CAMPAIGN_BUDGET = "3m"
+
+
+def cell_slug(method: str, task_id: str) -> str:
+    """A campaign cell's slug, its runs' stem (`<slug>-s<seed>`): the method (an
+    algorithm, or a recipe of its own such as `mappo-muted`), the task, the budget."""
+    return f"{method}-{task_id.removeprefix('bbbench/').lower()}-{CAMPAIGN_BUDGET}"
+
+
 MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added
-    "cell": f"mappo-muted-rendezvous-v0-{CAMPAIGN_BUDGET}",
+    "cell": cell_slug("mappo-muted", "bbbench/Rendezvous-v0"),
     "algo": "mappo",
     "tasks": ["bbbench/Rendezvous-v0"],
     "seeds": SEEDS,
@@ -29,7 +37,7 @@ MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messa
     "name": "MAPPO Rendezvous-v0, messages muted",
 }
 CONTINUOUS = {  # issue 67's IPPO in continuous actions: IPPO's recipe, the action mode changed
-    "cell": f"ippo-continuous-rendezvous-v0-{CAMPAIGN_BUDGET}",
+    "cell": cell_slug("ippo-continuous", "bbbench/Rendezvous-v0"),
     "algo": "ippo",
     "tasks": ["bbbench/Rendezvous-v0"],
     "seeds": SEEDS,

@@ -39,7 +39,7 @@ from bbbench.training import evaluation_seeds
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import CAMPAIGN_BUDGET, SEEDS
+from board_runs import SEEDS, cell_slug
 
 TASKS = (
     "bbbench/MultiBalance-v1",
@@ -199,11 +199,7 @@ def main() -> None:
     args = parser.parse_args()
     if not args.out.is_dir():
         parser.error(f"--out {args.out}: no such directory; give an existing one")
-    cells = {
-        (task, method): f"{method}-{task.removeprefix('bbbench/').lower()}-{CAMPAIGN_BUDGET}"
-        for task in TASKS
-        for method in METHODS
-    }
+    cells = {(task, method): cell_slug(method, task) for task in TASKS for method in METHODS}
     if args.cells:
         cells = dict(parse_cell(parser, args.root, text) for text in args.cells)
     data: dict = {}

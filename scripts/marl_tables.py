@@ -37,7 +37,7 @@ from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import CONTINUOUS, MUTED, SEEDS
+from board_runs import CONTINUOUS, MUTED, SEEDS, cell_slug
 
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 # (task, method as the table names it, the slug of its runs without the seed suffix)
@@ -78,18 +78,21 @@ CAMPAIGN_TASKS = (
 # against.
 AT_300K = CAMPAIGN_TASKS[:5]
 CAMPAIGN_ROWS = tuple(
-    (task_id, f"{algo.upper()}, 3M", f"{algo}-{task_id.removeprefix('bbbench/').lower()}-3m")
+    (task_id, f"{algo.upper()}, 3M", cell_slug(algo, task_id))
     for task_id in CAMPAIGN_TASKS
     for algo in ("ippo", "mappo")
 )
 CAMPAIGN_VERSUS = tuple(
-    (task_id, what, first.format(short), second.format(short))
+    (task_id, what, first, second)
     for task_id in CAMPAIGN_TASKS
-    for short in [task_id.removeprefix("bbbench/").lower()]
     for what, first, second in (
-        ("MAPPO against IPPO, 3M", "mappo-{}-3m", "ippo-{}-3m"),
-        *(
-            (f"{algo.upper()}, 3M against 300k", f"{algo}-{{}}-3m", f"{algo}-{{}}")
+        ("MAPPO against IPPO, 3M", cell_slug("mappo", task_id), cell_slug("ippo", task_id)),
+        *(  # the 300k cells' stem: the task's, without a budget
+            (
+                f"{algo.upper()}, 3M against 300k",
+                cell_slug(algo, task_id),
+                f"{algo}-{task_id.removeprefix('bbbench/').lower()}",
+            )
             for algo in ("ippo", "mappo")
             if task_id in AT_300K
         ),
@@ -105,7 +108,7 @@ STEERING_ROWS = (
         for on, trained_on in [scored_version(task_id)]
     ),
     *(
-        (task_id, f"{algo.upper()}, 3M", f"{algo}-{task_id.removeprefix('bbbench/').lower()}-3m")
+        (task_id, f"{algo.upper()}, 3M", cell_slug(algo, task_id))
         for task_id in STEERING_MULTI
         for algo in ("ippo", "mappo")
     ),
@@ -116,21 +119,20 @@ STEERING_ROWS = (
 )
 STEERING_VERSUS = (
     *(
-        (task_id, "MAPPO against IPPO, 3M", f"mappo-{short}-3m", f"ippo-{short}-3m")
+        (task_id, "MAPPO against IPPO, 3M", cell_slug("mappo", task_id), cell_slug("ippo", task_id))
         for task_id in STEERING_MULTI
-        for short in [task_id.removeprefix("bbbench/").lower()]
     ),
     (
         "bbbench/Rendezvous-v0",
         "MAPPO heard against muted, 3M",
-        "mappo-rendezvous-v0-3m",
+        cell_slug("mappo", "bbbench/Rendezvous-v0"),
         MUTED["cell"],
     ),
     (
         "bbbench/Rendezvous-v0",
         "IPPO continuous against discrete, 3M",
         CONTINUOUS["cell"],
-        "ippo-rendezvous-v0-3m",
+        cell_slug("ippo", "bbbench/Rendezvous-v0"),
     ),
 )
 # The crossing tasks' own controller, which the learned methods are also set against.

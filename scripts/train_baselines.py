@@ -46,10 +46,10 @@ from bbbench.training.checks import policy_suffix
 
 sys.path.insert(0, str(Path(__file__).parent))
 from board_runs import (
-    CAMPAIGN_BUDGET,
     SEEDS,
     VARIANTS,
     board_lock,
+    cell_slug,
     drop_repeated_results,
     method_slug,
     on_board,
@@ -137,7 +137,7 @@ def campaign() -> list[dict]:
     actions), each its own recipe file and method name."""
     cells = [
         {
-            "cell": f"{algo}-{_short(task)}-{CAMPAIGN_BUDGET}",
+            "cell": cell_slug(algo, task),
             "algo": algo,
             "tasks": [task],
             "seeds": SEEDS,
@@ -257,7 +257,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
         task_id, _, algo = row.partition(" ")
         plan_here = [run for run in plan if _row(run) == task_id]
         if algo in MARL:  # the campaign's cell at the field's budget, once it is on the board
-            cell = f"{algo}-{_short(task_id)}-{CAMPAIGN_BUDGET}"
+            cell = cell_slug(algo, task_id)
             campaign = [{"slug": f"{cell}-s{seed}", "algo": algo} for seed in SEEDS]
             if any(run["slug"] in results for run in campaign):
                 plan_here = campaign
