@@ -55,7 +55,9 @@ def ippo_rate(
 
     plan = marl_recipe(algorithm, task_id, recipe_file)
     task = plan.task_config()
-    task.observation_normalization = observation_statistics(task_id, task.env_kwargs, seed=0)
+    task.observation_normalization = observation_statistics(
+        task_id, task.env_kwargs, 0, plan.action_mode
+    )
     frames = plan.batch() * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:
         experiment = plan.build_experiment(task, 0, frames, plan.n_envs, Path(folder))

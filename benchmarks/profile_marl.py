@@ -150,7 +150,7 @@ def run(
     plan = marl_recipe(algorithm, task_id, recipe_file)
     task = plan.task_config()
     keywords = getattr(task, "env_kwargs", task.config)  # (before the batched env: config)
-    task.observation_normalization = observation_statistics(task_id, keywords, seed=0)
+    task.observation_normalization = observation_statistics(task_id, keywords, 0, plan.action_mode)
     batch = int(plan.experiment.get("on_policy_collected_frames_per_batch", 6000))
     frames = batch * batches
     with _quiet(), tempfile.TemporaryDirectory() as folder:

@@ -141,7 +141,7 @@ def test_benchmarl_trains_a_policy_per_robot_of_a_mixed_team(tmp_path):
     from bbbench.training.benchmarl.train import observation_statistics, team_file
 
     # Each robot's bots observe through their own group's normalizer (31 and 19 values).
-    normalization = observation_statistics("bbbench/MixedBeamCarry-v0", {}, seed=0)
+    normalization = observation_statistics("bbbench/MixedBeamCarry-v0", {}, 0, "continuous")
     assert {group: len(mean) for group, (mean, _) in normalization.items()} == {
         "wheel-legged": 31,
         "two-wheel": 19,

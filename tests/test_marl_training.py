@@ -366,8 +366,8 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     over hundredths of a radian there, not over the tenths of bots falling at random."""
     from bbbench.training.benchmarl.train import observation_statistics
 
-    (group,) = statistics = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
-    again = observation_statistics("bbbench/MultiBalance-v1", {}, seed=0)
+    (group,) = statistics = observation_statistics("bbbench/MultiBalance-v1", {}, 0, "discrete")
+    again = observation_statistics("bbbench/MultiBalance-v1", {}, 0, "discrete")
     assert group == "bot"  # the batched env's one group
     mean, std = statistics[group]
     assert mean.tobytes() == again[group][0].tobytes()
@@ -383,7 +383,7 @@ def test_the_steering_robot_normalizer_is_measured_under_its_own_controller():
     pitch then spreads over 0.30 rad (measured), as under random play."""
     from bbbench.training.benchmarl.train import observation_statistics
 
-    _, std = observation_statistics("bbbench/Swap-v0", {}, seed=0)["bot"]
+    _, std = observation_statistics("bbbench/Swap-v0", {}, 0, "discrete")["bot"]
     assert std[0] < 0.15  # pitch, rad: 0.10 under steer-avoid
 
 

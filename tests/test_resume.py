@@ -91,7 +91,9 @@ def assert_segment_loads_what_was_saved(plan: str, folder: Path) -> None:
     assert saved["frames"] == 400
     recipe = marl_recipe("ippo", TASK, plan)
     task = recipe.task_config()
-    task.observation_normalization = observation_statistics(TASK, task.env_kwargs, 0)
+    task.observation_normalization = observation_statistics(
+        TASK, task.env_kwargs, 0, recipe.action_mode
+    )
     experiment = recipe.build_experiment(task, segment_seed(0, 1), 400, 2, folder)
     fresh = [p.clone() for p in experiment.collector.policy.parameters()]
     optimizer = experiment.optimizers["bot"]["loss_objective"]

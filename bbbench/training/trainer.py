@@ -99,21 +99,19 @@ def _check_marl_request(tasks, algorithm, action_mode, recipe_file) -> tuple[lis
             f"{task} is a single-bot task: {name} trains the bots of a multi-bot task "
             f"({', '.join(multi)}); train {task} with --algo ppo or sac"
         )
-    if spec(task).mixed:  # its robots share continuous actions only
-        if action_mode not in (None, "continuous"):
+    mixed = spec(task).mixed
+    if mixed and trainable(algorithm).recurrent:
+        raise ValueError(
+            f"{task} is a mixed team, whose policy file (a team file) carries no "
+            f"recurrent state: train it with {algorithm.removesuffix('-gru')}"
+        )
+    mode = recipe(algorithm, task, recipe_file).action_mode  # continuous on a mixed team
+    if action_mode not in (None, mode):
+        if mixed:
             raise ValueError(
                 f"{task} is a mixed team ({' and '.join(spec(task).robots)} robots): {name} "
                 f"trains the continuous actions they share: drop --action-mode"
             )
-        if trainable(algorithm).recurrent:
-            raise ValueError(
-                f"{task} is a mixed team, whose policy file (a team file) carries no "
-                f"recurrent state: train it with {algorithm.removesuffix('-gru')}"
-            )
-        recipe(algorithm, task, recipe_file)
-        return tasks, task, "continuous"
-    mode = recipe(algorithm, task, recipe_file).action_mode
-    if action_mode not in (None, mode):
         space = agent_spaces(task, mode)[1]
         raise ValueError(
             f"{name}'s recipe for {task} trains {mode} actions ({space} on {task}): drop "

@@ -71,20 +71,12 @@ STATISTICS_STEPS = 2000
 STATISTICS_EPSILON = 0.2
 
 
-def training_action_mode(task_id: str) -> str:
-    """The actions IPPO and MAPPO learn on a task unless a recipe prefers continuous ones
-    (`MarlRecipe.action_mode`): discrete, but on a mixed team, whose robots share
-    continuous actions only (`TaskSpec.action_modes`)."""
-    modes = bbbench.spec(task_id).action_modes
-    return "discrete" if "discrete" in modes else modes[0]
-
-
 def observation_statistics(
-    task_id: str, config: dict[str, Any], seed: int, action_mode: str | None = None
+    task_id: str, config: dict[str, Any], seed: int, action_mode: str
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Mean and standard deviation of each observation value over `STATISTICS_STEPS`
-    world steps of the task's classical controller in `action_mode` (default
-    `training_action_mode`; `STATISTICS_EPSILON` of its actions random; seeded), pooled
+    world steps of the task's classical controller in `action_mode` (the recipe's,
+    `MarlRecipe.action_mode`; `STATISTICS_EPSILON` of its actions random; seeded), pooled
     over the bots still playing of each agent group (`bot`; on a mixed team, each
     robot's: `bbbench.envs.worlds.agent_groups`): the fixed normalizer the models see
     observations through (a value that varies by less than 0.01 there is
@@ -93,9 +85,8 @@ def observation_statistics(
     0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
     random play, or raw observations, IPPO and MAPPO fell more as they trained
     (docs/notebook.md, "BenchMARL: IPPO and MAPPO")."""
-    mode = action_mode or training_action_mode(task_id)
-    env = bbbench.make_parallel(task_id, action_mode=mode, **config)
-    controller = load_policy(classical_controller(task_id), action_mode=mode).actor(task_id)
+    env = bbbench.make_parallel(task_id, action_mode=action_mode, **config)
+    controller = load_policy(classical_controller(task_id), action_mode=action_mode).actor(task_id)
     team = isinstance(controller, TeamActor)
     group_of = {bot: group for group, bots in agent_groups(env.task).items() for bot in bots}
     seen: dict[str, list[np.ndarray]] = {group: [] for group in dict.fromkeys(group_of.values())}
@@ -153,8 +144,7 @@ def team_file(
     `contract`: `onnx_bytes`'s other fields (training_steps, training_seed)."""
     models = {}
     for group in experiment.group_map:
-        actions = experiment.action_spec[group, "action"].shape[-1]
-        actor = DeterministicAction(actor_network(experiment, group), actions)
+        actor = exported_actor(experiment, group, "continuous")
         mean, std = (normalization or {}).get(group, (None, None))
         models[group] = onnx_bytes(
             actor, task_id, algorithm=algorithm, group=group, mean=mean, std=std, **contract
@@ -177,6 +167,17 @@ def actor_network(experiment: Experiment, group: str = "bot") -> torch.nn.Module
     raise TypeError(f"no exportable network in {type(policy).__name__}")
 
 
+def exported_actor(experiment: Experiment, group: str, action_mode: str) -> torch.nn.Module:
+    """The network a group's policy file holds: `actor_network`; in continuous actions,
+    deterministic (`DeterministicAction`: the tanh of its loc, the action's width read
+    from the experiment's spec)."""
+    network = actor_network(experiment, group)
+    if action_mode == "continuous":
+        actions = experiment.action_spec[group, "action"].shape[-1]
+        network = DeterministicAction(network, actions)
+    return network
+
+
 class TrainingEvaluation(Callback):
     """After each training iteration: progress; every `every` frames, the policy exported
     and played on the training seeds, a point of the curve; the last file kept."""
@@ -192,15 +193,15 @@ class TrainingEvaluation(Callback):
         algorithm,
         normalization,
         seed,
-        mask=None,
-        action_mode=None,
+        mask,
+        action_mode,
     ):
         super().__init__()
         self.task_id, self.every = task_id, every
         self.normalization = normalization  # (mean, std) by agent group
         self.mixed = bbbench.spec(task_id).mixed
         self.mask = mask  # `heard_mask`: what the exported policy hears
-        self.action_mode = action_mode or training_action_mode(task_id)
+        self.action_mode = action_mode  # the recipe's: `MarlRecipe.action_mode`
         self.began, self.on_progress, self.budget = began, on_progress, budget
         self.bots, self.algorithm, self.seed = bots, algorithm, seed
         self.next_at = every
@@ -236,10 +237,7 @@ class TrainingEvaluation(Callback):
             )
             policy = TeamFilePolicy.from_bytes(candidate, "candidate.zip")
         else:
-            network = actor_network(self.experiment)
-            if self.action_mode == "continuous":
-                actions = self.experiment.action_spec[GROUP, "action"].shape[-1]
-                network = DeterministicAction(network, actions)
+            network = exported_actor(self.experiment, GROUP, self.action_mode)
             mean, std = self.normalization[GROUP]
             candidate = onnx_bytes(
                 network,
