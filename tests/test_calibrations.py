@@ -203,3 +203,30 @@ def test_a_mixed_calibration_episode_is_what_the_builtin_plays(mixed_record):
         length, team_return = mixed.play((task_id, role, VALIDATION_SEEDS[1]))
         row = mixed_record["tasks"][task_id]["policies"][role]
         assert (length, team_return) == (row["lengths"][1], row["returns"][1])
+
+
+pilot = load_script("pilot_rendezvous")
+
+
+@pytest.mark.parametrize("tell", ["one-hot", "direct"])
+def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypatch, tell):
+    """docs/notebook.md's pilots: every bot's row holds the scout's one-hot (of two
+    landmarks here); `direct` also gives every landmark's slot the goal's own values."""
+    from argparse import Namespace
+
+    from bbbench.tasks.suite import agent_layout
+
+    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None)
+    pilot.apply(variant, monkeypatch.setattr)
+    env = bbbench.make_parallel(pilot.TASK)
+    observations, _ = env.reset(seed=3)
+    names = list(agent_layout(pilot.TASK))
+    told, first = names.index("goal_is_landmark0"), names.index("landmark0_distance")
+    assert "landmark2_distance" not in names
+    rows = np.stack(list(observations.values()))
+    one_hot = np.zeros(2)
+    one_hot[env._scenario.goal] = 1.0
+    assert (rows[:, told : told + 2] == one_hot).all()  # every bot's the scout's
+    same = (rows[:, first : first + 3] == rows[:, first + 3 : first + 6]).all()
+    assert same == (tell == "direct")
+    env.close()

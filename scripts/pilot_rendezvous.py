@@ -1,0 +1,141 @@
+"""Rendezvous-v0's pilots (docs/notebook.md, "Rendezvous-v0's first learned policy"): the
+shipped IPPO recipe trained on a variant of the task, to ask what keeps it from the
+channel; its curve on the training seeds printed.
+
+    python scripts/pilot_rendezvous.py --tell one-hot --steps 1500000
+    python scripts/pilot_rendezvous.py --tell one-hot --own-share 1 --steps 900000
+    python scripts/pilot_rendezvous.py --tell one-hot --hold 100,100 --steps 1200000
+    python scripts/pilot_rendezvous.py --tell direct --steps 900000
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --steps 900000
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --controller
+
+A variant is not a task: it changes the scenario's module in this process (the worker
+processes that step the worlds fork after it), never a registered ID or the board.
+`--tell one-hot` writes the scout's one-hot into every bot's row (every bot told the goal
+as the scout is); `direct` also writes the goal's own distance and bearing into every
+landmark's three values (nothing to pick out, as Swap-v0 gives a goal); `none` is the
+task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal among 2 or
+3); `--own-share W` pays each bot W x its own share + (1 - W) x the team's mean;
+`--hold LOW,HIGH` holds each goal LOW-HIGH s. `--controller` plays the task's controller
+on the variant instead (what the curve is set against). Each point: world steps, the
+mean return per bot on the training seeds, the mean episode length.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+import bbbench.policies.controllers.rendezvous as controller
+import bbbench.tasks.scenarios.rendezvous as rendezvous
+from bbbench.evaluation.episodes import LockstepPlayer
+from bbbench.policies import load_policy
+from bbbench.training.benchmarl.train import train_marl
+from bbbench.training.logs import curve_point
+from bbbench.training.seeds import evaluation_seeds
+
+TASK = "bbbench/Rendezvous-v0"
+TELLING = ("none", "one-hot", "direct")
+
+
+def told_everyone(observe, direct: bool):
+    """`Rendezvous.observe` with the scout's one-hot in every row (and, `direct`, the
+    goal's own distance and bearing in every landmark's three values)."""
+
+    def observe_told(self, scene, states, commands, targets, step):
+        rows = observe(self, scene, states, commands, targets, step)
+        names = [field.name for field in self.layout]
+        told = names.index("goal_is_landmark0")
+        rows[:, told : told + rendezvous.LANDMARKS] = 0.0
+        rows[:, told + self.goal] = 1.0
+        if direct:
+            first = names.index("landmark0_distance")
+            goal = rows[:, first + 3 * self.goal : first + 3 * self.goal + 3].copy()
+            for k in range(rendezvous.LANDMARKS):
+                rows[:, first + 3 * k : first + 3 * k + 3] = goal
+        return rows
+
+    return observe_told
+
+
+def own_shares(outcome, weight: float):
+    """`Rendezvous.outcome` paying each live bot `weight` x its own share and the rest of
+    its reward from the team's mean."""
+
+    def outcome_own(self, agents, states, targets, seed):
+        done = outcome(self, agents, states, targets, seed)
+        team = done.rewards[0] if done.rewards else 0.0
+        rewards = [weight * self._shares[i] + (1.0 - weight) * team for i in self._live]
+        return dataclasses.replace(done, rewards=rewards)
+
+    return outcome_own
+
+
+def apply(args: argparse.Namespace, assign=setattr) -> None:
+    """The variant, in this process's modules (`assign`: `setattr`, or a test's
+    `monkeypatch.setattr`, which undoes it)."""
+    if args.landmarks is not None:
+        for module in (rendezvous, controller):
+            assign(module, "LANDMARKS", args.landmarks)
+        assign(rendezvous, "_OWN_FIELDS", rendezvous._landmark_fields())
+    if args.hold is not None:
+        assign(rendezvous, "HOLD", args.hold)
+    scenario = rendezvous.Rendezvous
+    if args.tell != "none":
+        assign(scenario, "observe", told_everyone(scenario.observe, args.tell == "direct"))
+    if args.own_share is not None:
+        assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
+
+
+def print_point(steps: int, point: dict) -> None:
+    print(steps, round(point["mean"], 2), round(point["mean_length"]), flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tell", choices=TELLING, default="none")
+    parser.add_argument("--landmarks", type=int, choices=(2, 3, 4))
+    parser.add_argument("--own-share", type=float, help="W in [0, 1]: a bot's own share's weight")
+    parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")
+    parser.add_argument("--controller", action="store_true", help="play the controller instead")
+    parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=int, default=900_000, help="world steps")
+    parser.add_argument("--every", type=int, default=300_000, help="world steps a point")
+    parser.add_argument("--out", type=Path, default=Path("pilot-rendezvous"), help="a folder")
+    args = parser.parse_args()
+    if args.own_share is not None and not 0.0 <= args.own_share <= 1.0:
+        parser.error(f"--own-share {args.own_share}: expected a weight from 0 to 1")
+    if args.hold is not None:
+        try:
+            low, high = (float(value) for value in args.hold.split(","))
+        except ValueError:
+            parser.error(f"--hold {args.hold!r}: expected LOW,HIGH seconds, e.g. 3,6")
+        if not 0.0 < low <= high:
+            parser.error(f"--hold {args.hold!r}: expected 0 < LOW <= HIGH")
+        args.hold = (low, high)
+    apply(args)
+    if args.controller:
+        policy = load_policy("rendezvous", action_mode="discrete")
+        player = LockstepPlayer({TASK: policy.actor(TASK)}, "discrete", sampled=False)
+        played = player.play(TASK, evaluation_seeds(TASK))
+        print_point(0, curve_point(played, time.perf_counter(), steps=0, bot_steps=0))
+        return
+    args.out.mkdir(parents=True, exist_ok=True)
+    trained = train_marl(
+        TASK,
+        "ippo",
+        str(args.out / "policy.onnx"),
+        steps=args.steps,
+        seed=args.seed,
+        recipe_file=args.recipe,
+        eval_freq=args.every,
+        on_progress=lambda frames, _, point: point and print_point(frames, point),
+    )
+    print("minutes", round(trained.seconds / 60.0, 1), flush=True)
+
+
+if __name__ == "__main__":
+    main()
