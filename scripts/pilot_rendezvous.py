@@ -7,7 +7,8 @@ channel; its curve on the training seeds printed.
     python scripts/pilot_rendezvous.py --tell one-hot --hold 100,100 --steps 1200000
     python scripts/pilot_rendezvous.py --tell direct --steps 900000
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --steps 900000
-    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --controller
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --play rendezvous
+    python scripts/pilot_rendezvous.py --landmarks 2 --play policy.onnx --muted
 
 A variant is not a task: it changes the scenario's module in this process (the worker
 processes that step the worlds fork after it), never a registered ID or the board.
@@ -16,25 +17,27 @@ as the scout is); `direct` also writes the goal's own distance and bearing into 
 landmark's three values (nothing to pick out, as Swap-v0 gives a goal); `none` is the
 task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal among 2 or
 3); `--own-share W` pays each bot W x its own share + (1 - W) x the team's mean;
-`--hold LOW,HIGH` holds each goal LOW-HIGH s. `--controller` plays the task's controller
-on the variant instead (what the curve is set against). Each point: world steps, the
-mean return per bot on the training seeds, the mean episode length.
+`--hold LOW,HIGH` holds each goal LOW-HIGH s. `--play` plays a policy (a built-in, such
+as the task's controller, or a file) on the variant instead of training, heard or
+`--muted`. Each point: world steps, the mean return per bot on the curve's training
+seeds, the mean episode length (played: the bot-episodes that fell, of 4 a seed).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import time
+import sys
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
-from bbbench.evaluation.episodes import LockstepPlayer
-from bbbench.policies import load_policy
 from bbbench.training.benchmarl.train import train_marl
-from bbbench.training.logs import curve_point
 from bbbench.training.seeds import evaluation_seeds
+
+sys.path.insert(0, str(Path(__file__).parent))
+from calibrate_rendezvous import episode
 
 TASK = "bbbench/Rendezvous-v0"
 TELLING = ("none", "one-hot", "direct")
@@ -73,6 +76,17 @@ def own_shares(outcome, weight: float):
     return outcome_own
 
 
+def fewer_words(heard, landmarks: int):
+    """The controller's `heard`, a word for a landmark the variant lacks heard as nothing
+    (a random action's message, while the normalizer is measured)."""
+
+    def heard_of_fewer(values):
+        said = heard(values)
+        return None if said is None or said[0] >= landmarks else said
+
+    return heard_of_fewer
+
+
 def apply(args: argparse.Namespace, assign=setattr) -> None:
     """The variant, in this process's modules (`assign`: `setattr`, or a test's
     `monkeypatch.setattr`, which undoes it)."""
@@ -80,6 +94,7 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         for module in (rendezvous, controller):
             assign(module, "LANDMARKS", args.landmarks)
         assign(rendezvous, "_OWN_FIELDS", rendezvous._landmark_fields())
+        assign(controller, "heard", fewer_words(controller.heard, args.landmarks))
     if args.hold is not None:
         assign(rendezvous, "HOLD", args.hold)
     scenario = rendezvous.Rendezvous
@@ -99,7 +114,8 @@ def main() -> None:
     parser.add_argument("--landmarks", type=int, choices=(2, 3, 4))
     parser.add_argument("--own-share", type=float, help="W in [0, 1]: a bot's own share's weight")
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")
-    parser.add_argument("--controller", action="store_true", help="play the controller instead")
+    parser.add_argument("--play", help="a built-in (rendezvous) or a policy file: play it")
+    parser.add_argument("--muted", action="store_true", help="play with the messages muted")
     parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=900_000, help="world steps")
@@ -117,11 +133,12 @@ def main() -> None:
             parser.error(f"--hold {args.hold!r}: expected 0 < LOW <= HIGH")
         args.hold = (low, high)
     apply(args)
-    if args.controller:
-        policy = load_policy("rendezvous", action_mode="discrete")
-        player = LockstepPlayer({TASK: policy.actor(TASK)}, "discrete", sampled=False)
-        played = player.play(TASK, evaluation_seeds(TASK))
-        print_point(0, curve_point(played, time.perf_counter(), steps=0, bot_steps=0))
+    if args.play:  # each worker process the same variant (they may not fork)
+        jobs = [(args.play, 4, args.muted, seed, None) for seed in evaluation_seeds(TASK)]
+        with ProcessPoolExecutor(2, initializer=apply, initargs=(args,)) as pool:
+            played = list(pool.map(episode, jobs))
+        returns, falls = zip(*played, strict=True)
+        print(0, round(sum(returns) / len(returns), 2), sum(falls), flush=True)
         return
     args.out.mkdir(parents=True, exist_ok=True)
     trained = train_marl(
