@@ -17,7 +17,9 @@ as the scout is); `direct` also writes the goal's own distance and bearing into 
 landmark's three values (nothing to pick out, as Swap-v0 gives a goal); `none` is the
 task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal among 2 or
 3); `--own-share W` pays each bot W x its own share + (1 - W) x the team's mean;
-`--hold LOW,HIGH` holds each goal LOW-HIGH s. `--play` plays a policy (a built-in, such
+`--hold LOW,HIGH` holds each goal LOW-HIGH s; `--wired` makes the scout's message the
+controller's word for the goal, whatever it sends (the listeners' half of the channel
+alone). `--play` plays a policy (a built-in, such
 as the task's controller, or a file) on the variant instead of training, heard or
 `--muted`. Each point: world steps, the mean return per bot on the curve's training
 seeds, the mean episode length (played: the bot-episodes that fell, of 4 a seed).
@@ -63,6 +65,18 @@ def told_everyone(observe, direct: bool):
     return observe_told
 
 
+def wired_scout(observe):
+    """`Rendezvous.observe` with the scout's last message replaced by the controller's
+    word for the goal now (`TOLD`): a speaker that always tells, whatever it sends."""
+
+    def observe_wired(self, scene, states, commands, targets, step):
+        if self.scout in scene.live:
+            scene.sent[self.scout] = controller.TOLD[self.goal]
+        return observe(self, scene, states, commands, targets, step)
+
+    return observe_wired
+
+
 def own_shares(outcome, weight: float):
     """`Rendezvous.outcome` paying each live bot `weight` x its own share and the rest of
     its reward from the team's mean."""
@@ -98,6 +112,8 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
     if args.hold is not None:
         assign(rendezvous, "HOLD", args.hold)
     scenario = rendezvous.Rendezvous
+    if args.wired:
+        assign(scenario, "observe", wired_scout(scenario.observe))
     if args.tell != "none":
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell == "direct"))
     if args.own_share is not None:
@@ -111,6 +127,7 @@ def print_point(steps: int, point: dict) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tell", choices=TELLING, default="none")
+    parser.add_argument("--wired", action="store_true", help="the scout's words wired to the goal")
     parser.add_argument("--landmarks", type=int, choices=(2, 3, 4))
     parser.add_argument("--own-share", type=float, help="W in [0, 1]: a bot's own share's weight")
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")

@@ -216,7 +216,7 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
 
     from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None)
+    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None, wired=False)
     pilot.apply(variant, monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)
@@ -229,4 +229,27 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     assert (rows[:, told : told + 2] == one_hot).all()  # every bot's the scout's
     same = (rows[:, first : first + 3] == rows[:, first + 3 : first + 6]).all()
     assert same == (tell == "direct")
+    env.close()
+
+
+@pytest.mark.parametrize("wired", [True, False])
+def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, wired):
+    """`--wired`: the scout's message is the controller's word for the goal, whatever it
+    sent (at reset, nothing); the bots within the channel's range hear it."""
+    from argparse import Namespace
+
+    from bbbench.tasks.suite import agent_layout
+
+    variant = Namespace(tell="none", landmarks=2, hold=None, own_share=None, wired=wired)
+    pilot.apply(variant, monkeypatch.setattr)
+    env = bbbench.make_parallel(pilot.TASK)
+    observations, _ = env.reset(seed=3)
+    names = list(agent_layout(pilot.TASK))
+    word = pilot.controller.TOLD[env._scenario.goal]
+    heard = [
+        tuple(row[names.index(f"sender{k}_message0") :][:2]) == word
+        for row in observations.values()
+        for k in (1, 2, 3)
+    ]
+    assert any(heard) == wired
     env.close()
