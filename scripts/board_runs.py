@@ -22,10 +22,15 @@ SEEDS = (0, 1, 2)
 CAMPAIGN_BUDGET = "3m"
 
 
+def short(task_id: str) -> str:
+    """A task's ID without the suite's prefix: "Rendezvous-v0", as the tables name it."""
+    return task_id.removeprefix("bbbench/")
+
+
 def cell_slug(method: str, task_id: str) -> str:
     """A campaign cell's slug, its runs' stem (`<slug>-s<seed>`): the method (an
     algorithm, or a recipe of its own such as `mappo-muted`), the task, the budget."""
-    return f"{method}-{task_id.removeprefix('bbbench/').lower()}-{CAMPAIGN_BUDGET}"
+    return f"{method}-{short(task_id).lower()}-{CAMPAIGN_BUDGET}"
 
 
 MUTED = {  # issue 67's run with the messages muted: MAPPO's recipe, `mute_messages` added

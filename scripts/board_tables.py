@@ -23,6 +23,9 @@ import numpy as np
 
 from bbbench.evaluation.results import read
 
+sys.path.insert(0, str(Path(__file__).parent))
+from board_runs import short
+
 ROOT = Path(__file__).resolve().parents[1]
 BOARD = ROOT / "leaderboards" / "bbbench-v0.json"
 RESULTS = ROOT / "leaderboards" / "results"
@@ -38,10 +41,6 @@ REWARD_TASKS = (
     "bbbench/MultiNoisySensors-v0",
 )
 STEERING_TASKS = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v1", "bbbench/WaypointsBumps-v1")
-
-
-def _short(task_id: str) -> str:
-    return task_id.removeprefix("bbbench/")
 
 
 def board_methods() -> list[dict[str, Any]]:
@@ -85,7 +84,7 @@ def every_task() -> str:
         best, name = max(learned, key=lambda pair: pair[0])
         builtins = " | ".join(f"{scores[slug][0]:.3f}" for slug in ("stand", "pd", "lqr"))
         lines.append(
-            f"| {_short(task_id)} | 0 ({bbbench.spec(task_id).random_return:.2f}) "
+            f"| {short(task_id)} | 0 ({bbbench.spec(task_id).random_return:.2f}) "
             f"| {builtins} | {best:.3f} ({name}) |"
         )
     return "\n".join(lines)
@@ -99,7 +98,7 @@ def steering() -> str:
     for task_id in STEERING_TASKS:
         aggregate = controller("steer", task_id)["aggregate"]
         difficulty = bbbench.spec(task_id).difficulty
-        name = _short(task_id) + (f" (difficulty {difficulty:g})" if "Bumps" in task_id else "")
+        name = short(task_id) + (f" (difficulty {difficulty:g})" if "Bumps" in task_id else "")
         finished = round(aggregate["success_rate"] * aggregate["episodes"])
         lines.append(
             f"| {name} | {finished} / {aggregate['episodes']} | {aggregate['mean']:.1f} | "

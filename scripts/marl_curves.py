@@ -39,7 +39,7 @@ from bbbench.training import evaluation_seeds
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import SEEDS, cell_slug
+from board_runs import SEEDS, cell_slug, short
 
 TASKS = (
     "bbbench/MultiBalance-v1",
@@ -132,7 +132,7 @@ def figure(task_id: str, curves: dict[str, list[dict]], line: float) -> bytes:
     axes.axhline(line, color="black", linestyle="--", label=f"{controller} controller")
     axes.set_xlabel("world steps (millions)")
     axes.set_ylabel("normalized return (IQM, 95% CI)")
-    axes.set_title(f"{task_id.removeprefix('bbbench/')}: training seeds")
+    axes.set_title(f"{short(task_id)}: training seeds")
     axes.legend(loc="lower right")
     fig.tight_layout()
     out = io.BytesIO()
@@ -209,13 +209,13 @@ def main() -> None:
             runs = cell_runs(args.root, stem) if task == task_id else {}
             if runs:
                 curves[method] = curve(task_id, runs)
-                name = task_id.removeprefix("bbbench/")
+                name = short(task_id)
                 finals = {seed: final_returns(args.root, stem, seed, task) for seed in runs}
                 data.setdefault(name, {})[method.upper()] = marl_eval_curves(runs, finals)
         if not curves:
             continue
         line = controller_line(task_id)
-        target = args.out / f"marl-curves-{task_id.removeprefix('bbbench/').lower()}.svg"
+        target = args.out / f"marl-curves-{short(task_id).lower()}.svg"
         write_atomic(target, figure(task_id, curves, line))
         controller = classical_controller(task_id)
         print(f"\n{task_id} ({controller} on the same seeds: {line:.3f}), {target}\n")

@@ -37,7 +37,7 @@ from bbbench.tasks.suite import scored_version, spec
 from bbbench.training.logs import run_episodes
 
 sys.path.insert(0, str(Path(__file__).parent))
-from board_runs import CONTINUOUS, MUTED, SEEDS, cell_slug
+from board_runs import CONTINUOUS, MUTED, SEEDS, cell_slug, short
 
 BOARD = Path(__file__).resolve().parents[1] / "leaderboards"
 # (task, method as the table names it, the slug of its runs without the seed suffix)
@@ -91,7 +91,7 @@ CAMPAIGN_VERSUS = tuple(
             (
                 f"{algo.upper()}, 3M against 300k",
                 cell_slug(algo, task_id),
-                f"{algo}-{task_id.removeprefix('bbbench/').lower()}",
+                f"{algo}-{short(task_id).lower()}",
             )
             for algo in ("ippo", "mappo")
             if task_id in AT_300K
@@ -103,7 +103,7 @@ STEERING_SINGLE = ("bbbench/SteerTracking-v0", "bbbench/Waypoints-v0", "bbbench/
 STEERING_MULTI = ("bbbench/Swap-v0", "bbbench/ConvoyTurns-v0", "bbbench/Rendezvous-v0")
 STEERING_ROWS = (
     *(  # trained on these IDs, scored on their latest versions, which the board plays
-        (on, f"PPO{trained_on}", f"ppo-{task_id.removeprefix('bbbench/').lower()}")
+        (on, f"PPO{trained_on}", f"ppo-{short(task_id).lower()}")
         for task_id in STEERING_SINGLE
         for on, trained_on in [scored_version(task_id)]
     ),
@@ -210,7 +210,7 @@ def versus(root: Path, task_id: str, compared: str, first: str, second: str) -> 
     ]
     point, (low, high) = stats.probability_of_improvement([pooled[0]], [pooled[1]])
     return (
-        f"| {task_id.removeprefix('bbbench/')} | {compared} | {len(a)} / {len(b)} "
+        f"| {short(task_id)} | {compared} | {len(a)} / {len(b)} "
         f"| {pooled[0].mean():.3f} / {pooled[1].mean():.3f} | {point:.2f} [{low:.2f}, {high:.2f}] |"
     )
 
@@ -248,7 +248,7 @@ def row(
         )
     median = statistics.median(score.values())
     return (
-        f"| {task_id.removeprefix('bbbench/')} | {method} | {max(steps) / 1e6:.1f}M | {walls} min "
+        f"| {short(task_id)} | {method} | {max(steps) / 1e6:.1f}M | {walls} min "
         f"| {by_seed} | {median:.3f} | {whole:.0%} | {' | '.join(columns)} |"
     )
 

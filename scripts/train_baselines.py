@@ -53,6 +53,7 @@ from board_runs import (
     drop_repeated_results,
     method_slug,
     on_board,
+    short,
     world_steps,
 )
 
@@ -126,7 +127,7 @@ def runs() -> list[dict]:
         ),
     ]
     for run in plan:
-        name = "generalist-v1" if run.get("generalist") else _short(run["tasks"][0])
+        name = "generalist-v1" if run.get("generalist") else short(run["tasks"][0]).lower()
         run["slug"] = f"{run['algo']}-{name}-s{run['seed']}"
     return plan
 
@@ -146,10 +147,6 @@ def campaign() -> list[dict]:
         for task in (*LATEST_MULTI, *NOISY_MULTI, *TEAMS, *STEERING_MULTI, *MIXED_TEAMS)
     ]
     return [*cells, *VARIANTS]
-
-
-def _short(task_id: str) -> str:
-    return task_id.removeprefix("bbbench/").lower()
 
 
 def policy_name(run: dict) -> str:
@@ -279,7 +276,7 @@ def table(root: Path, board: Path, which: str = "all") -> str:
             on, trained_on = scored_version(task_id)
             scores = " / ".join(f"{score(run['slug'], on):.3f}" for run in done)
             classical = classical_controller(on)
-            name = on.removeprefix("bbbench/") + (f" ({algo.upper()})" if algo else "")
+            name = short(on) + (f" ({algo.upper()})" if algo else "")
             name += trained_on
             pd = f"{score(classical, on):.3f}"
         steps = world_steps(records[0])  # world steps, the board's unit
@@ -296,7 +293,7 @@ def _row(run: dict) -> str:
 def _display(run: dict) -> str:
     if run.get("generalist"):
         return "generalist"
-    return run["tasks"][0].removeprefix("bbbench/")
+    return short(run["tasks"][0])
 
 
 def main() -> None:
