@@ -47,16 +47,20 @@ TELLING = ("none", "one-hot", "direct")
 
 def told_everyone(observe, direct: bool):
     """`Rendezvous.observe` with the scout's one-hot in every row (and, `direct`, the
-    goal's own distance and bearing in every landmark's three values)."""
+    goal's own distance and bearing in every landmark's three values). The fields' places
+    are found at the first step: a pilot plays one task, so one layout."""
+    places: dict[str, int] = {}
 
     def observe_told(self, scene, states, commands, targets, step):
         rows = observe(self, scene, states, commands, targets, step)
-        names = [field.name for field in self.layout]
-        told = names.index("goal_is_landmark0")
+        if not places:
+            names = [field.name for field in self.layout]
+            places.update(told=names.index("goal_is_landmark0"))
+            places.update(first=names.index("landmark0_distance"))
+        told, first = places["told"], places["first"]
         rows[:, told : told + rendezvous.LANDMARKS] = 0.0
         rows[:, told + self.goal] = 1.0
         if direct:
-            first = names.index("landmark0_distance")
             goal = rows[:, first + 3 * self.goal : first + 3 * self.goal + 3].copy()
             for k in range(rendezvous.LANDMARKS):
                 rows[:, first + 3 * k : first + 3 * k + 3] = goal
