@@ -19,10 +19,11 @@ task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal amo
 3); `--own-share W` pays each bot W x its own share + (1 - W) x the team's mean;
 `--hold LOW,HIGH` holds each goal LOW-HIGH s; `--wired` makes the scout's message the
 controller's word for the goal, whatever it sends (the listeners' half of the channel
-alone). `--play` plays a policy (a built-in, such
-as the task's controller, or a file) on the variant instead of training, heard or
-`--muted`. Each point: world steps, the mean return per bot on the curve's training
-seeds, the mean episode length (played: the bot-episodes that fell, of 4 a seed).
+alone); `--hush` silences every bot but the scout (no babble to tell its words from).
+`--play` plays a policy (a built-in, such as the task's controller, or a file) on the
+variant instead of training, heard or `--muted`. Each point: world steps, the mean
+return per bot on the curve's training seeds, the mean episode length (played: the
+bot-episodes that fell, of 4 a seed).
 """
 
 from __future__ import annotations
@@ -81,6 +82,21 @@ def wired_scout(observe):
     return observe_wired
 
 
+def hushed_others(observe):
+    """`Rendezvous.observe` with every bot's last message but the scout's replaced by
+    nothing (zeros): the scout is the only sender a bot hears say anything, so a
+    listener need not tell its words from the others' babble."""
+
+    def observe_hushed(self, scene, states, commands, targets, step):
+        nothing = (0.0,) * self.channel.width
+        for i in scene.live:
+            if i != self.scout:
+                scene.sent[i] = nothing
+        return observe(self, scene, states, commands, targets, step)
+
+    return observe_hushed
+
+
 def own_shares(outcome, weight: float):
     """`Rendezvous.outcome` paying each live bot `weight` x its own share and the rest of
     its reward from the team's mean."""
@@ -118,6 +134,8 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
     scenario = rendezvous.Rendezvous
     if args.wired:
         assign(scenario, "observe", wired_scout(scenario.observe))
+    if args.hush:
+        assign(scenario, "observe", hushed_others(scenario.observe))
     if args.tell != "none":
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell == "direct"))
     if args.own_share is not None:
@@ -132,6 +150,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tell", choices=TELLING, default="none")
     parser.add_argument("--wired", action="store_true", help="the scout's words wired to the goal")
+    parser.add_argument("--hush", action="store_true", help="every bot but the scout silent")
     parser.add_argument("--landmarks", type=int, choices=(2, 3, 4))
     parser.add_argument("--own-share", type=float, help="W in [0, 1]: a bot's own share's weight")
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")

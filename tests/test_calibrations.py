@@ -216,7 +216,7 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
 
     from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None, wired=False)
+    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None, wired=False, hush=False)
     pilot.apply(variant, monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)
@@ -240,7 +240,9 @@ def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, w
 
     from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(tell="none", landmarks=2, hold=None, own_share=None, wired=wired)
+    variant = Namespace(
+        tell="none", landmarks=2, hold=None, own_share=None, wired=wired, hush=False
+    )
     pilot.apply(variant, monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)
@@ -253,3 +255,41 @@ def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, w
     ]
     assert any(heard) == wired
     env.close()
+
+
+def test_a_hushed_variant_hears_the_scout_alone(monkeypatch):
+    """`--hush`: after a step in which every bot says (1, 1), a bot hears it from the
+    scout alone; without it, from every sender in range."""
+    from argparse import Namespace
+
+    from bbbench.tasks.suite import agent_layout
+
+    saying = {}
+    for hush in (False, True):
+        variant = Namespace(
+            tell="none", landmarks=2, hold=None, own_share=None, wired=False, hush=hush
+        )
+        with monkeypatch.context() as patch:
+            pilot.apply(variant, patch.setattr)
+            names = list(agent_layout(pilot.TASK))
+            env = bbbench.make_parallel(pilot.TASK)
+            env.reset(seed=3)
+            said = env.task.channel.codes - 1  # (1, 1), with the robot's first action
+            observations, *_ = env.step({bot: said for bot in env.agents})
+            scout = env.possible_agents[env._scenario.scout]
+            saying[hush] = {
+                bot: [
+                    (
+                        row[names.index(f"sender{k}_message0")],
+                        row[names.index(f"sender{k}_message1")],
+                    )
+                    == (1.0, 1.0)
+                    for k in (1, 2, 3)
+                ]
+                for bot, row in observations.items()
+            }
+            env.close()
+    heard = {hush: sum(sum(said) for said in bots.values()) for hush, bots in saying.items()}
+    assert heard[False] > heard[True] > 0
+    assert sum(saying[True][scout]) == 0  # the scout hears no one: the others are silent
+    assert all(sum(said) <= 1 for said in saying[True].values())  # the scout alone
