@@ -15,6 +15,7 @@ import pytest
 import bbbench
 from bbbench.cli import main
 from bbbench.policies import classical_controller, load_policy
+from bbbench.tasks.suite import agent_layout
 from bbbench.training import MARL_TRAINABLE, recipe, trainable
 from bbbench.training.recipe_files import recipe_file
 from bbbench.training.sb3.recipes import recipes
@@ -375,6 +376,35 @@ def test_the_normalizer_is_measured_on_standing_bots_and_repeats_from_its_seed()
     assert mean.shape == std.shape == (17,)
     assert std[0] < 0.1  # pitch, rad
     assert (std > 0).all()
+
+
+@pytest.mark.parametrize(
+    ("task_id", "mode"),
+    [
+        ("bbbench/Rendezvous-v0", "discrete"),
+        ("bbbench/BeamCarry-v0", "discrete"),
+        ("bbbench/MixedBeamCarry-v0", "continuous"),
+    ],
+)
+def test_the_normalizer_leaves_each_slots_presence_bit_as_it_is(task_id, mode):
+    """The neighbour encoder multiplies a slot by its presence bit: standardized, the bit
+    would not read 0 or 1 (Rendezvous-v0's nearest sender, present in every row the
+    controller's play gives, would read 0 and be hidden)."""
+    from bbbench.envs.worlds import agent_groups
+    from bbbench.training.benchmarl.train import observation_statistics
+
+    task = bbbench.spec(task_id)
+    scenario = task.scenario_class(task)
+    statistics = observation_statistics(task_id, {}, 0, mode)
+    for group, bots in agent_groups(task).items():
+        mean, std = statistics[group]
+        flags = list(scenario.bot_slots(bots[0]).presence_columns())
+        assert flags  # every slot of these tasks has its bit
+        assert (mean[flags] == 0.0).all()
+        assert (std[flags] == 1.0).all()
+    if not task.mixed:  # one layout: the bits by name
+        names = agent_layout(task_id)
+        assert {names[i].split("_")[-1] for i in scenario.slots().presence_columns()} == {"present"}
 
 
 def test_the_steering_robot_normalizer_is_measured_under_its_own_controller():

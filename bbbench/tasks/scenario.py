@@ -94,6 +94,12 @@ class Slots(NamedTuple):
     width: int
     presence: int | None
 
+    def presence_columns(self) -> tuple[int, ...]:
+        """Where each slot's presence bit sits in the observation (none without one)."""
+        if self.presence is None:
+            return ()
+        return tuple(self.own + k * self.width + self.presence for k in range(self.count))
+
 
 # Every scenario, by the name a task spec gives (`TaskSpec.scenario`), in the suite's
 # order: each module of `bbbench.tasks.scenarios` registers its own.

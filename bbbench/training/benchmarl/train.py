@@ -80,7 +80,10 @@ def observation_statistics(
     over the bots still playing of each agent group (`bot`; on a mixed team, each
     robot's: `bbbench.envs.worlds.agent_groups`): the fixed normalizer the models see
     observations through (a value that varies by less than 0.01 there is
-    left unscaled). These are the states a standing bot visits. Under random play the
+    left unscaled; a slot's presence bit, `Slots.presence_columns`, is left as it is,
+    0 or 1, since the neighbour encoder multiplies its slot by it: standardized, the
+    nearest sender's bit on Rendezvous-v0, present in every row, read 0, and hid that
+    sender). These are the states a standing bot visits. Under random play the
     bots are falling, and the pitch's spread there (0.36 rad on MultiBalance-v1, against
     0.05 rad) hides the hundredths of a radian balancing is made of: with statistics of
     random play, or raw observations, IPPO and MAPPO fell more as they trained
@@ -108,15 +111,17 @@ def observation_statistics(
         observations, _, _, _, _ = env.step(actions)
         if not env.agents:
             observations, _ = env.reset(seed=int(rng.integers(2**31)))
+    scenario, groups = env.task.scenario_class(env.task), agent_groups(env.task)
     env.close()
     statistics = {}
     for group, rows in seen.items():
         values = np.asarray(rows, np.float64)
-        std = values.std(axis=0)
-        statistics[group] = (
-            values.mean(axis=0).astype(np.float32),
-            np.where(std < 0.01, 1.0, std).astype(np.float32),
-        )
+        mean, std = values.mean(axis=0), values.std(axis=0)
+        std = np.where(std < 0.01, 1.0, std)
+        slots = scenario.bot_slots(groups[group][0])
+        flags = list(slots.presence_columns()) if slots is not None else []
+        mean[flags], std[flags] = 0.0, 1.0
+        statistics[group] = (mean.astype(np.float32), std.astype(np.float32))
     return statistics
 
 
