@@ -327,6 +327,7 @@ def test_ippo_trains_exports_its_last_point_and_each_seed_is_its_own_runs_bytes(
     assert [point["steps"] for point in curve] == [200, 400]
     assert record["checkpoint_rule"] == "last"
     assert record["observation_statistics"]["controller"] == classical_controller(TASK)
+    assert record["observation_statistics"]["presence_bits"] == "unscaled"
     assert record["trainings_beside"]["samples"] >= 2  # counted at its start and its end
     assert record["kept"] == curve[-1]
     assert record["workers"] == 2

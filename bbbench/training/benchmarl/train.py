@@ -398,6 +398,7 @@ def train_marl(
             "controller": classical_controller(task_id),
             "world_steps": STATISTICS_STEPS,
             "random_share": STATISTICS_EPSILON,
+            "presence_bits": "unscaled",  # trainings before this key standardized them
         },
         "kept": callback.curve[-1],
         "wall_time_s": round(seconds, 1),
