@@ -8,14 +8,17 @@ channel; its curve on the training seeds printed.
     python scripts/pilot_rendezvous.py --tell direct --steps 900000
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --steps 900000
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --play rendezvous
+    python scripts/pilot_rendezvous.py --tell in-range --landmarks 2 --steps 1500000
     python scripts/pilot_rendezvous.py --landmarks 2 --play policy.onnx --muted
 
 A variant is not a task: it changes the scenario's module in this process (the worker
 processes that step the worlds fork after it), never a registered ID or the board.
 `--tell one-hot` writes the scout's one-hot into every bot's row (every bot told the goal
 as the scout is); `direct` also writes the goal's own distance and bearing into every
-landmark's three values (nothing to pick out, as Swap-v0 gives a goal); `none` is the
-task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal among 2 or
+landmark's three values (nothing to pick out, as Swap-v0 gives a goal); `in-range`
+writes it into the rows of the bots within the channel's range of the scout (the scout's
+word heard in the bot's own values, with no sender to find among the slots); `none` is
+the task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal among 2 or
 3); `--own-share W` pays each bot W x its own share + (1 - W) x the team's mean;
 `--hold LOW,HIGH` holds each goal LOW-HIGH s; `--wired` makes the scout's message the
 controller's word for the goal, whatever it sends (the listeners' half of the channel
@@ -43,13 +46,15 @@ sys.path.insert(0, str(Path(__file__).parent))
 from calibrate_rendezvous import episode
 
 TASK = "bbbench/Rendezvous-v0"
-TELLING = ("none", "one-hot", "direct")
+TELLING = ("none", "one-hot", "direct", "in-range")
 
 
-def told_everyone(observe, direct: bool):
+def told_everyone(observe, direct: bool, in_range: bool = False):
     """`Rendezvous.observe` with the scout's one-hot in every row (and, `direct`, the
-    goal's own distance and bearing in every landmark's three values). The fields' places
-    are found at the first step: a pilot plays one task, so one layout."""
+    goal's own distance and bearing in every landmark's three values; `in_range`, in the
+    rows of the bots within the channel's range of the scout alone, as if its word were
+    heard in the bot's own values). The fields' places are found at the first step: a
+    pilot plays one task, so one layout."""
     places: dict[str, int] = {}
 
     def observe_told(self, scene, states, commands, targets, step):
@@ -60,7 +65,11 @@ def told_everyone(observe, direct: bool):
             places.update(first=names.index("landmark0_distance"))
         told, first = places["told"], places["first"]
         rows[:, told : told + rendezvous.LANDMARKS] = 0.0
-        rows[:, told + self.goal] = 1.0
+        if in_range:
+            hearing = [i for i, bot in enumerate(scene.live) if hears_scout(self, states, i, bot)]
+            rows[hearing, told + self.goal] = 1.0
+        else:
+            rows[:, told + self.goal] = 1.0
         if direct:
             goal = rows[:, first + 3 * self.goal : first + 3 * self.goal + 3].copy()
             for k in range(rendezvous.LANDMARKS):
@@ -68,6 +77,18 @@ def told_everyone(observe, direct: bool):
         return rows
 
     return observe_told
+
+
+def hears_scout(self, states, row: int, bot: int) -> bool:
+    """Whether live bot `bot` (its state `states[row]`) is the scout or within the
+    channel's range of it (the scout itself live)."""
+    live = list(self._live)
+    if self.scout not in live:
+        return False
+    if bot == self.scout:
+        return True
+    mine, scouts = states[row].position, states[live.index(self.scout)].position
+    return (mine[0] - scouts[0]) ** 2 + (mine[1] - scouts[1]) ** 2 <= self.channel.range**2
 
 
 def wired_scout(observe):
@@ -137,7 +158,8 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
     if args.hush:
         assign(scenario, "observe", hushed_others(scenario.observe))
     if args.tell != "none":
-        assign(scenario, "observe", told_everyone(scenario.observe, args.tell == "direct"))
+        told = told_everyone(scenario.observe, args.tell == "direct", args.tell == "in-range")
+        assign(scenario, "observe", told)
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
 

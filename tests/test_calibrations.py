@@ -232,6 +232,31 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     env.close()
 
 
+def test_an_in_range_pilot_tells_the_bots_within_the_channels_range_of_the_scout(monkeypatch):
+    """`--tell in-range`: the scout's one-hot in the rows of the scout and of the bots
+    within the channel's range of it, zeros in the others'."""
+    from argparse import Namespace
+
+    from bbbench.tasks.suite import agent_layout
+
+    variant = Namespace(
+        tell="in-range", landmarks=2, hold=None, own_share=None, wired=False, hush=False
+    )
+    pilot.apply(variant, monkeypatch.setattr)
+    told = list(agent_layout(pilot.TASK)).index("goal_is_landmark0")
+    env = bbbench.make_parallel(pilot.TASK)
+    observations, _ = env.reset(seed=3)  # two bots out of the scout's range
+    scenario, states = env._scenario, env._states
+    scout = states[scenario.scout].position
+    for row, state in zip(observations.values(), states, strict=True):
+        where = state.position
+        near = (where[0] - scout[0]) ** 2 + (where[1] - scout[1]) ** 2 <= 6.0**2
+        assert row[told + scenario.goal] == float(near)
+        assert row[told + 1 - scenario.goal] == 0.0
+    assert sorted(row[told + scenario.goal] for row in observations.values()) == [0, 0, 1, 1]
+    env.close()
+
+
 @pytest.mark.parametrize("wired", [True, False])
 def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, wired):
     """`--wired`: the scout's message is the controller's word for the goal, whatever it
