@@ -18,6 +18,7 @@ import numpy as np
 
 from bbbench.children import die_with_parent
 from bbbench.envs.multi import MultiBalanceEnv
+from bbbench.tasks.scenario import Slots
 from bbbench.tasks.spec import TaskSpec
 
 # What `advance` does to each world.
@@ -36,6 +37,14 @@ def agent_groups(task: TaskSpec) -> dict[str, tuple[int, ...]]:
     if task.mixed:
         return dict(task.robot_groups)
     return {GROUP: tuple(range(task.group.n_bots))}
+
+
+def group_slots(task: TaskSpec) -> dict[str, Slots | None]:
+    """How each agent group's rows read (`agent_groups`): its first bot's
+    `Scenario.bot_slots`, since a group is one robot, so one layout; None for rows
+    without slots. What the neighbour encoder and the trainer's normalizer read a row by."""
+    scenario = task.scenario_class(task)
+    return {group: scenario.bot_slots(bots[0]) for group, bots in agent_groups(task).items()}
 
 
 class Buffers:

@@ -27,6 +27,7 @@ from benchmarl.models.common import Model, ModelConfig
 from tensordict import TensorDictBase
 
 import bbbench
+from bbbench.envs.worlds import group_slots
 from bbbench.policies.encoder import neighbour_encoder
 
 
@@ -99,10 +100,7 @@ class NeighbourEncoderConfig(ModelConfig):
         own, slots, slot_width, presence = scenario.slots()
         groups = None
         if task.mixed:
-            groups = {
-                group: tuple(scenario.bot_slots(bots[0]))
-                for group, bots in task.robot_groups.items()
-            }
+            groups = {group: tuple(slots) for group, slots in group_slots(task).items()}
         return cls(
             own=own, slots=slots, slot_width=slot_width, presence=presence, groups=groups, **changes
         )

@@ -43,7 +43,7 @@ from benchmarl.experiment.callback import Callback
 from benchmarl.models import Gru
 
 import bbbench
-from bbbench.envs.worlds import GROUP, agent_groups
+from bbbench.envs.worlds import GROUP, agent_groups, group_slots
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.episodes import LockstepPlayer
 from bbbench.files import write_atomic
@@ -111,14 +111,14 @@ def observation_statistics(
         observations, _, _, _, _ = env.step(actions)
         if not env.agents:
             observations, _ = env.reset(seed=int(rng.integers(2**31)))
-    scenario, groups = env.task.scenario_class(env.task), agent_groups(env.task)
+    layouts = group_slots(env.task)
     env.close()
     statistics = {}
     for group, rows in seen.items():
         values = np.asarray(rows, np.float64)
         mean, std = values.mean(axis=0), values.std(axis=0)
         std = np.where(std < 0.01, 1.0, std)
-        slots = scenario.bot_slots(groups[group][0])
+        slots = layouts[group]
         flags = list(slots.presence_columns()) if slots is not None else []
         mean[flags], std[flags] = 0.0, 1.0
         statistics[group] = (mean.astype(np.float32), std.astype(np.float32))
