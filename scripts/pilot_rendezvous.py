@@ -24,9 +24,10 @@ the task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal
 controller's word for the goal, whatever it sends (the listeners' half of the channel
 alone); `--hush` silences every bot but the scout (no babble to tell its words from).
 `--play` plays a policy (a built-in, such as the task's controller, or a file) on the
-variant instead of training, heard or `--muted`. Each point: world steps, the mean
-return per bot on the curve's training seeds, the mean episode length (played: the
-bot-episodes that fell, of 4 a seed).
+variant instead of training, heard or `--muted`; `--seeds 0,1,2` trains a policy a seed,
+one after another (into `--out`'s s0, s1, ...), and ends with each point's mean over
+them. Each point: world steps, the mean return per bot on the curve's training seeds,
+the mean episode length (played: the bot-episodes that fell, of 4 a seed).
 """
 
 from __future__ import annotations
@@ -164,8 +165,15 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
 
 
-def print_point(steps: int, point: dict) -> None:
-    print(steps, round(point["mean"], 2), round(point["mean_length"]), flush=True)
+def printed(curve: list[float]):
+    """A training's `on_progress`: each point printed, its mean return kept in `curve`."""
+
+    def print_point(frames: int, _, point: dict | None) -> None:
+        if point:
+            curve.append(point["mean"])
+            print(frames, round(point["mean"], 2), round(point["mean_length"]), flush=True)
+
+    return print_point
 
 
 def main() -> None:
@@ -179,11 +187,15 @@ def main() -> None:
     parser.add_argument("--play", help="a built-in (rendezvous) or a policy file: play it")
     parser.add_argument("--muted", action="store_true", help="play with the messages muted")
     parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", default="0", help="training seeds, e.g. 0,1,2: a policy each")
     parser.add_argument("--steps", type=int, default=900_000, help="world steps")
     parser.add_argument("--every", type=int, default=300_000, help="world steps a point")
     parser.add_argument("--out", type=Path, default=Path("pilot-rendezvous"), help="a folder")
     args = parser.parse_args()
+    try:
+        seeds = [int(seed) for seed in args.seeds.split(",")]
+    except ValueError:
+        parser.error(f"--seeds {args.seeds!r}: expected whole numbers, e.g. 0,1,2")
     if args.own_share is not None and not 0.0 <= args.own_share <= 1.0:
         parser.error(f"--own-share {args.own_share}: expected a weight from 0 to 1")
     if args.hold is not None:
@@ -202,18 +214,24 @@ def main() -> None:
         returns, falls = zip(*played, strict=True)
         print(0, round(sum(returns) / len(returns), 2), sum(falls), flush=True)
         return
-    args.out.mkdir(parents=True, exist_ok=True)
-    trained = train_marl(
-        TASK,
-        "ippo",
-        str(args.out / "policy.onnx"),
-        steps=args.steps,
-        seed=args.seed,
-        recipe_file=args.recipe,
-        eval_freq=args.every,
-        on_progress=lambda frames, _, point: point and print_point(frames, point),
-    )
-    print("minutes", round(trained.seconds / 60.0, 1), flush=True)
+    curves: dict[int, list[float]] = {}
+    for seed in seeds:  # one after another: two trainings at once lose more than they share
+        folder = args.out / f"s{seed}" if len(seeds) > 1 else args.out
+        folder.mkdir(parents=True, exist_ok=True)
+        trained = train_marl(
+            TASK,
+            "ippo",
+            str(folder / "policy.onnx"),
+            steps=args.steps,
+            seed=seed,
+            recipe_file=args.recipe,
+            eval_freq=args.every,
+            on_progress=printed(curves.setdefault(seed, [])),
+        )
+        print("seed", seed, "minutes", round(trained.seconds / 60.0, 1), flush=True)
+    if len(seeds) > 1:  # each point's mean over the seeds
+        for k, points in enumerate(zip(*curves.values(), strict=False)):
+            print("mean", (k + 1) * args.every, round(sum(points) / len(points), 2), flush=True)
 
 
 if __name__ == "__main__":
