@@ -40,6 +40,7 @@ from pathlib import Path
 
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
+from bbbench.tasks.group import nearest_others
 from bbbench.training.benchmarl.train import train_marl
 from bbbench.training.seeds import evaluation_seeds
 
@@ -50,12 +51,13 @@ TASK = "bbbench/Rendezvous-v0"
 TELLING = ("none", "one-hot", "direct", "in-range")
 
 
-def told_everyone(observe, direct: bool, in_range: bool = False):
-    """`Rendezvous.observe` with the scout's one-hot in every row (and, `direct`, the
-    goal's own distance and bearing in every landmark's three values; `in_range`, in the
-    rows of the bots within the channel's range of the scout alone, as if its word were
-    heard in the bot's own values). The fields' places are found at the first step: a
-    pilot plays one task, so one layout."""
+def told_everyone(observe, tell: str):
+    """`Rendezvous.observe` with the scout's one-hot in every row, as `tell` (one of
+    `TELLING` but "none") says: "one-hot", in every row; "direct", in every row, and the
+    goal's own distance and bearing in every landmark's three values; "in-range", in the
+    rows of the scout and of the bots that hear it on the channel alone, as if its word
+    were heard in the bot's own values. The fields' places are found at the first step:
+    a pilot plays one task, so one layout."""
     places: dict[str, int] = {}
 
     def observe_told(self, scene, states, commands, targets, step):
@@ -66,12 +68,11 @@ def told_everyone(observe, direct: bool, in_range: bool = False):
             places.update(first=names.index("landmark0_distance"))
         told, first = places["told"], places["first"]
         rows[:, told : told + rendezvous.LANDMARKS] = 0.0
-        if in_range:
-            hearing = [i for i, bot in enumerate(scene.live) if hears_scout(self, states, i, bot)]
-            rows[hearing, told + self.goal] = 1.0
+        if tell == "in-range":
+            rows[hearing_scout(self, states), told + self.goal] = 1.0
         else:
             rows[:, told + self.goal] = 1.0
-        if direct:
+        if tell == "direct":
             goal = rows[:, first + 3 * self.goal : first + 3 * self.goal + 3].copy()
             for k in range(rendezvous.LANDMARKS):
                 rows[:, first + 3 * k : first + 3 * k + 3] = goal
@@ -80,16 +81,21 @@ def told_everyone(observe, direct: bool, in_range: bool = False):
     return observe_told
 
 
-def hears_scout(self, states, row: int, bot: int) -> bool:
-    """Whether live bot `bot` (its state `states[row]`) is the scout or within the
-    channel's range of it (the scout itself live)."""
+def hearing_scout(self, states) -> list[int]:
+    """The rows of the live bots (their `states`, in order) that are the scout or hear it:
+    the scout among their channel's `slots` nearest others, within its `range`, as
+    `Channel.blocks` chooses senders. None when the scout has fallen."""
     live = list(self._live)
     if self.scout not in live:
-        return False
-    if bot == self.scout:
-        return True
-    mine, scouts = states[row].position, states[live.index(self.scout)].position
-    return (mine[0] - scouts[0]) ** 2 + (mine[1] - scouts[1]) ** 2 <= self.channel.range**2
+        return []
+    scout, channel = live.index(self.scout), self.channel
+    positions = [complex(state.position[0], state.position[1]) for state in states]
+    nearest = nearest_others(positions, channel.slots)
+    return [
+        row
+        for row, here in enumerate(positions)
+        if row == scout or (scout in nearest[row] and abs(positions[scout] - here) <= channel.range)
+    ]
 
 
 def wired_scout(observe):
@@ -159,8 +165,7 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
     if args.hush:
         assign(scenario, "observe", hushed_others(scenario.observe))
     if args.tell != "none":
-        told = told_everyone(scenario.observe, args.tell == "direct", args.tell == "in-range")
-        assign(scenario, "observe", told)
+        assign(scenario, "observe", told_everyone(scenario.observe, args.tell))
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
 

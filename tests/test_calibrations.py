@@ -247,10 +247,11 @@ def test_an_in_range_pilot_tells_the_bots_within_the_channels_range_of_the_scout
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)  # two bots out of the scout's range
     scenario, states = env._scenario, env._states
-    scout = states[scenario.scout].position
+    scout, reach = states[scenario.scout].position, scenario.channel.range
+    assert len(states) - 1 <= scenario.channel.slots  # so range alone decides who hears
     for row, state in zip(observations.values(), states, strict=True):
         where = state.position
-        near = (where[0] - scout[0]) ** 2 + (where[1] - scout[1]) ** 2 <= 6.0**2
+        near = (where[0] - scout[0]) ** 2 + (where[1] - scout[1]) ** 2 <= reach**2
         assert row[told + scenario.goal] == float(near)
         assert row[told + 1 - scenario.goal] == 0.0
     assert sorted(row[told + scenario.goal] for row in observations.values()) == [0, 0, 1, 1]

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -17,10 +20,15 @@ from pettingzoo.test import parallel_api_test
 import bbbench
 from bbbench.evaluation import evaluate
 from bbbench.evaluation.play import MultiEpisode
+from bbbench.evaluation.results import dumps
 from bbbench.policies import load_policy
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import RandomActor, TeamActor
 from bbbench.robots.layout import INDEX
+
+RESULTS_SCHEMA = json.loads(
+    (Path(__file__).parent.parent / "docs" / "results-schema.json").read_text()
+)
 
 MIXED = "bbbench/MixedBeamCarry-v0"
 HILLS = "bbbench/MixedBeamCarryBumps-v0"
@@ -89,6 +97,7 @@ def test_an_episode_is_the_same_bits_in_another_process():
         f"""
         import hashlib, numpy as np, bbbench
         from bbbench.evaluation.play import MultiEpisode
+from bbbench.evaluation.results import dumps
         from bbbench.policies import load_policy
         env = bbbench.make_parallel("{HILLS}")
         rows = []
@@ -229,9 +238,14 @@ def test_a_team_file_plays_each_group_with_its_own_model(tmp_path):
         alone = OnnxPolicy(parse_onnx(models[group], group, group)).actor(MIXED)
         np.testing.assert_array_equal(action, alone(rows[bot][None])[0])
     # Scored as any policy file; the same bytes give the same results.
-    first = evaluate(team, [MIXED], episodes=2).document["tasks"][0]["episodes"]
+    document = evaluate(team, [MIXED], episodes=2).document
     again = evaluate(load_policy(path), [MIXED], episodes=2).document["tasks"][0]["episodes"]
-    assert first == again
+    assert document["tasks"][0]["episodes"] == again
+    # Its results document follows the published schema, each group's model named.
+    jsonschema.validate(json.loads(dumps(document)), RESULTS_SCHEMA)
+    assert document["policy"]["groups"] == {
+        group: hashlib.sha256(model).hexdigest() for group, model in models.items()
+    }
     write_again = tmp_path / "again"
     write_again.mkdir()
     assert _team_file(write_again)[0].read_bytes() == path.read_bytes()
