@@ -96,11 +96,13 @@ class NeighbourEncoderConfig(ModelConfig):
         task = bbbench.spec(task_id)
         if not task.multi_agent:
             raise ValueError(f"{task_id} is a single-bot task: it has no neighbours to encode")
-        scenario = task.scenario_class(task)
-        own, slots, slot_width, presence = scenario.slots()
+        table = group_slots(task)  # one scenario built; the first group's is the task's
+        if any(layout is None for layout in table.values()):
+            raise ValueError(f"{task_id}'s rows have no neighbour slots to encode")
+        own, slots, slot_width, presence = next(iter(table.values()))
         groups = None
         if task.mixed:
-            groups = {group: tuple(slots) for group, slots in group_slots(task).items()}
+            groups = {group: tuple(layout) for group, layout in table.items()}
         return cls(
             own=own, slots=slots, slot_width=slot_width, presence=presence, groups=groups, **changes
         )
