@@ -10,6 +10,7 @@ channel; its curve on the training seeds printed.
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --play rendezvous
     python scripts/pilot_rendezvous.py --tell in-range --landmarks 2 --steps 1500000
     python scripts/pilot_rendezvous.py --landmarks 2 --play policy.onnx --muted
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --entities --seeds 0,1,2
 
 A variant is not a task: it changes the scenario's module in this process (the worker
 processes that step the worlds fork after it), never a registered ID or the board.
@@ -23,6 +24,10 @@ the task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal
 `--hold LOW,HIGH` holds each goal LOW-HIGH s; `--wired` makes the scout's message the
 controller's word for the goal, whatever it sends (the listeners' half of the channel
 alone); `--hush` silences every bot but the scout (no babble to tell its words from).
+`--entities` trains the actor with a landmark encoder beside the sender slots
+(`landmark_entities`: each landmark's values and its told bit through one shared layer,
+with the landmark's own learned code and the pooled senders added, summed over the
+landmarks), so that picking the goal out is a gate, not a product to learn.
 `--play` plays a policy (a built-in, such as the task's controller, or a file) on the
 variant instead of training, heard or `--muted`; `--seeds 0,1,2` trains a policy a seed,
 one after another (into `--out`'s s0, s1, ...), and ends with each point's mean over
@@ -38,9 +43,11 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import bbbench.marl.models
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
 from bbbench.tasks.group import nearest_others
+from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.train import train_marl
 from bbbench.training.seeds import evaluation_seeds
 
@@ -149,6 +156,52 @@ def fewer_words(heard, landmarks: int):
     return heard_of_fewer
 
 
+def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, pool):
+    """`neighbour_encoder`'s signature and sender slots, with a landmark encoder beside
+    them: each landmark's distance, bearing and told bit through one shared layer, plus
+    that landmark's learned code and the pooled senders' embedding, ReLU, summed over the
+    landmarks. A told bit (or a heard word, through the pooled senders) can then open one
+    landmark's features and close the others'. Built from the operators bbbench's
+    interpreter runs (Slice, Concat, Reshape, MatMul, Add, Mul, Relu, ReduceSum)."""
+    import torch  # lazy: torch, for training only
+
+    names = list(agent_layout(TASK))
+    first, told = names.index("landmark0_distance"), names.index("goal_is_landmark0")
+    count = rendezvous.LANDMARKS
+
+    class LandmarkEntities(torch.nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.per_slot = torch.nn.Linear(slot_width, embed)
+            self.per_landmark = torch.nn.Linear(4, embed)
+            self.code = torch.nn.Parameter(0.1 * torch.randn(count, embed))
+            self.heard = torch.nn.Linear(embed, embed, bias=False)
+            layers, width = [], own + 2 * embed
+            for size in hidden:
+                layers += [torch.nn.Linear(width, size), torch.nn.Tanh()]
+                width = size
+            self.head = torch.nn.Sequential(*layers, torch.nn.Linear(width, actions))
+
+        def forward(self, obs):
+            mine = obs[:, :own]
+            grouped = obs[:, own : own + slots * slot_width].reshape(-1, slots, slot_width)
+            present = grouped[:, :, presence : presence + 1]
+            h = torch.relu(self.per_slot(grouped)) * present
+            pooled = h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
+            parts = []
+            for k in range(count):
+                parts += [
+                    obs[:, first + 3 * k : first + 3 * k + 3],
+                    obs[:, told + k : told + k + 1],
+                ]
+            marks = torch.cat(parts, dim=1).reshape(-1, count, 4)
+            context = self.heard(pooled).reshape(-1, 1, embed)
+            picked = torch.relu(self.per_landmark(marks) + self.code + context).sum(dim=1)
+            return self.head(torch.cat([mine, pooled, picked], dim=1))
+
+    return LandmarkEntities()
+
+
 def apply(args: argparse.Namespace, assign=setattr) -> None:
     """The variant, in this process's modules (`assign`: `setattr`, or a test's
     `monkeypatch.setattr`, which undoes it)."""
@@ -168,6 +221,8 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell))
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
+    if getattr(args, "entities", False):
+        assign(bbbench.marl.models, "neighbour_encoder", landmark_entities)
 
 
 def printed(curve: list[float]):
@@ -191,6 +246,7 @@ def main() -> None:
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")
     parser.add_argument("--play", help="a built-in (rendezvous) or a policy file: play it")
     parser.add_argument("--muted", action="store_true", help="play with the messages muted")
+    parser.add_argument("--entities", action="store_true", help="the actor's landmark encoder")
     parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
     parser.add_argument("--seeds", default="0", help="training seeds, e.g. 0,1,2: a policy each")
     parser.add_argument("--steps", type=int, default=900_000, help="world steps")
