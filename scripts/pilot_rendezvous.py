@@ -182,12 +182,15 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
                 width = size
             self.head = torch.nn.Sequential(*layers, torch.nn.Linear(width, actions))
 
-        def forward(self, obs):
-            mine = obs[:, :own]
+        def senders(self, obs):
+            """The sender slots' embeddings, mean-pooled over the present ones."""
             grouped = obs[:, own : own + slots * slot_width].reshape(-1, slots, slot_width)
             present = grouped[:, :, presence : presence + 1]
             h = torch.relu(self.per_slot(grouped)) * present
-            pooled = h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
+            return h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
+
+        def landmarks(self, obs, pooled):
+            """The landmarks' features, each with its code and the heard senders, summed."""
             parts = []
             for k in range(count):
                 parts += [
@@ -196,8 +199,11 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
                 ]
             marks = torch.cat(parts, dim=1).reshape(-1, count, 4)
             context = self.heard(pooled).reshape(-1, 1, embed)
-            picked = torch.relu(self.per_landmark(marks) + self.code + context).sum(dim=1)
-            return self.head(torch.cat([mine, pooled, picked], dim=1))
+            return torch.relu(self.per_landmark(marks) + self.code + context).sum(dim=1)
+
+        def forward(self, obs):
+            pooled = self.senders(obs)
+            return self.head(torch.cat([obs[:, :own], pooled, self.landmarks(obs, pooled)], dim=1))
 
     return LandmarkEntities()
 

@@ -232,6 +232,53 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     env.close()
 
 
+def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_exported(monkeypatch):
+    """`--entities`: the actor's landmark encoder sees each landmark through one shared
+    layer, so that, but for each landmark's own code, swapping two landmarks (their values
+    and told bits) changes nothing in its features; exported, bbbench's interpreter plays
+    the actor as torch does."""
+    from argparse import Namespace
+
+    import torch
+
+    import bbbench.marl.models
+    from bbbench.marl.models import NeighbourEncoderConfig
+    from bbbench.policies.onnx.export import onnx_bytes
+    from bbbench.policies.onnx.policy import OnnxPolicy
+    from bbbench.policies.onnx.reader import parse_onnx
+    from bbbench.tasks.suite import agent_layout
+
+    variant = Namespace(
+        tell="one-hot", landmarks=2, hold=None, own_share=None, wired=False, hush=False,
+        entities=True,
+    )  # fmt: skip
+    pilot.apply(variant, monkeypatch.setattr)
+    config = NeighbourEncoderConfig.for_task(pilot.TASK)
+    torch.manual_seed(0)
+    net = bbbench.marl.models.neighbour_encoder(
+        config.own, config.slots, config.slot_width, 243, config.presence, 32, (64, 64), "mean"
+    )
+    env = bbbench.make_parallel(pilot.TASK)
+    observations, _ = env.reset(seed=3)
+    env.close()
+    rows = np.stack(list(observations.values())).astype(np.float32)
+    names = list(agent_layout(pilot.TASK))
+    told, first = names.index("goal_is_landmark0"), names.index("landmark0_distance")
+    swapped = rows.copy()
+    swapped[:, first : first + 6] = np.roll(rows[:, first : first + 6], 3, axis=1)
+    swapped[:, told : told + 2] = rows[:, [told + 1, told]]
+    with torch.no_grad():
+        pooled = net.senders(torch.from_numpy(rows))
+        coded = net.landmarks(torch.from_numpy(rows), pooled)
+        assert not torch.allclose(coded, net.landmarks(torch.from_numpy(swapped), pooled))
+        net.code.zero_()
+        same = [net.landmarks(torch.from_numpy(r), pooled).numpy() for r in (rows, swapped)]
+        scores = net(torch.from_numpy(rows)).numpy()
+    np.testing.assert_allclose(same[0], same[1], atol=1e-5)
+    policy = OnnxPolicy(parse_onnx(onnx_bytes(net, pilot.TASK, algorithm="IPPO"), "p", "p.onnx"))
+    assert list(policy.actor(pilot.TASK)(rows)) == list(scores.argmax(axis=1))
+
+
 def test_an_in_range_pilot_tells_the_bots_within_the_channels_range_of_the_scout(monkeypatch):
     """`--tell in-range`: the scout's one-hot in the rows of the scout and of the bots
     within the channel's range of it, zeros in the others'."""
