@@ -91,7 +91,7 @@ def told_everyone(observe, tell: str):
 def hearing_scout(self, states) -> list[int]:
     """The rows of the live bots (their `states`, in order) that are the scout or hear it:
     the scout among their channel's `slots` nearest others, within its `range`, as
-    `Channel.blocks` chooses senders. None when the scout has fallen."""
+    `Channel.blocks` chooses senders; none once the scout has fallen."""
     live = list(self._live)
     if self.scout not in live:
         return []
@@ -161,7 +161,8 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
     them: each landmark's distance, bearing and told bit through one shared layer, plus
     that landmark's learned code and the pooled senders' embedding, ReLU, summed over the
     landmarks. A told bit (or a heard word, through the pooled senders) can then open one
-    landmark's features and close the others'. Built from the operators bbbench's
+    landmark's features and close the others'. The senders are mean-pooled over the
+    present ones whatever `pool` says (Rendezvous-v0's recipe says mean). Built from the operators bbbench's
     interpreter runs (Slice, Concat, Reshape, MatMul, Add, Mul, Relu, ReduceSum)."""
     import torch  # lazy: torch, for training only
 
