@@ -162,8 +162,9 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
     that landmark's learned code and the pooled senders' embedding, ReLU, summed over the
     landmarks. A told bit (or a heard word, through the pooled senders) can then open one
     landmark's features and close the others'. The senders are mean-pooled over the
-    present ones whatever `pool` says (Rendezvous-v0's recipe says mean). Built from the operators bbbench's
-    interpreter runs (Slice, Concat, Reshape, MatMul, Add, Mul, Relu, ReduceSum)."""
+    present ones whatever `pool` says (Rendezvous-v0's recipe says mean). Built from the
+    operators bbbench's interpreter runs (Slice, Concat, Reshape, MatMul, Add, Mul, Relu,
+    ReduceSum)."""
     import torch  # lazy: torch, for training only
 
     names = list(agent_layout(TASK))
