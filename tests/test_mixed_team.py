@@ -97,7 +97,6 @@ def test_an_episode_is_the_same_bits_in_another_process():
         f"""
         import hashlib, numpy as np, bbbench
         from bbbench.evaluation.play import MultiEpisode
-from bbbench.evaluation.results import dumps
         from bbbench.policies import load_policy
         env = bbbench.make_parallel("{HILLS}")
         rows = []
