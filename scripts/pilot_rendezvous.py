@@ -46,6 +46,7 @@ from pathlib import Path
 import bbbench.marl.models
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
+from bbbench.policies.encoder import pool_slots
 from bbbench.tasks.group import nearest_others
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.train import train_marl
@@ -58,22 +59,27 @@ TASK = "bbbench/Rendezvous-v0"
 TELLING = ("none", "one-hot", "direct", "in-range")
 
 
+def places() -> tuple[int, int]:
+    """Where, in a bot's row on the variant (after `apply`), landmark 0's distance is and
+    its told bit (`goal_is_landmark0`): each landmark's three values, and its bit, follow."""
+    names = list(agent_layout(TASK))
+    return names.index("landmark0_distance"), names.index("goal_is_landmark0")
+
+
 def told_everyone(observe, tell: str):
     """`Rendezvous.observe` with the scout's one-hot in every row, as `tell` (one of
     `TELLING` but "none") says: "one-hot", in every row; "direct", in every row, and the
     goal's own distance and bearing in every landmark's three values; "in-range", in the
     rows of the scout and of the bots that hear it on the channel alone, as if its word
-    were heard in the bot's own values. The fields' places are found at the first step:
-    a pilot plays one task, so one layout."""
-    places: dict[str, int] = {}
+    were heard in the bot's own values. The fields' `places` are found at the first step,
+    once the variant is in place: a pilot plays one task, so one layout."""
+    found: list[tuple[int, int]] = []
 
     def observe_told(self, scene, states, commands, targets, step):
         rows = observe(self, scene, states, commands, targets, step)
-        if not places:
-            names = [field.name for field in self.layout]
-            places.update(told=names.index("goal_is_landmark0"))
-            places.update(first=names.index("landmark0_distance"))
-        told, first = places["told"], places["first"]
+        if not found:
+            found.append(places())
+        first, told = found[0]
         rows[:, told : told + rendezvous.LANDMARKS] = 0.0
         if tell == "in-range":
             rows[hearing_scout(self, states), told + self.goal] = 1.0
@@ -161,14 +167,13 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
     them: each landmark's distance, bearing and told bit through one shared layer, plus
     that landmark's learned code and the pooled senders' embedding, ReLU, summed over the
     landmarks. A told bit (or a heard word, through the pooled senders) can then open one
-    landmark's features and close the others'. The senders are mean-pooled over the
-    present ones whatever `pool` says (Rendezvous-v0's recipe says mean). Built from the
+    landmark's features and close the others'. The senders are pooled as `pool` says,
+    as `neighbour_encoder` pools them (Rendezvous-v0's recipe says mean). Built from the
     operators bbbench's interpreter runs (Slice, Concat, Reshape, MatMul, Add, Mul, Relu,
     ReduceSum)."""
     import torch  # lazy: torch, for training only
 
-    names = list(agent_layout(TASK))
-    first, told = names.index("landmark0_distance"), names.index("goal_is_landmark0")
+    first, told = places()
     count = rendezvous.LANDMARKS
 
     class LandmarkEntities(torch.nn.Module):
@@ -185,11 +190,9 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
             self.head = torch.nn.Sequential(*layers, torch.nn.Linear(width, actions))
 
         def senders(self, obs):
-            """The sender slots' embeddings, mean-pooled over the present ones."""
+            """The sender slots' embeddings, pooled."""
             grouped = obs[:, own : own + slots * slot_width].reshape(-1, slots, slot_width)
-            present = grouped[:, :, presence : presence + 1]
-            h = torch.relu(self.per_slot(grouped)) * present
-            return h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
+            return pool_slots(torch.relu(self.per_slot(grouped)), grouped, presence, pool)
 
         def landmarks(self, obs, pooled):
             """The landmarks' features, each with its code and the heard senders, summed."""
@@ -229,7 +232,7 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell))
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
-    if getattr(args, "entities", False):
+    if args.entities:
         assign(bbbench.marl.models, "neighbour_encoder", landmark_entities)
 
 
@@ -244,7 +247,9 @@ def printed(curve: list[float]):
     return print_point
 
 
-def main() -> None:
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line's variant and run (`argv`, or the process's), checked: a bad value
+    exits with its one line and code 2."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tell", choices=TELLING, default="none")
     parser.add_argument("--wired", action="store_true", help="the scout's words wired to the goal")
@@ -260,9 +265,9 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=900_000, help="world steps")
     parser.add_argument("--every", type=int, default=300_000, help="world steps a point")
     parser.add_argument("--out", type=Path, default=Path("pilot-rendezvous"), help="a folder")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     try:
-        seeds = [int(seed) for seed in args.seeds.split(",")]
+        args.seeds = [int(seed) for seed in args.seeds.split(",")]
     except ValueError:
         parser.error(f"--seeds {args.seeds!r}: expected whole numbers, e.g. 0,1,2")
     if args.own_share is not None and not 0.0 <= args.own_share <= 1.0:
@@ -275,6 +280,11 @@ def main() -> None:
         if not 0.0 < low <= high:
             parser.error(f"--hold {args.hold!r}: expected 0 < LOW <= HIGH")
         args.hold = (low, high)
+    return args
+
+
+def main() -> None:
+    args = parse()
     apply(args)
     if args.play:  # each worker process the same variant (they may not fork)
         jobs = [(args.play, 4, args.muted, seed, None) for seed in evaluation_seeds(TASK)]
@@ -284,8 +294,8 @@ def main() -> None:
         print(0, round(sum(returns) / len(returns), 2), sum(falls), flush=True)
         return
     curves: dict[int, list[float]] = {}
-    for seed in seeds:  # one after another: two trainings at once lose more than they share
-        folder = args.out / f"s{seed}" if len(seeds) > 1 else args.out
+    for seed in args.seeds:  # one after another: two trainings at once lose more than they share
+        folder = args.out / f"s{seed}" if len(args.seeds) > 1 else args.out
         folder.mkdir(parents=True, exist_ok=True)
         trained = train_marl(
             TASK,
@@ -298,7 +308,7 @@ def main() -> None:
             on_progress=printed(curves.setdefault(seed, [])),
         )
         print("seed", seed, "minutes", round(trained.seconds / 60.0, 1), flush=True)
-    if len(seeds) > 1:  # each point's mean over the seeds
+    if len(args.seeds) > 1:  # each point's mean over the seeds
         for k, points in enumerate(zip(*curves.values(), strict=False)):
             print("mean", (k + 1) * args.every, round(sum(points) / len(points), 2), flush=True)
 

@@ -11,6 +11,7 @@ import zipfile
 from pathlib import Path
 
 import gymnasium as gym
+import jsonschema
 import numpy as np
 import pytest
 
@@ -32,6 +33,16 @@ REWARD_SUCCESSORS = {
     "bbbench/MultiBalance-v1": "bbbench/MultiBalance-v0",
     "bbbench/MultiBumps-v1": "bbbench/MultiBumps-v0",
 }
+
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+RESULTS_SCHEMA = json.loads((DOCS / "results-schema.json").read_text())
+
+
+def follows_results_schema(document: dict) -> None:
+    """Raise unless `document` (a results document as `json.loads` reads it back) follows
+    docs/results-schema.json, the schema every kind of policy's record is published in."""
+    jsonschema.validate(document, RESULTS_SCHEMA)
 
 
 def rollout(env: gym.Env, seed: int, actions) -> tuple[np.ndarray, np.ndarray]:

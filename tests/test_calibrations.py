@@ -212,17 +212,13 @@ pilot = load_script("pilot_rendezvous")
 def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypatch, tell):
     """docs/notebook.md's pilots: every bot's row holds the scout's one-hot (of two
     landmarks here); `direct` also gives every landmark's slot the goal's own values."""
-    from argparse import Namespace
-
     from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(tell=tell, landmarks=2, hold=None, own_share=None, wired=False, hush=False)
-    pilot.apply(variant, monkeypatch.setattr)
+    pilot.apply(pilot.parse(["--tell", tell, "--landmarks", "2"]), monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)
-    names = list(agent_layout(pilot.TASK))
-    told, first = names.index("goal_is_landmark0"), names.index("landmark0_distance")
-    assert "landmark2_distance" not in names
+    first, told = pilot.places()
+    assert "landmark2_distance" not in agent_layout(pilot.TASK)
     rows = np.stack(list(observations.values()))
     one_hot = np.zeros(2)
     one_hot[env._scenario.goal] = 1.0
@@ -237,8 +233,6 @@ def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_export
     layer, so that, but for each landmark's own code, swapping two landmarks (their values
     and told bits) changes nothing in its features; exported, bbbench's interpreter plays
     the actor as torch does."""
-    from argparse import Namespace
-
     import torch
 
     import bbbench.marl.models
@@ -246,12 +240,8 @@ def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_export
     from bbbench.policies.onnx.export import onnx_bytes
     from bbbench.policies.onnx.policy import OnnxPolicy
     from bbbench.policies.onnx.reader import parse_onnx
-    from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(
-        tell="one-hot", landmarks=2, hold=None, own_share=None, wired=False, hush=False,
-        entities=True,
-    )  # fmt: skip
+    variant = pilot.parse(["--tell", "one-hot", "--landmarks", "2", "--entities"])
     pilot.apply(variant, monkeypatch.setattr)
     config = NeighbourEncoderConfig.for_task(pilot.TASK)
     torch.manual_seed(0)
@@ -262,8 +252,12 @@ def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_export
     observations, _ = env.reset(seed=3)
     env.close()
     rows = np.stack(list(observations.values())).astype(np.float32)
-    names = list(agent_layout(pilot.TASK))
-    told, first = names.index("goal_is_landmark0"), names.index("landmark0_distance")
+    # Exported as trained (each landmark with its code), the interpreter plays it as torch.
+    with torch.no_grad():
+        scores = net(torch.from_numpy(rows)).numpy()
+    policy = OnnxPolicy(parse_onnx(onnx_bytes(net, pilot.TASK, algorithm="IPPO"), "p", "p.onnx"))
+    assert list(policy.actor(pilot.TASK)(rows)) == list(scores.argmax(axis=1))
+    first, told = pilot.places()
     swapped = rows.copy()
     swapped[:, first : first + 6] = np.roll(rows[:, first : first + 6], 3, axis=1)
     swapped[:, told : told + 2] = rows[:, [told + 1, told]]
@@ -273,24 +267,14 @@ def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_export
         assert not torch.allclose(coded, net.landmarks(torch.from_numpy(swapped), pooled))
         net.code.zero_()
         same = [net.landmarks(torch.from_numpy(r), pooled).numpy() for r in (rows, swapped)]
-        scores = net(torch.from_numpy(rows)).numpy()
     np.testing.assert_allclose(same[0], same[1], atol=1e-5)
-    policy = OnnxPolicy(parse_onnx(onnx_bytes(net, pilot.TASK, algorithm="IPPO"), "p", "p.onnx"))
-    assert list(policy.actor(pilot.TASK)(rows)) == list(scores.argmax(axis=1))
 
 
 def test_an_in_range_pilot_tells_the_bots_within_the_channels_range_of_the_scout(monkeypatch):
     """`--tell in-range`: the scout's one-hot in the rows of the scout and of the bots
     within the channel's range of it, zeros in the others'."""
-    from argparse import Namespace
-
-    from bbbench.tasks.suite import agent_layout
-
-    variant = Namespace(
-        tell="in-range", landmarks=2, hold=None, own_share=None, wired=False, hush=False
-    )
-    pilot.apply(variant, monkeypatch.setattr)
-    told = list(agent_layout(pilot.TASK)).index("goal_is_landmark0")
+    pilot.apply(pilot.parse(["--tell", "in-range", "--landmarks", "2"]), monkeypatch.setattr)
+    _, told = pilot.places()
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)  # two bots out of the scout's range
     scenario, states = env._scenario, env._states
@@ -309,13 +293,9 @@ def test_an_in_range_pilot_tells_the_bots_within_the_channels_range_of_the_scout
 def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, wired):
     """`--wired`: the scout's message is the controller's word for the goal, whatever it
     sent (at reset, nothing); the bots within the channel's range hear it."""
-    from argparse import Namespace
-
     from bbbench.tasks.suite import agent_layout
 
-    variant = Namespace(
-        tell="none", landmarks=2, hold=None, own_share=None, wired=wired, hush=False
-    )
+    variant = pilot.parse(["--landmarks", "2", *(["--wired"] if wired else [])])
     pilot.apply(variant, monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK)
     observations, _ = env.reset(seed=3)
@@ -333,15 +313,11 @@ def test_a_wired_scout_is_heard_saying_the_goal_at_the_first_step(monkeypatch, w
 def test_a_hushed_variant_hears_the_scout_alone(monkeypatch):
     """`--hush`: after a step in which every bot says (1, 1), a bot hears it from the
     scout alone; without it, from every sender in range."""
-    from argparse import Namespace
-
     from bbbench.tasks.suite import agent_layout
 
     saying = {}
     for hush in (False, True):
-        variant = Namespace(
-            tell="none", landmarks=2, hold=None, own_share=None, wired=False, hush=hush
-        )
+        variant = pilot.parse(["--landmarks", "2", *(["--hush"] if hush else [])])
         with monkeypatch.context() as patch:
             pilot.apply(variant, patch.setattr)
             names = list(agent_layout(pilot.TASK))

@@ -11,7 +11,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -25,10 +24,7 @@ from bbbench.policies import load_policy
 from bbbench.policies.errors import PolicyError
 from bbbench.policies.policy import RandomActor, TeamActor
 from bbbench.robots.layout import INDEX
-
-RESULTS_SCHEMA = json.loads(
-    (Path(__file__).parent.parent / "docs" / "results-schema.json").read_text()
-)
+from conftest import follows_results_schema
 
 MIXED = "bbbench/MixedBeamCarry-v0"
 HILLS = "bbbench/MixedBeamCarryBumps-v0"
@@ -241,7 +237,7 @@ def test_a_team_file_plays_each_group_with_its_own_model(tmp_path):
     again = evaluate(load_policy(path), [MIXED], episodes=2).document["tasks"][0]["episodes"]
     assert document["tasks"][0]["episodes"] == again
     # Its results document follows the published schema, each group's model named.
-    jsonschema.validate(json.loads(dumps(document)), RESULTS_SCHEMA)
+    follows_results_schema(json.loads(dumps(document)))
     assert document["policy"]["groups"] == {
         group: hashlib.sha256(model).hexdigest() for group, model in models.items()
     }
@@ -303,7 +299,6 @@ def test_a_broken_team_file_is_refused_in_one_line(tmp_path, members, expected):
 def test_the_board_reads_a_team_file_as_a_runs_policy(tmp_path):
     import json
     import shutil
-    from pathlib import Path
 
     from bbbench.leaderboard.submissions import read_method
 

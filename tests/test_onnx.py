@@ -7,7 +7,6 @@ import pickle
 import shutil
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import onnx
 import pytest
@@ -20,12 +19,12 @@ from bbbench.policies import PolicyError, export_onnx, export_zip, load_policy
 from bbbench.policies.encoder import neighbour_encoder
 from bbbench.policies.mlp import MlpActor
 from bbbench.policies.onnx.policy import OnnxPolicy
+from conftest import follows_results_schema
 
 ROOT = Path(__file__).resolve().parents[1]
 SUBMISSIONS = ROOT / "leaderboards" / "submissions"
 FLAT = "bbbench/FlatBalance-v1"
 BEAM = "bbbench/BeamCarry-v0"
-RESULTS_SCHEMA = json.loads((ROOT / "docs" / "results-schema.json").read_text())
 
 
 def submission(slug: str):
@@ -116,7 +115,7 @@ def test_bbbench_export_and_eval_from_the_command_line(tmp_path, capsys):
     document = tmp_path / "results.json"
     argv = ["eval", str(out), "--task", FLAT, "--episodes", "2", "--workers", "1"]
     assert main([*argv, "--json", str(document)]) == 0
-    jsonschema.validate(json.loads(document.read_text()), RESULTS_SCHEMA)
+    follows_results_schema(json.loads(document.read_text()))
     record = json.loads(document.read_text())["policy"]
     assert record["format"] == "onnx"
     assert record["contract"] == {
@@ -174,7 +173,7 @@ def test_the_command_lines_contract_scores_it_and_the_results_say_so(tmp_path, c
     argv = ["eval", str(path), "--task", FLAT, "--episodes", "1", "--workers", "1"]
     contract = ["--observation", "5", "--action-space", "Discrete(9)", "--json", str(document)]
     assert main([*argv, *contract]) == 0
-    jsonschema.validate(json.loads(document.read_text()), RESULTS_SCHEMA)
+    follows_results_schema(json.loads(document.read_text()))
     record = json.loads(document.read_text())["policy"]
     assert record["contract"]["from"] == "command line"
     assert record["algorithm"] == "ONNX policy"

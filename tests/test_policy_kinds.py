@@ -15,7 +15,6 @@ import pickle
 import shutil
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import pytest
 import torch
@@ -29,7 +28,14 @@ from bbbench.cli import main
 from bbbench.evaluation import evaluate
 from bbbench.policies import PolicyError, load_policy
 from bbbench.policies.sb3.vecnormalize import read_statistics
-from conftest import FLAT, Payload, assert_acts_as_predict, eval_exit, rewrite
+from conftest import (
+    FLAT,
+    Payload,
+    assert_acts_as_predict,
+    eval_exit,
+    follows_results_schema,
+    rewrite,
+)
 
 VELOCITY = "bbbench/VelocityTracking-v0"
 
@@ -97,8 +103,7 @@ def test_statistics_beside_the_zip_as_rl_zoo3_saves_them_are_found_said_and_reco
     assert "found beside the policy" in err
     assert str(statistics) in err
     document = json.loads(out.read_text())
-    schema = json.loads((Path(__file__).parent.parent / "docs/results-schema.json").read_text())
-    jsonschema.validate(document, schema)
+    follows_results_schema(document)
     record = document["policy"]["observation_normalization"]
     assert record["sha256"] == hashlib.sha256(statistics.read_bytes()).hexdigest()
     assert record["file"] == "vecnormalize.pkl"

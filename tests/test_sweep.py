@@ -16,11 +16,11 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.sweep import AXES, standard_grid, sweep
 from bbbench.policies import load_policy
 from bbbench.tasks.perturbations import PERTURBATIONS
+from conftest import RESULTS_SCHEMA
 
 VELOCITY = "bbbench/VelocityTracking-v1"
 DOCS = Path(__file__).parents[1] / "docs"
 SCHEMA = json.loads((DOCS / "sweep-schema.json").read_text())
-RESULTS_SCHEMA = json.loads((DOCS / "results-schema.json").read_text())
 
 
 def test_the_same_sweep_writes_the_same_bytes_twice_and_with_one_or_two_workers(tmp_path):

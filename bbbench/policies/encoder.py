@@ -57,18 +57,23 @@ def neighbour_encoder(
             self.head = torch.nn.Sequential(*layers, torch.nn.Linear(width, actions))
 
         def forward(self, obs):
-            mine = obs[:, :own]
             grouped = obs[:, own : own + slots * slot_width].reshape(-1, slots, slot_width)
-            h = torch.relu(self.per_slot(grouped))
-            if presence is not None:
-                present = grouped[:, :, presence : presence + 1]
-                h = h * present
-            if pool == "max":
-                pooled = torch.amax(h, dim=1)
-            elif presence is not None:
-                pooled = h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
-            else:
-                pooled = h.mean(dim=1)
-            return self.head(torch.cat([mine, pooled], dim=1))
+            pooled = pool_slots(torch.relu(self.per_slot(grouped)), grouped, presence, pool)
+            return self.head(torch.cat([obs[:, :own], pooled], dim=1))
 
     return NeighbourEncoder()
+
+
+def pool_slots(h: Any, grouped: Any, presence: int | None, pool: str) -> Any:
+    """The slots' features `h` (k, K, embed), of the slots `grouped` (k, K, width), pooled
+    into (k, embed) as `neighbour_encoder` says: an absent slot's (its presence bit 0)
+    zeroed, then "mean" over the present slots (every slot's, with no `presence`) or
+    "max"."""
+    if presence is not None:
+        present = grouped[:, :, presence : presence + 1]
+        h = h * present
+    if pool == "max":
+        return h.amax(dim=1)
+    if presence is not None:
+        return h.sum(dim=1) / present.sum(dim=1).clamp(min=1.0)
+    return h.mean(dim=1)
