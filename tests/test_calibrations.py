@@ -228,6 +228,21 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     env.close()
 
 
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["--own-share", "2"], "--own-share 2.0: expected a weight from 0 to 1"),
+        (["--hold", "6,3"], "--hold '6,3': expected 0 < LOW <= HIGH"),
+        (["--seeds", "0,one"], "--seeds '0,one': expected whole numbers, e.g. 0,1,2"),
+    ],
+)
+def test_a_pilots_bad_variant_is_refused_in_one_line(capsys, argv, expected):
+    with pytest.raises(SystemExit) as stop:
+        pilot.parse(argv)
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(expected)
+
+
 def test_the_entities_pilots_actor_reads_the_landmarks_as_a_set_and_plays_exported(monkeypatch):
     """`--entities`: the actor's landmark encoder sees each landmark through one shared
     layer, so that, but for each landmark's own code, swapping two landmarks (their values
