@@ -38,9 +38,11 @@ PILOT_SEEDS = range(1000, 1020)
 RECORD = Path(__file__).parents[1] / "baselines" / "calibrations" / "rendezvous.json"
 
 
-def episode(job: tuple[str, int, bool, int, tuple[float, float] | None]) -> tuple[float, int]:
+def episode(
+    job: tuple[str, int, bool, int, tuple[float, float] | None], watch=None
+) -> tuple[float, int]:
     """One episode under `policy` (a built-in's name or a file): its mean return per bot
-    and its falls."""
+    and its falls. `watch(env, step)`, if given, sees the env before each of its steps."""
     policy, bots, muted, seed, hold = job
     if hold is not None:
         rendezvous.HOLD = hold  # this worker's candidate
@@ -54,7 +56,11 @@ def episode(job: tuple[str, int, bool, int, tuple[float, float] | None]) -> tupl
     falls = 0
     # A recurrent policy's state, a row per bot still in the episode (zeros at its start).
     states = act.initial_state(len(env.agents)) if hasattr(act, "initial_state") else None
+    step = 0
     while env.agents:
+        if watch is not None:
+            watch(env, step)
+        step += 1
         agents = env.agents
         stacked = np.stack([observations[agent] for agent in agents])
         if states is None:

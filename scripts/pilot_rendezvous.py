@@ -11,6 +11,7 @@ channel; its curve on the training seeds printed.
     python scripts/pilot_rendezvous.py --tell in-range --landmarks 2 --steps 1500000
     python scripts/pilot_rendezvous.py --landmarks 2 --play policy.onnx --muted
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --entities --seeds 0,1,2
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --play policy.onnx --arrival
 
 A variant is not a task: it changes the scenario's module in this process (the worker
 processes that step the worlds fork after it), never a registered ID or the board.
@@ -29,7 +30,11 @@ alone); `--hush` silences every bot but the scout (no babble to tell its words f
 with the landmark's own learned code and the pooled senders added, summed over the
 landmarks), so that picking the goal out is a gate, not a product to learn.
 `--play` plays a policy (a built-in, such as the task's controller, or a file) on the
-variant instead of training, heard or `--muted`; `--seeds 0,1,2` trains a policy a seed,
+variant instead of training, heard or `--muted`; with `--arrival`, it prints how the
+policy drives after each goal is set instead (`arrival`: by steps since the goal moved,
+its bots' velocity towards the goal, their distance to it and to the other landmarks,
+the bot-steps), which tells a team that gathers at the goal from one that stops in
+the landmarks' middle, as a mean return cannot; `--seeds 0,1,2` trains a policy a seed,
 one after another (into `--out`'s s0, s1, ...), and ends with each point's mean over
 them. Each point: world steps, the mean return per bot on the curve's training seeds,
 the mean episode length (played: the bot-episodes that fell, of 4 a seed).
@@ -39,9 +44,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+import numpy as np
 
 import bbbench.marl.models
 import bbbench.policies.controllers.rendezvous as controller
@@ -213,6 +221,33 @@ def landmark_entities(own, slots, slot_width, actions, presence, embed, hidden, 
     return LandmarkEntities()
 
 
+def arrival(policy: str, seeds: list[int], width: int = 50) -> list[tuple[float, ...]]:
+    """How `policy` drives once told a goal (`--arrival`): over an episode a seed (4 bots,
+    heard), each live bot's velocity towards the goal (m/s), its distance to the goal and
+    its mean distance to the other landmarks (m), by the steps since the goal last moved,
+    in bins of `width` steps: (the bin's first step, the three means, the bot-steps in
+    it). A bot that drives to the goal ends nearer it than the others; one that drives to
+    the landmarks' middle ends as near the others."""
+    bins: dict[int, list[tuple[float, float, float]]] = {}
+
+    def watch(env, step: int) -> None:
+        scenario = env._scenario
+        since = step - scenario.schedule[scenario._next - 1][0]
+        goal_x, goal_y = scenario.landmarks[scenario.goal]
+        others = [place for k, place in enumerate(scenario.landmarks) if k != scenario.goal]
+        for state in env._states:
+            x, y, _ = state.axle
+            (vx, vy), dx, dy = state.velocity, goal_x - x, goal_y - y
+            distance = math.hypot(dx, dy)
+            towards = (vx * dx + vy * dy) / distance if distance > 0.0 else 0.0
+            away = sum(math.hypot(ox - x, oy - y) for ox, oy in others) / len(others)
+            bins.setdefault(since // width, []).append((towards, distance, away))
+
+    for seed in seeds:
+        episode((policy, 4, False, seed, None), watch)
+    return [(k * width, *np.mean(bins[k], axis=0).tolist(), len(bins[k])) for k in sorted(bins)]
+
+
 def apply(args: argparse.Namespace, assign=setattr) -> None:
     """The variant, in this process's modules (`assign`: `setattr`, or a test's
     `monkeypatch.setattr`, which undoes it)."""
@@ -259,6 +294,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")
     parser.add_argument("--play", help="a built-in (rendezvous) or a policy file: play it")
     parser.add_argument("--muted", action="store_true", help="play with the messages muted")
+    parser.add_argument("--arrival", action="store_true", help="--play's drive after each goal")
     parser.add_argument("--entities", action="store_true", help="the actor's landmark encoder")
     parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
     parser.add_argument("--seeds", default="0", help="training seeds, e.g. 0,1,2: a policy each")
@@ -286,6 +322,10 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
 def main() -> None:
     args = parse()
     apply(args)
+    if args.play and args.arrival:
+        for first, *means, count in arrival(args.play, evaluation_seeds(TASK)):
+            print(first, *(round(mean, 2) for mean in means), count, flush=True)
+        return
     if args.play:  # each worker process the same variant (they may not fork)
         jobs = [(args.play, 4, args.muted, seed, None) for seed in evaluation_seeds(TASK)]
         with ProcessPoolExecutor(2, initializer=apply, initargs=(args,)) as pool:

@@ -228,6 +228,20 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     env.close()
 
 
+def test_the_arrival_profile_tells_a_team_at_the_goal_from_one_in_the_middle(monkeypatch):
+    """`--arrival`: the controller, told the goal, drives towards it at once and ends its
+    holds nearer it than the other landmark (a team in the landmarks' middle would end
+    as near both)."""
+    pilot.apply(pilot.parse(["--tell", "one-hot", "--landmarks", "2"]), monkeypatch.setattr)
+    seeds = pilot.evaluation_seeds(pilot.TASK)[:2]
+    told = pilot.arrival("rendezvous", seeds, width=100)
+    assert [row[0] for row in told] == [100 * k for k in range(len(told))]
+    late = [row for row in told if row[0] >= 300]
+    assert late
+    assert all(goal < 1.5 < 2.5 < other for _, _, goal, other, _ in late)
+    assert told[1][1] > 0.5  # it drives towards the goal as soon as it is told
+
+
 @pytest.mark.parametrize(
     ("argv", "expected"),
     [
