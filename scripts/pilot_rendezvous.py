@@ -25,6 +25,9 @@ the task's (the scout alone told). `--landmarks` draws fewer landmarks (the goal
 `--hold LOW,HIGH` holds each goal LOW-HIGH s; `--wired` makes the scout's message the
 controller's word for the goal, whatever it sends (the listeners' half of the channel
 alone); `--hush` silences every bot but the scout (no babble to tell its words from).
+`--beacon` (with `--tell none`) gives the scout the goal's own values and the others no
+landmark, and hears a sender only while it says something (`beacon`): the channel as a
+beacon a listener finds by a slot's presence, not by a word it must decode.
 `--entities` trains the actor with a landmark encoder beside the sender slots
 (`landmark_entities`: each landmark's values and its told bit through one shared layer,
 with the landmark's own learned code and the pooled senders added, summed over the
@@ -117,6 +120,46 @@ def hearing_scout(self, states) -> list[int]:
         for row, here in enumerate(positions)
         if row == scout or (scout in nearest[row] and abs(positions[scout] - here) <= channel.range)
     ]
+
+
+def sender_columns() -> list[tuple[int, int, list[int]]]:
+    """Each channel slot of a bot's row on the variant: its first column, its width and
+    its message values' columns."""
+    names = list(agent_layout(TASK))
+    slots = []
+    for k in range(1, 1 + sum(name.endswith("_present") for name in names)):
+        start, end = names.index(f"sender{k}_right"), names.index(f"sender{k}_present") + 1
+        messages = [c for c in range(start, end) if names[c].startswith(f"sender{k}_message")]
+        slots.append((start, end - start, messages))
+    return slots
+
+
+def beacon(observe):
+    """`Rendezvous.observe` as a beacon (`--beacon`): the scout sees the goal's own
+    distance and bearing in every landmark's values (as `--tell direct` gives every bot),
+    the others no landmark (zeros); and a sender is heard only while it says something
+    (a slot whose message values are all 0 reads as no sender: zeros, presence bit too).
+    A listener then finds the scout by a slot's presence alone, which the encoder already
+    multiplies by, where the task asks it to pick a landmark out by a word."""
+    found: list[tuple[tuple[int, int], list[tuple[int, int, list[int]]]]] = []
+
+    def observe_beacon(self, scene, states, commands, targets, step):
+        rows = observe(self, scene, states, commands, targets, step)
+        if not found:
+            found.append((places(), sender_columns()))
+        (first, _), slots = found[0]
+        width = 3 * rendezvous.LANDMARKS
+        for row, i in enumerate(self._live):
+            if i == self.scout:
+                goal = rows[row, first + 3 * self.goal : first + 3 * self.goal + 3]
+                rows[row, first : first + width] = np.tile(goal, rendezvous.LANDMARKS)
+            else:
+                rows[row, first : first + width] = 0.0
+        for start, size, messages in slots:
+            rows[(rows[:, messages] == 0.0).all(axis=1), start : start + size] = 0.0
+        return rows
+
+    return observe_beacon
 
 
 def wired_scout(observe):
@@ -265,6 +308,8 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         assign(scenario, "observe", hushed_others(scenario.observe))
     if args.tell != "none":
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell))
+    if args.beacon:
+        assign(scenario, "observe", beacon(scenario.observe))
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
     if args.entities:
@@ -289,6 +334,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--tell", choices=TELLING, default="none")
     parser.add_argument("--wired", action="store_true", help="the scout's words wired to the goal")
     parser.add_argument("--hush", action="store_true", help="every bot but the scout silent")
+    parser.add_argument("--beacon", action="store_true", help="scout sees goal; silence unheard")
     parser.add_argument("--landmarks", type=int, choices=(2, 3, 4))
     parser.add_argument("--own-share", type=float, help="W in [0, 1]: a bot's own share's weight")
     parser.add_argument("--hold", help="LOW,HIGH s: each goal's hold")
@@ -306,6 +352,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
         args.seeds = [int(seed) for seed in args.seeds.split(",")]
     except ValueError:
         parser.error(f"--seeds {args.seeds!r}: expected whole numbers, e.g. 0,1,2")
+    if args.beacon and args.tell != "none":
+        parser.error(f"--beacon with --tell {args.tell}: a beacon tells the scout alone")
     if args.own_share is not None and not 0.0 <= args.own_share <= 1.0:
         parser.error(f"--own-share {args.own_share}: expected a weight from 0 to 1")
     if args.hold is not None:

@@ -228,6 +228,47 @@ def test_a_rendezvous_pilot_tells_every_bot_the_goal_of_fewer_landmarks(monkeypa
     env.close()
 
 
+@pytest.mark.parametrize("muted", [False, True])
+def test_a_beacon_hears_the_scout_alone_while_it_speaks(monkeypatch, muted):
+    """`--beacon`: the scout's landmark values are the goal's, the others' zeros; after a
+    step in which the scout says (1, 1) and the others nothing, each bot within range
+    hears one sender, the scout, and, muted, none."""
+    from bbbench.tasks.channel import code_of
+
+    pilot.apply(pilot.parse(["--landmarks", "2", "--beacon"]), monkeypatch.setattr)
+    env = bbbench.make_parallel(pilot.TASK, mute_messages=muted)
+    env.reset(seed=3)
+    scenario = env._scenario
+    scout = env.possible_agents[scenario.scout]
+    speak, hush = code_of((1.0, 1.0)), code_of((0.0, 0.0))
+    observations, *_ = env.step({bot: speak if bot == scout else hush for bot in env.agents})
+    first, _ = pilot.places()
+    slots = pilot.sender_columns()
+    heard = 0
+    for bot, row in observations.items():
+        if bot == scout:
+            goal = row[first + 3 * scenario.goal : first + 3 * scenario.goal + 3]
+            assert (row[first : first + 6] == np.tile(goal, 2)).all()
+            assert goal[0] > 0.0
+        else:
+            assert not row[first : first + 6].any()
+        present = [start for start, size, _ in slots if row[start + size - 1] == 1.0]
+        assert all(not row[start : start + size].any() for start, size, _ in slots
+                   if start not in present)  # fmt: skip
+        if present:
+            ((_, _, messages),) = [slot for slot in slots if slot[0] in present]
+            assert bot != scout
+            assert list(row[messages]) == [1.0, 1.0]
+        heard += len(present)
+    where = [state.position for state in env._states]
+    x, y = where[scenario.scout][0], where[scenario.scout][1]
+    reach = scenario.channel.range**2
+    near = sum((p[0] - x) ** 2 + (p[1] - y) ** 2 <= reach for p in where) - 1
+    assert near > 0
+    assert heard == (0 if muted else near)  # the bots within the channel's range of it
+    env.close()
+
+
 def test_the_arrival_profile_tells_a_team_at_the_goal_from_one_in_the_middle(monkeypatch):
     """`--arrival`: the controller, told the goal, drives towards it at once and ends its
     holds nearer it than the other landmark (a team in the landmarks' middle would end
