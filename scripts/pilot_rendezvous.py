@@ -27,7 +27,8 @@ controller's word for the goal, whatever it sends (the listeners' half of the ch
 alone); `--hush` silences every bot but the scout (no babble to tell its words from).
 `--beacon` (with `--tell none`) gives the scout the goal's own values and the others no
 landmark, and hears a sender only while it says something (`beacon`): the channel as a
-beacon a listener finds by a slot's presence, not by a word it must decode.
+beacon a listener finds by a slot's presence, not by a word it must decode; there, the
+rendezvous controller is `BeaconController` (the listeners follow the nearest sender).
 `--entities` trains the actor with a landmark encoder beside the sender slots
 (`landmark_entities`: each landmark's values and its told bit through one shared layer,
 with the landmark's own learned code and the pooled senders added, summed over the
@@ -55,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 import bbbench.marl.models
+import bbbench.policies.controllers.builtin
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
 from bbbench.policies.encoder import pool_slots
@@ -160,6 +162,46 @@ def beacon(observe):
         return rows
 
     return observe_beacon
+
+
+class BeaconController(controller.RendezvousController):
+    """The rendezvous controller on the `--beacon` variant (`--play rendezvous` plays it
+    there, and a training's normalizer measures its play): the scout, the one bot that
+    sees landmark values (each the goal's), heads to the goal and says (1, 1); a bot that
+    hears a sender heads for the nearest one, saying nothing; one that hears none stands."""
+
+    def __init__(self, layout, channel, neighbours, action_mode) -> None:
+        super().__init__(layout, channel, neighbours, action_mode)
+        names = list(layout)
+        self.heard_at = [
+            (names.index(f"sender{k}_right"), names.index(f"sender{k}_present"))
+            for k in range(1, channel.slots + 1)
+        ]
+
+    def belief(self, observation):
+        """Landmark 0 (whose values are the goal's) and (1, 1) for the scout; nothing for
+        the others."""
+        if float(observation[self.landmarks[0]]) > 0.0:
+            return 0, controller.TOLD[3]
+        return None, controller.NOTHING
+
+    def guide(self, observation):
+        """The scout's as the rendezvous controller's; a listener's towards the nearest
+        sender it hears, slowing to stand within `GATHERED` m of it."""
+        if float(observation[self.landmarks[0]]) > 0.0:
+            return super().guide(observation)
+        for right, present in self.heard_at:
+            if observation[present] > 0.5:
+                r, f = float(observation[right]), float(observation[right + 1])
+                distance = math.hypot(r, f)
+                speed = min(
+                    float(observation[controller.TARGET_VELOCITY]),
+                    rendezvous.ARRIVAL_RATE * max(distance - rendezvous.GATHERED, 0.0),
+                )
+                return self.avoid.around(
+                    observation, speed * f / distance, speed * r / distance, speed
+                )
+        return 0.0, 0.0
 
 
 def wired_scout(observe):
@@ -310,6 +352,7 @@ def apply(args: argparse.Namespace, assign=setattr) -> None:
         assign(scenario, "observe", told_everyone(scenario.observe, args.tell))
     if args.beacon:
         assign(scenario, "observe", beacon(scenario.observe))
+        assign(bbbench.policies.controllers.builtin, "RendezvousController", BeaconController)
     if args.own_share is not None:
         assign(scenario, "outcome", own_shares(scenario.outcome, args.own_share))
     if args.entities:

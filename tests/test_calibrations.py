@@ -266,6 +266,13 @@ def test_a_beacon_hears_the_scout_alone_while_it_speaks(monkeypatch, muted):
     near = sum((p[0] - x) ** 2 + (p[1] - y) ** 2 <= reach for p in where) - 1
     assert near > 0
     assert heard == (0 if muted else near)  # the bots within the channel's range of it
+    # The variant's controller: the scout says (1, 1), the others nothing.
+    from bbbench.policies import load_policy
+
+    actor = load_policy("rendezvous").actor(pilot.TASK)
+    codes = [int(action) % env.task.channel.codes for action in actor(
+        np.stack(list(observations.values())), None)]  # fmt: skip
+    assert codes == [speak if bot == scout else hush for bot in observations]
     env.close()
 
 
