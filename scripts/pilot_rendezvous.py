@@ -395,6 +395,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
         args.seeds = [int(seed) for seed in args.seeds.split(",")]
     except ValueError:
         parser.error(f"--seeds {args.seeds!r}: expected whole numbers, e.g. 0,1,2")
+    if args.arrival and not args.play:
+        parser.error("--arrival plays a policy: give it with --play, e.g. --play policy.onnx")
     if args.beacon and args.tell != "none":
         parser.error(f"--beacon with --tell {args.tell}: a beacon tells the scout alone")
     if args.own_share is not None and not 0.0 <= args.own_share <= 1.0:

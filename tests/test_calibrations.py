@@ -296,6 +296,8 @@ def test_the_arrival_profile_tells_a_team_at_the_goal_from_one_in_the_middle(mon
         (["--own-share", "2"], "--own-share 2.0: expected a weight from 0 to 1"),
         (["--hold", "6,3"], "--hold '6,3': expected 0 < LOW <= HIGH"),
         (["--seeds", "0,one"], "--seeds '0,one': expected whole numbers, e.g. 0,1,2"),
+        (["--arrival"], "--arrival plays a policy: give it with --play, e.g. --play policy.onnx"),
+        (["--beacon", "--tell", "direct"], "a beacon tells the scout alone"),
     ],
 )
 def test_a_pilots_bad_variant_is_refused_in_one_line(capsys, argv, expected):
