@@ -1,6 +1,6 @@
 """Rendezvous-v0's pilots (docs/notebook.md, "Rendezvous-v0's first learned policy"): the
-shipped IPPO recipe trained on a variant of the task, to ask what keeps it from the
-channel; its curve on the training seeds printed.
+shipped IPPO recipe (or `--algo mappo`'s) trained on a variant of the task, to ask what
+keeps it from the channel; its curve on the training seeds printed.
 
     python scripts/pilot_rendezvous.py --tell one-hot --steps 1500000
     python scripts/pilot_rendezvous.py --tell one-hot --own-share 1 --steps 900000
@@ -12,6 +12,7 @@ channel; its curve on the training seeds printed.
     python scripts/pilot_rendezvous.py --landmarks 2 --play policy.onnx --muted
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --entities --seeds 0,1,2
     python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --play policy.onnx --arrival
+    python scripts/pilot_rendezvous.py --tell one-hot --landmarks 2 --algo mappo --seeds 0,1,2
 
 A variant is not a task: it changes the scenario's module in this process (the worker
 processes that step the worlds fork after it), never a registered ID or the board.
@@ -60,6 +61,7 @@ import bbbench.policies.controllers.builtin
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
 from bbbench.policies.encoder import pool_slots
+from bbbench.tasks.channel import sender_slots
 from bbbench.tasks.group import nearest_others
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.train import train_marl
@@ -127,13 +129,10 @@ def hearing_scout(self, states) -> list[int]:
 def sender_columns() -> list[tuple[int, int, list[int]]]:
     """Each channel slot of a bot's row on the variant: its first column, its width and
     its message values' columns."""
-    names = list(agent_layout(TASK))
-    slots = []
-    for k in range(1, 1 + sum(name.endswith("_present") for name in names)):
-        start, end = names.index(f"sender{k}_right"), names.index(f"sender{k}_present") + 1
-        messages = [c for c in range(start, end) if names[c].startswith(f"sender{k}_message")]
-        slots.append((start, end - start, messages))
-    return slots
+    return [
+        (slot.right, slot.present + 1 - slot.right, list(slot.messages))
+        for slot in sender_slots(agent_layout(TASK))
+    ]
 
 
 def beacon(observe):
@@ -172,11 +171,7 @@ class BeaconController(controller.RendezvousController):
 
     def __init__(self, layout, channel, neighbours, action_mode) -> None:
         super().__init__(layout, channel, neighbours, action_mode)
-        names = list(layout)
-        self.heard_at = [
-            (names.index(f"sender{k}_right"), names.index(f"sender{k}_present"))
-            for k in range(1, channel.slots + 1)
-        ]
+        self.heard_at = [(slot.right, slot.present) for slot in sender_slots(layout)]
 
     def belief(self, observation):
         """Landmark 0 (whose values are the goal's) and (1, 1) for the scout; nothing for
@@ -194,10 +189,7 @@ class BeaconController(controller.RendezvousController):
             if observation[present] > 0.5:
                 r, f = float(observation[right]), float(observation[right + 1])
                 distance = math.hypot(r, f)
-                speed = min(
-                    float(observation[controller.TARGET_VELOCITY]),
-                    rendezvous.ARRIVAL_RATE * max(distance - rendezvous.GATHERED, 0.0),
-                )
+                speed = controller.arrival_speed(observation, distance)
                 return self.avoid.around(
                     observation, speed * f / distance, speed * r / distance, speed
                 )
@@ -318,15 +310,14 @@ def arrival(policy: str, seeds: list[int], width: int = 50) -> list[tuple[float,
     def watch(env, step: int) -> None:
         scenario = env._scenario
         since = step - scenario.schedule[scenario._next - 1][0]
-        goal_x, goal_y = scenario.landmarks[scenario.goal]
+        distances, _, towards = scenario._seen  # the live bots' as `observe` saw them
+        kept = {env.agent_index[agent] for agent in env.agents}  # those still in the episode
+        rows = [row for row, i in enumerate(scenario._live) if i in kept]
         others = [place for k, place in enumerate(scenario.landmarks) if k != scenario.goal]
-        for state in env._states:
+        for state, row in zip(env._states, rows, strict=True):
             x, y, _ = state.axle
-            (vx, vy), dx, dy = state.velocity, goal_x - x, goal_y - y
-            distance = math.hypot(dx, dy)
-            towards = (vx * dx + vy * dy) / distance if distance > 0.0 else 0.0
             away = sum(math.hypot(ox - x, oy - y) for ox, oy in others) / len(others)
-            bins.setdefault(since // width, []).append((towards, distance, away))
+            bins.setdefault(since // width, []).append((towards[row], distances[row], away))
 
     for seed in seeds:
         episode((policy, 4, False, seed, None), watch)
@@ -385,7 +376,8 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--muted", action="store_true", help="play with the messages muted")
     parser.add_argument("--arrival", action="store_true", help="--play's drive after each goal")
     parser.add_argument("--entities", action="store_true", help="the actor's landmark encoder")
-    parser.add_argument("--recipe", help="an IPPO recipe file (default: the shipped one)")
+    parser.add_argument("--algo", choices=("ippo", "mappo"), default="ippo", help="the method")
+    parser.add_argument("--recipe", help="a recipe file for --algo (default: the shipped one)")
     parser.add_argument("--seeds", default="0", help="training seeds, e.g. 0,1,2: a policy each")
     parser.add_argument("--steps", type=int, default=900_000, help="world steps")
     parser.add_argument("--every", type=int, default=300_000, help="world steps a point")
@@ -432,7 +424,7 @@ def main() -> None:
         folder.mkdir(parents=True, exist_ok=True)
         trained = train_marl(
             TASK,
-            "ippo",
+            args.algo,
             str(folder / "policy.onnx"),
             steps=args.steps,
             seed=seed,

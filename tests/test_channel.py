@@ -16,7 +16,7 @@ from bbbench.evaluation.harness import play_tasks
 from bbbench.policies import load_policy
 from bbbench.policies.controllers.rendezvous import NOTHING, RELAYED, TOLD, heard
 from bbbench.robots.steering import DISCRETE_ACTIONS
-from bbbench.tasks.channel import LEVELS, Channel, code_of
+from bbbench.tasks.channel import LEVELS, Channel, code_of, sender_slots
 from bbbench.tasks.suite import agent_layout, spec
 
 RENDEZVOUS = "bbbench/Rendezvous-v0"
@@ -87,6 +87,22 @@ def test_muted_messages_read_zero_but_the_sender_is_still_there():
     assert (slot["message0"], slot["message1"], slot["present"]) == (0.0, 0.0, 1.0)
     assert abs(slot["right"]) + abs(slot["forward"]) > 1.0
     env.close()
+
+
+def test_sender_slots_find_each_slots_columns_in_the_row():
+    """`sender_slots`: each slot's place, message and presence columns, nearest first,
+    whatever the width and count; none in a row without a channel."""
+    channel = Channel(width=3, slots=2)
+    names = ("pitch", *(field.name for field in channel.layout()), "after")
+    slots = sender_slots(names)
+    assert [names[slot.right] for slot in slots] == ["sender1_right", "sender2_right"]
+    assert [[names[c] for c in slot.messages] for slot in slots][1] == [
+        "sender2_message0", "sender2_message1", "sender2_message2"
+    ]  # fmt: skip
+    assert [slot.present - slot.right for slot in slots] == [5, 5]
+    assert names[slots[1].present] == "sender2_present"
+    assert sender_slots(agent_layout("bbbench/Swap-v0")) == []
+    assert len(sender_slots(agent_layout(RENDEZVOUS))) == spec(RENDEZVOUS).channel.slots
 
 
 def test_a_sender_beyond_the_range_is_not_heard():

@@ -6,7 +6,6 @@ its columns refused."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
@@ -15,7 +14,6 @@ from bbbench.evaluation.results import dumps, loads
 from bbbench.policies import load_policy
 from conftest import follows_results_schema
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
 TEAM = "bbbench/BeamCarry-v0"  # its records carry a cause; a solo task's do not
 
 

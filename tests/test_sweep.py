@@ -4,7 +4,6 @@ run and with any number of workers, and a one-line error for every mistake."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import jsonschema
 import numpy as np
@@ -16,10 +15,9 @@ from bbbench.evaluation import evaluate
 from bbbench.evaluation.sweep import AXES, standard_grid, sweep
 from bbbench.policies import load_policy
 from bbbench.tasks.perturbations import PERTURBATIONS
-from conftest import RESULTS_SCHEMA
+from conftest import DOCS, RESULTS_SCHEMA
 
 VELOCITY = "bbbench/VelocityTracking-v1"
-DOCS = Path(__file__).parents[1] / "docs"
 SCHEMA = json.loads((DOCS / "sweep-schema.json").read_text())
 
 

@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import operator
 import re
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -192,6 +192,33 @@ class Channel:
             row += [0.0] * (size - len(row))
             rows.append(row)
         return rows
+
+
+class SenderSlot(NamedTuple):
+    """Where one slot of the message block sits in a bot's row: the column of its
+    `sender{k}_right` (`forward` follows), of each `sender{k}_message{j}`, and of its
+    `sender{k}_present`, the slot's last."""
+
+    right: int
+    messages: tuple[int, ...]
+    present: int
+
+
+def sender_slots(names: Sequence[str]) -> list[SenderSlot]:
+    """The message block's slots, nearest sender first, in a row whose values are `names`
+    (`bbbench.tasks.suite.agent_layout`); none where the row has no channel."""
+    column = {name: c for c, name in enumerate(names)}
+    slots, k = [], 1
+    while f"sender{k}_present" in column:
+        messages, j = [], 0
+        while f"sender{k}_message{j}" in column:
+            messages.append(column[f"sender{k}_message{j}"])
+            j += 1
+        slots.append(
+            SenderSlot(column[f"sender{k}_right"], tuple(messages), column[f"sender{k}_present"])
+        )
+        k += 1
+    return slots
 
 
 def _whole(value: Any) -> int | None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbbench.policies.controllers.steer import TARGET_VELOCITY, Avoiding, SteerController
-from bbbench.tasks.channel import LEVELS, Channel, code_of, nearest_level
+from bbbench.tasks.channel import LEVELS, Channel, code_of, nearest_level, sender_slots
 from bbbench.tasks.scenarios.rendezvous import ARRIVAL_RATE, GATHERED, LANDMARKS
 
 # Landmark k as the scout says it, and as a relay says it; (0, 0) says nothing.
@@ -35,6 +35,12 @@ def heard(values: tuple[float, float]) -> tuple[int, bool] | None:
     if first and second:
         return TOLD.index((first, second)), True
     return RELAYED.index((first, second)), False
+
+
+def arrival_speed(observation: np.ndarray, distance: float) -> float:
+    """The speed to drive at `distance` m from where a bot gathers: the target velocity,
+    slowing to stand within `GATHERED` m (the task's own law, `ARRIVAL_RATE`)."""
+    return min(float(observation[TARGET_VELOCITY]), ARRIVAL_RATE * max(distance - GATHERED, 0.0))
 
 
 class RendezvousController:
@@ -58,10 +64,7 @@ class RendezvousController:
         names = list(layout)
         self.landmarks = [names.index(f"landmark{k}_distance") for k in range(LANDMARKS)]
         self.told = names.index("goal_is_landmark0")
-        self.senders = [
-            (names.index(f"sender{k}_message0"), names.index(f"sender{k}_present"))
-            for k in range(1, channel.slots + 1)
-        ]
+        self.senders = [(slot.messages[0], slot.present) for slot in sender_slots(names)]
         self.avoid = Avoiding(names.index("neighbour1_right"), neighbours, radius=1.0)
         self.width, self.codes, self.action_mode = channel.width, channel.codes, action_mode
         self.steer = SteerController(action_mode, guide=self.guide)
@@ -94,9 +97,7 @@ class RendezvousController:
             return 0.0, 0.0
         at = self.landmarks[goal]
         distance, cos, sin = (float(value) for value in observation[at : at + 3])
-        speed = min(
-            float(observation[TARGET_VELOCITY]), ARRIVAL_RATE * max(distance - GATHERED, 0.0)
-        )
+        speed = arrival_speed(observation, distance)
         return self.avoid.around(observation, speed * cos, -speed * sin, speed)
 
     def __call__(self, observation: np.ndarray) -> int | np.ndarray:
