@@ -61,7 +61,7 @@ import bbbench.policies.controllers.builtin
 import bbbench.policies.controllers.rendezvous as controller
 import bbbench.tasks.scenarios.rendezvous as rendezvous
 from bbbench.policies.encoder import pool_slots
-from bbbench.tasks.channel import sender_slots
+from bbbench.tasks.channel import SenderSlot, sender_slots
 from bbbench.tasks.group import nearest_others
 from bbbench.tasks.suite import agent_layout
 from bbbench.training.benchmarl.train import train_marl
@@ -126,15 +126,6 @@ def hearing_scout(self, states) -> list[int]:
     ]
 
 
-def sender_columns() -> list[tuple[int, int, list[int]]]:
-    """Each channel slot of a bot's row on the variant: its first column, its width and
-    its message values' columns."""
-    return [
-        (slot.right, slot.present + 1 - slot.right, list(slot.messages))
-        for slot in sender_slots(agent_layout(TASK))
-    ]
-
-
 def beacon(observe):
     """`Rendezvous.observe` as a beacon (`--beacon`): the scout sees the goal's own
     distance and bearing in every landmark's values (as `--tell direct` gives every bot),
@@ -142,12 +133,12 @@ def beacon(observe):
     (a slot whose message values are all 0 reads as no sender: zeros, presence bit too).
     A listener then finds the scout by a slot's presence alone, which the encoder already
     multiplies by, where the task asks it to pick a landmark out by a word."""
-    found: list[tuple[tuple[int, int], list[tuple[int, int, list[int]]]]] = []
+    found: list[tuple[tuple[int, int], list[SenderSlot]]] = []
 
     def observe_beacon(self, scene, states, commands, targets, step):
         rows = observe(self, scene, states, commands, targets, step)
         if not found:
-            found.append((places(), sender_columns()))
+            found.append((places(), sender_slots(agent_layout(TASK))))
         (first, _), slots = found[0]
         width = 3 * rendezvous.LANDMARKS
         for row, i in enumerate(self._live):
@@ -156,8 +147,9 @@ def beacon(observe):
                 rows[row, first : first + width] = np.tile(goal, rendezvous.LANDMARKS)
             else:
                 rows[row, first : first + width] = 0.0
-        for start, size, messages in slots:
-            rows[(rows[:, messages] == 0.0).all(axis=1), start : start + size] = 0.0
+        for slot in slots:
+            silent = (rows[:, list(slot.messages)] == 0.0).all(axis=1)
+            rows[silent, slot.right : slot.present + 1] = 0.0
         return rows
 
     return observe_beacon

@@ -233,7 +233,8 @@ def test_a_beacon_hears_the_scout_alone_while_it_speaks(monkeypatch, muted):
     """`--beacon`: the scout's landmark values are the goal's, the others' zeros; after a
     step in which the scout says (1, 1) and the others nothing, each bot within range
     hears one sender, the scout, and, muted, none."""
-    from bbbench.tasks.channel import code_of
+    from bbbench.tasks.channel import code_of, sender_slots
+    from bbbench.tasks.suite import agent_layout
 
     pilot.apply(pilot.parse(["--landmarks", "2", "--beacon"]), monkeypatch.setattr)
     env = bbbench.make_parallel(pilot.TASK, mute_messages=muted)
@@ -243,7 +244,7 @@ def test_a_beacon_hears_the_scout_alone_while_it_speaks(monkeypatch, muted):
     speak, hush = code_of((1.0, 1.0)), code_of((0.0, 0.0))
     observations, *_ = env.step({bot: speak if bot == scout else hush for bot in env.agents})
     first, _ = pilot.places()
-    slots = pilot.sender_columns()
+    slots = sender_slots(agent_layout(pilot.TASK))
     heard = 0
     for bot, row in observations.items():
         if bot == scout:
@@ -252,13 +253,13 @@ def test_a_beacon_hears_the_scout_alone_while_it_speaks(monkeypatch, muted):
             assert goal[0] > 0.0
         else:
             assert not row[first : first + 6].any()
-        present = [start for start, size, _ in slots if row[start + size - 1] == 1.0]
-        assert all(not row[start : start + size].any() for start, size, _ in slots
-                   if start not in present)  # fmt: skip
+        present = [slot for slot in slots if row[slot.present] == 1.0]
+        assert all(not row[slot.right : slot.present + 1].any() for slot in slots
+                   if slot not in present)  # fmt: skip
         if present:
-            ((_, _, messages),) = [slot for slot in slots if slot[0] in present]
+            (slot,) = present  # one sender heard: the scout
             assert bot != scout
-            assert list(row[messages]) == [1.0, 1.0]
+            assert list(row[list(slot.messages)]) == [1.0, 1.0]
         heard += len(present)
     where = [state.position for state in env._states]
     x, y = where[scenario.scout][0], where[scenario.scout][1]
